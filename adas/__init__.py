@@ -1,0 +1,1 @@
+"""Generic driver-assistance controllers, driver models and the gymnasium environment."""

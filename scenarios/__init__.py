@@ -1,0 +1,1 @@
+"""Scenario catalogue, synthetic accident database generator and the bundled database."""

@@ -1,0 +1,81 @@
+"""The exception hierarchy of vfs.
+
+Every error a user can cause (bad input data, bad parameters, bad command-line
+arguments) is raised as a subclass of :class:`VfsError`, never as an
+``assert``. Errors about data name where the problem sits: table, column,
+row or case id, and the allowed range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class VfsError(Exception):
+    """Base class of all errors raised by vfs for user-caused problems."""
+
+
+class ParameterError(VfsError, ValueError):
+    """A parameter (vehicle, impact, controller, ...) is outside its allowed range."""
+
+
+class GeometryError(VfsError, ValueError):
+    """A geometric configuration cannot be evaluated (e.g. degenerate outline)."""
+
+
+@dataclass(frozen=True)
+class DataProblem:
+    """One problem found in an input table.
+
+    Attributes
+    ----------
+    table : str
+        Name of the table (e.g. ``"participants"`` or the input file name).
+    column : str
+        Column the problem sits in (``""`` for whole-row or whole-table problems).
+    row : int | None
+        Zero-based row index in the table, when known.
+    case_id : object
+        Case identifier of the offending row, when known.
+    message : str
+        What is wrong, including the allowed range.
+    """
+
+    table: str
+    column: str
+    row: int | None
+    case_id: object
+    message: str
+
+    def __str__(self) -> str:
+        where = [f"table '{self.table}'"]
+        if self.column:
+            where.append(f"column '{self.column}'")
+        if self.row is not None:
+            where.append(f"row {self.row}")
+        if self.case_id is not None:
+            where.append(f"case_id {self.case_id!r}")
+        return f"{', '.join(where)}: {self.message}"
+
+
+class DataError(VfsError, ValueError):
+    """Input data (a table, a database, a file) is invalid.
+
+    Carries the full list of :class:`DataProblem` records so that a user sees
+    every problem at once instead of fixing them one by one.
+    """
+
+    def __init__(self, problems: list[DataProblem] | DataProblem, header: str = "") -> None:
+        if isinstance(problems, DataProblem):
+            problems = [problems]
+        self.problems: list[DataProblem] = list(problems)
+        shown = self.problems[:50]
+        lines = [header or f"{len(self.problems)} problem(s) in the input data:"]
+        lines += [f"  - {p}" for p in shown]
+        if len(self.problems) > len(shown):
+            lines.append(f"  ... and {len(self.problems) - len(shown)} more")
+        super().__init__("\n".join(lines))
+
+
+class SimulationError(VfsError, RuntimeError):
+    """A simulation could not be completed for a case (recorded per case in batch runs)."""

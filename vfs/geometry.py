@@ -212,7 +212,8 @@ def _clip_half_plane(
     o_in, o_out = other_r[rows, last_in], other_r[rows, first_out]
     with np.errstate(invalid="ignore", divide="ignore"):
         exit_other = o_in + d_in / (d_in - d_out) * (o_out - o_in)
-        entry_other = other_r[:, -1] + d_last / (d_last - d_first) * (other_r[:, 0] - other_r[:, -1])
+        o_last, o_first = other_r[:, -1], other_r[:, 0]
+        entry_other = o_last + d_last / (d_last - d_first) * (o_first - o_last)
     # crossing points lie exactly on the clip line
     if axis == 0:
         exit_x, exit_y, entry_x, entry_y = bound, exit_other, bound, entry_other

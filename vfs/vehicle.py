@@ -246,7 +246,9 @@ class VehicleArrays(NamedTuple):
         """CG to rear bumper [m]."""
         return self.length - self.cg_to_front
 
-    def __len__(self) -> int:  # type: ignore[override]
+    @property
+    def size(self) -> int:
+        """Number of vehicles N."""
         return int(self.mass.shape[0])
 
     def take(self, index: npt.ArrayLike) -> VehicleArrays:

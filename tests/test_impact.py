@@ -1,0 +1,286 @@
+"""Kudlich-Slibar impact model: closed forms, conservation laws, invariances.
+
+Oracles: the collinear central impact (delta-v1 = (1 + eps) m2 / (m1 + m2) v_rel),
+momentum and angular momentum balances, the energy never rising, the
+friction-cone conditions, and rigid-motion / vehicle-swap invariance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from vfs.errors import ParameterError
+from vfs.impact import (
+    IMPACT_FULL,
+    IMPACT_NONE,
+    IMPACT_SLIDING,
+    ImpactConfig,
+    ImpactParams,
+    energy_split,
+    solve_impact,
+)
+
+
+def config(**over) -> ImpactConfig:
+    base = dict(m1=1500.0, izz1=2500.0, x1=0.0, y1=0.0, yaw1=0.0, vx1=20.0, vy1=0.0,
+                yaw_rate1=0.0, m2=1000.0, izz2=1600.0, x2=4.0, y2=0.0, yaw2=np.pi, vx2=-10.0,
+                vy2=0.0, yaw_rate2=0.0, poi_x=2.0, poi_y=0.0, cp_angle=np.pi / 2,
+                restitution=0.2, contact_friction=0.5)
+    base.update(over)
+    return ImpactConfig.from_arrays(**base)
+
+
+def close(actual, expected, tol) -> None:
+    """Element-wise |actual - expected| <= tol with array-valued tolerances."""
+    actual, expected = np.asarray(actual), np.asarray(expected)
+    bad = ~(np.abs(actual - expected) <= tol)
+    assert not bad.any(), f"{bad.sum()} mismatches, worst {np.max(np.abs(actual - expected))}"
+
+
+def momentum(c: ImpactConfig, vx1, vy1, vx2, vy2):
+    return c.m1 * vx1 + c.m2 * vx2, c.m1 * vy1 + c.m2 * vy2
+
+
+def angular_momentum(c: ImpactConfig, vx1, vy1, w1, vx2, vy2, w2):
+    """About the global origin [kg m^2/s]."""
+    return (c.izz1 * w1 + c.m1 * (c.x1 * vy1 - c.y1 * vx1)
+            + c.izz2 * w2 + c.m2 * (c.x2 * vy2 - c.y2 * vx2))
+
+
+def kinetic(c: ImpactConfig, vx1, vy1, w1, vx2, vy2, w2):
+    return (0.5 * c.m1 * (vx1**2 + vy1**2) + 0.5 * c.izz1 * w1**2
+            + 0.5 * c.m2 * (vx2**2 + vy2**2) + 0.5 * c.izz2 * w2**2)
+
+
+@pytest.mark.parametrize("eps", [0.0, 0.1, 0.5, 1.0])
+def test_collinear_central_impact_closed_form(eps):
+    c = config(restitution=eps)
+    r = solve_impact(c)
+    v_rel = 30.0
+    assert r.impact_type[0] == IMPACT_FULL
+    assert r.delta_v1[0] == pytest.approx((1 + eps) * 1000 / 2500 * v_rel, rel=1e-12)
+    assert r.delta_v2[0] == pytest.approx((1 + eps) * 1500 / 2500 * v_rel, rel=1e-12)
+    mu_red = 1500 * 1000 / 2500
+    assert r.energy_loss[0] == pytest.approx(0.5 * mu_red * v_rel**2 * (1 - eps**2), rel=1e-12,
+                                             abs=1e-12 * 0.5 * mu_red * v_rel**2)
+    # mass rule: E1 = E m2 / (m1 + m2); EES from E = m EES^2 / 2
+    e1 = r.energy_loss[0] * 1000 / 2500
+    assert r.ees1[0] == pytest.approx(np.sqrt(2 * e1 / 1500), rel=1e-12, abs=1e-5)
+    assert r.yaw_rate1_post[0] == pytest.approx(0.0, abs=1e-12)
+    # frontal impulse on both: PDOF 0, 12 o'clock; velocity reversed for 2
+    assert r.pdof1[0] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock1[0] == 12
+    assert r.pdof2[0] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock2[0] == 12
+
+
+def test_eps_zero_full_impact_gives_equal_poi_velocities():
+    c = config(restitution=0.0, poi_y=0.6, vy2=2.0, yaw_rate1=0.3, contact_friction=5.0)
+    r = solve_impact(c)
+    assert r.impact_type[0] == IMPACT_FULL
+    r1 = np.array([c.poi_x[0] - c.x1[0], c.poi_y[0] - c.y1[0]])
+    r2 = np.array([c.poi_x[0] - c.x2[0], c.poi_y[0] - c.y2[0]])
+    v1p = np.array([r.vx1_post[0] - r.yaw_rate1_post[0] * r1[1],
+                    r.vy1_post[0] + r.yaw_rate1_post[0] * r1[0]])
+    v2p = np.array([r.vx2_post[0] - r.yaw_rate2_post[0] * r2[1],
+                    r.vy2_post[0] + r.yaw_rate2_post[0] * r2[0]])
+    np.testing.assert_allclose(v1p, v2p, atol=1e-10)
+
+
+def test_separating_configuration_is_no_impact():
+    r = solve_impact(config(vx1=-5.0, vx2=5.0))
+    assert r.impact_type[0] == IMPACT_NONE
+    assert r.delta_v1[0] == 0.0 and r.energy_loss[0] == 0.0 and np.isnan(r.pdof1[0])
+
+
+def test_side_impact_pdof_clock():
+    # vehicle 1 heading east hits vehicle 2 (heading north) from the west,
+    # i.e. on its left side: 9 o'clock, PDOF about -90 deg
+    c = config(x2=3.0, y2=0.0, yaw2=np.pi / 2, vx2=0.0, vy2=5.0, poi_x=2.0, poi_y=0.0,
+               cp_angle=np.pi / 2)
+    r = solve_impact(c)
+    assert r.pdof_clock1[0] == 12 and r.pdof_clock2[0] == 9
+    assert np.degrees(r.pdof2[0]) == pytest.approx(-90.0, abs=15.0)
+    # mirrored: vehicle 2 heading south is struck on its right side, 3 o'clock
+    r = solve_impact(config(x2=3.0, y2=0.0, yaw2=-np.pi / 2, vx2=0.0, vy2=-5.0, poi_x=2.0,
+                            poi_y=0.0, cp_angle=np.pi / 2))
+    assert r.pdof_clock2[0] == 3 and np.degrees(r.pdof2[0]) == pytest.approx(90.0, abs=15.0)
+
+
+def test_params_validation():
+    with pytest.raises(ParameterError, match="restitution"):
+        ImpactParams(restitution=1.5)
+    with pytest.raises(ParameterError, match="contact_friction"):
+        ImpactParams(contact_friction=-0.1)
+
+
+def test_energy_split_rules():
+    e1, e2 = energy_split(1000.0, 1000.0, 2000.0)
+    assert e1 == pytest.approx(2000 / 3) and e2 == pytest.approx(1000 / 3)
+    # stiffness ratio k1/k2 = 3: E1/E2 = 1/3
+    e1, e2 = energy_split(1000.0, 1000.0, 2000.0, stiffness_ratio=3.0)
+    assert e1 == pytest.approx(250.0) and e2 == pytest.approx(750.0)
+
+
+# ----------------------------------------------------------------------------
+# Random configurations over wide ranges
+# ----------------------------------------------------------------------------
+
+
+def random_configs(rng: np.random.Generator, n: int, wide: bool = True) -> ImpactConfig:
+    m1, m2 = rng.uniform(100, 40_000, (2, n)) if wide else rng.uniform(800, 2600, (2, n))
+    k1, k2 = rng.uniform(0.3, 3.0, (2, n))
+    reach = 6.0 if wide else 3.0
+    return ImpactConfig.from_arrays(
+        m1=m1, izz1=m1 * k1**2, x1=rng.uniform(-reach, reach, n), y1=rng.uniform(-reach, reach, n),
+        yaw1=rng.uniform(-np.pi, np.pi, n), vx1=rng.uniform(-40, 40, n),
+        vy1=rng.uniform(-40, 40, n), yaw_rate1=rng.uniform(-3, 3, n),
+        m2=m2, izz2=m2 * k2**2, x2=rng.uniform(-reach, reach, n), y2=rng.uniform(-reach, reach, n),
+        yaw2=rng.uniform(-np.pi, np.pi, n), vx2=rng.uniform(-40, 40, n),
+        vy2=rng.uniform(-40, 40, n), yaw_rate2=rng.uniform(-3, 3, n),
+        poi_x=rng.uniform(-reach, reach, n), poi_y=rng.uniform(-reach, reach, n),
+        cp_angle=rng.uniform(-2 * np.pi, 2 * np.pi, n), restitution=rng.uniform(0, 1, n),
+        contact_friction=rng.uniform(0, 3 if wide else 1, n),
+    )
+
+
+seeds = st.integers(0, 2**32 - 1)
+
+
+@given(seed=seeds, wide=st.booleans())
+def test_momentum_and_angular_momentum_conserved(seed, wide):
+    c = random_configs(np.random.default_rng(seed), 256, wide)
+    r = solve_impact(c)
+    px0, py0 = momentum(c, c.vx1, c.vy1, c.vx2, c.vy2)
+    px1, py1 = momentum(c, r.vx1_post, r.vy1_post, r.vx2_post, r.vy2_post)
+    scale = c.m1 * np.hypot(c.vx1, c.vy1) + c.m2 * np.hypot(c.vx2, c.vy2)
+    np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
+    np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
+    l0 = angular_momentum(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
+    l1 = angular_momentum(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post,
+                          r.vy2_post, r.yaw_rate2_post)
+    lscale = (c.izz1 * np.abs(c.yaw_rate1) + c.izz2 * np.abs(c.yaw_rate2)
+              + scale * (np.hypot(c.x1, c.y1) + np.hypot(c.x2, c.y2) + 1.0))
+    np.testing.assert_array_less(np.abs(l1 - l0), 1e-9 * lscale)
+    # both impact types are exercised
+    assert {IMPACT_FULL, IMPACT_SLIDING} <= set(np.unique(r.impact_type))
+
+
+@given(seed=seeds, wide=st.booleans())
+def test_energy_never_gained_and_loss_consistent(seed, wide):
+    c = random_configs(np.random.default_rng(seed), 256, wide)
+    r = solve_impact(c)
+    e0 = kinetic(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
+    e1 = kinetic(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post,
+                 r.yaw_rate2_post)
+    np.testing.assert_array_less(e1 - e0, 1e-9 * e0)
+    np.testing.assert_allclose(e0 - e1, r.energy_loss, atol=1e-9 * e0.max())
+    assert (r.ees1 >= 0).all() and (r.ees2 >= 0).all()
+
+
+def relative_poi_velocity(c: ImpactConfig, r, post: bool):
+    if post:
+        v = (r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post, r.yaw_rate2_post)
+    else:
+        v = (c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
+    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
+    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    ux = (v[0] - v[2] * r1y) - (v[3] - v[5] * r2y)
+    uy = (v[1] + v[2] * r1x) - (v[4] + v[5] * r2x)
+    return ux, uy
+
+
+@given(seed=seeds, wide=st.booleans())
+def test_friction_cone_and_sliding_conditions(seed, wide):
+    c = random_configs(np.random.default_rng(seed), 256, wide)
+    r = solve_impact(c)
+    full = r.impact_type == IMPACT_FULL
+    sliding = r.impact_type == IMPACT_SLIDING
+    mu = c.contact_friction
+    size = np.hypot(r.impulse_t, r.impulse_n) + 1e-12
+    # full: inside the cone; sliding: on it
+    assert (np.abs(r.impulse_t[full]) <= mu[full] * r.impulse_n[full] + 1e-9 * size[full]).all()
+    np.testing.assert_allclose(np.abs(r.impulse_t[sliding]), mu[sliding] * r.impulse_n[sliding],
+                               rtol=1e-9, atol=1e-9)
+    assert (r.impulse_n[full | sliding] >= 0).all()
+    # sliding: at the end of compression the normal POI velocities agree and
+    # the tangential impulse opposes the slip that remains
+    eps = c.restitution
+    ux, uy = relative_poi_velocity(c, r, post=False)
+    uxp, uyp = relative_poi_velocity(c, r, post=True)
+    # POI velocities are affine in the impulse: the compression state is the
+    # (1 / (1 + eps)) point between before and after
+    w = 1.0 / (1.0 + eps)
+    ucx, ucy = ux + w * (uxp - ux), uy + w * (uyp - uy)
+    tx, ty = r.normal_y, -r.normal_x
+    un_c = ucx * r.normal_x + ucy * r.normal_y
+    ut_c = ucx * tx + ucy * ty
+    speed = np.hypot(ux, uy) + 1e-9
+    np.testing.assert_allclose(un_c[sliding | full] / speed[sliding | full], 0.0, atol=1e-9)
+    assert (r.impulse_t[sliding] * ut_c[sliding] <= 1e-9 * speed[sliding] * size[sliding]).all()
+    # full: no tangential slip at the end of compression
+    np.testing.assert_allclose(ut_c[full] / speed[full], 0.0, atol=1e-8)
+    # no impact exactly where the POI velocities separate or are at rest
+    un = ux * r.normal_x + uy * r.normal_y
+    np.testing.assert_array_equal(r.impact_type == IMPACT_NONE, un >= 0)
+
+
+def rotate(c: ImpactConfig, angle: float, dx: float, dy: float) -> ImpactConfig:
+    co, si = np.cos(angle), np.sin(angle)
+    d = c._asdict()
+    for i in ("1", "2"):
+        x, y = d["x" + i], d["y" + i]
+        d["x" + i], d["y" + i] = co * x - si * y + dx, si * x + co * y + dy
+        vx, vy = d["vx" + i], d["vy" + i]
+        d["vx" + i], d["vy" + i] = co * vx - si * vy, si * vx + co * vy
+        d["yaw" + i] = d["yaw" + i] + angle
+    px, py = d["poi_x"], d["poi_y"]
+    d["poi_x"], d["poi_y"] = co * px - si * py + dx, si * px + co * py + dy
+    d["cp_angle"] = d["cp_angle"] + angle
+    return ImpactConfig(**d)
+
+
+@given(seed=seeds, angle=st.floats(-np.pi, np.pi), dx=st.floats(-1e3, 1e3),
+       dy=st.floats(-1e3, 1e3), flip=st.booleans())
+def test_rigid_motion_invariance(seed, angle, dx, dy, flip):
+    c = random_configs(np.random.default_rng(seed), 128, wide=False)
+    moved = rotate(c, angle, dx, dy)
+    if flip:  # the contact plane's orientation must not matter
+        moved = moved._replace(cp_angle=moved.cp_angle + np.pi)
+    r, s = solve_impact(c), solve_impact(moved)
+    scale = np.hypot(c.vx1, c.vy1) + np.hypot(c.vx2, c.vy2) + 1.0
+    np.testing.assert_array_equal(r.impact_type, s.impact_type)
+    for a, b in ((r.delta_v1, s.delta_v1), (r.delta_v2, s.delta_v2), (r.ees1, s.ees1),
+                 (r.ees2, s.ees2)):
+        np.testing.assert_allclose(a, b, atol=1e-7 * scale.max())
+    co, si = np.cos(angle), np.sin(angle)
+    close(s.vx1_post, co * r.vx1_post - si * r.vy1_post, 1e-7 * scale)
+    close(s.yaw_rate2_post, r.yaw_rate2_post, 1e-7 * scale)
+    close(s.impulse_t, r.impulse_t, 1e-7 * np.abs(r.impulse_t) + 1e-6 * scale * c.m1)
+    d_pdof = np.mod(s.pdof1 - r.pdof1 + np.pi, 2 * np.pi) - np.pi
+    close(np.nan_to_num(d_pdof), 0.0, 1e-6)
+
+
+@given(seed=seeds, wide=st.booleans())
+def test_swapping_vehicles(seed, wide):
+    c = random_configs(np.random.default_rng(seed), 256, wide)
+    r, s = solve_impact(c), solve_impact(c.swapped())
+    np.testing.assert_array_equal(r.impact_type, s.impact_type)
+    scale = np.hypot(c.vx1, c.vy1) + np.hypot(c.vx2, c.vy2) + 1.0
+    close(s.vx1_post, r.vx2_post, 1e-9 * scale)
+    close(s.vy2_post, r.vy1_post, 1e-9 * scale)
+    close(s.yaw_rate1_post, r.yaw_rate2_post, 1e-9 * scale)
+    close(s.delta_v1, r.delta_v2, 1e-9 * scale)
+    close(s.ees2, r.ees1, 1e-9 * scale)
+    np.testing.assert_allclose(s.energy_loss, r.energy_loss, rtol=1e-9, atol=1e-6)
+    close(s.impulse_x, -r.impulse_x, 1e-9 * scale * (c.m1 + c.m2))
+
+
+def test_single_and_batch_identical():
+    c = random_configs(np.random.default_rng(0), 20_000)
+    batch = solve_impact(c)
+    for k in (0, 8191, 8192, 19_999):
+        one = solve_impact(ImpactConfig(*(a[k:k + 1] for a in c)))
+        for name in ("vx1_post", "yaw_rate2_post", "ees1", "energy_loss", "pdof2"):
+            np.testing.assert_array_equal(getattr(one, name), getattr(batch, name)[k:k + 1])

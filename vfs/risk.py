@@ -25,6 +25,7 @@ Examples
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -62,8 +63,8 @@ def _validated_delta_v(delta_v_ms: npt.ArrayLike) -> np.ndarray:
 
 
 @dataclass(frozen=True, kw_only=True)
-class RiskCurve:
-    """Base class of injury-risk curves.
+class RiskCurve(ABC):
+    """Abstract base class of injury-risk curves.
 
     Subclasses implement :meth:`_probability_in_unit`; :meth:`probability`
     validates and converts the input.
@@ -130,9 +131,9 @@ class RiskCurve:
         dv = _validated_delta_v(delta_v_ms)
         return self._probability_in_unit(self.to_input_unit(dv))
 
+    @abstractmethod
     def _probability_in_unit(self, delta_v: np.ndarray) -> np.ndarray:
         """Probability for delta-v already in :attr:`input_unit`."""
-        raise NotImplementedError
 
 
 @dataclass(frozen=True, kw_only=True)

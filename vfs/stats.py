@@ -90,6 +90,7 @@ def _check_open_unit(value: float, name: str) -> float:
 
 def _as_1d_float(values: npt.ArrayLike, name: str) -> np.ndarray:
     """Convert numeric input to a 1-D float array; NaN allowed, +-inf not."""
+    arr: np.ndarray
     try:
         if isinstance(values, pd.Series | pd.Index):
             arr = values.to_numpy(dtype=float, na_value=np.nan)

@@ -54,7 +54,10 @@ class DataProblem:
         if self.row is not None:
             where.append(f"row {self.row}")
         if self.case_id is not None:
-            where.append(f"case_id {self.case_id!r}")
+            case_id = self.case_id
+            if hasattr(case_id, "item"):  # numpy scalar -> plain Python value
+                case_id = case_id.item()
+            where.append(f"case_id {case_id!r}")
         return f"{', '.join(where)}: {self.message}"
 
 

@@ -1,0 +1,499 @@
+"""Reading and writing databases: Parquet folders (the native format) and CSV folders.
+
+A database folder holds ``<table>.parquet`` for the four tables of
+:data:`vfs.database.schema.TABLES` and ``meta.json``.  The CSV folder layout
+is the same with ``<table>.csv``.  Writes are atomic: the files go into a
+temporary sibling folder which then replaces the target.  Case selection
+(``where``) is SQL evaluated by duckdb directly on the Parquet files.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import uuid
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import duckdb
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from vfs.database.database import Database
+from vfs.database.schema import SCHEMA_VERSION, TABLE_NAMES, TABLES, empty_table
+from vfs.database.validation import validate_database
+from vfs.errors import DataError, DataProblem, VfsError
+
+META_FILE = "meta.json"
+#: Text read as missing in the numeric columns of CSV files.
+CSV_NA_VALUES: tuple[str, ...] = ("", "NaN", "nan", "NA", "N/A", "null", "NULL")
+
+
+class TargetExistsError(VfsError, FileExistsError):
+    """The output path exists and does not look like a folder this function may replace."""
+
+
+# ----------------------------------------------------------------------------
+# meta.json
+# ----------------------------------------------------------------------------
+
+
+def read_meta(folder: str | os.PathLike[str]) -> tuple[dict[str, object], list[DataProblem]]:
+    """Read ``meta.json`` of a database folder.
+
+    Parameters
+    ----------
+    folder : path
+        Database folder.
+
+    Returns
+    -------
+    meta : dict
+        Parsed contents; empty if the file is missing or unreadable.
+    problems : list of DataProblem
+        Problems reading the file (missing, invalid JSON, not an object).
+    """
+    file = Path(folder) / META_FILE
+    if not file.is_file():
+        return {}, [DataProblem("meta", "schema_version", None, None,
+                                f"{META_FILE} not found in {folder}")]
+    try:
+        meta = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        return {}, [DataProblem("meta", "", None, None, f"cannot read {file}: {exc}")]
+    if not isinstance(meta, dict):
+        return {}, [DataProblem("meta", "", None, None, f"{file} must hold a JSON object")]
+    return meta, []
+
+
+def _meta_for_writing(meta: dict[str, object]) -> str:
+    out = dict(meta)
+    out.setdefault("schema_version", SCHEMA_VERSION)
+    return json.dumps(out, indent=2, sort_keys=True, default=_json_default) + "\n"
+
+
+def _json_default(value: object) -> object:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"meta value {value!r} is not JSON serialisable")
+
+
+# ----------------------------------------------------------------------------
+# Atomic folder writes
+# ----------------------------------------------------------------------------
+
+
+def write_folder_atomically(
+    path: str | os.PathLike[str], writer: Callable[[Path], None], markers: Iterable[str],
+) -> Path:
+    """Write a folder through a temporary sibling folder, then swap it into place.
+
+    Parameters
+    ----------
+    path : path
+        Target folder.  If it exists it must be empty or contain one of
+        ``markers`` (i.e. be a folder of the same kind), else nothing is
+        written.
+    writer : callable
+        ``writer(tmp_folder)`` writes all files into the (empty) temporary folder.
+    markers : iterable of str
+        File names that identify a folder this function may replace.
+
+    Returns
+    -------
+    Path
+        The target folder.
+
+    Raises
+    ------
+    TargetExistsError
+        If ``path`` is a file or a non-empty folder of another kind.
+    """
+    target = Path(path)
+    if target.exists():
+        if not target.is_dir():
+            raise TargetExistsError(f"{target} exists and is not a folder")
+        if any(target.iterdir()) and not any((target / m).exists() for m in markers):
+            raise TargetExistsError(
+                f"{target} is a non-empty folder that does not look like a database; "
+                "refusing to replace it"
+            )
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = target.parent / f".{target.name}.tmp-{uuid.uuid4().hex}"
+    tmp.mkdir()
+    try:
+        writer(tmp)
+        if target.exists():
+            old = target.parent / f".{target.name}.old-{uuid.uuid4().hex}"
+            os.replace(target, old)
+            try:
+                os.replace(tmp, target)
+            except BaseException:
+                os.replace(old, target)
+                raise
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return target
+
+
+def _check_before_write(db: Database, validate: bool) -> Database:
+    if validate:
+        problems = validate_database(db)
+        if problems:
+            raise DataError(problems, header=f"not writing an invalid database: "
+                                             f"{len(problems)} problem(s):")
+    return db.normalised()
+
+
+# ----------------------------------------------------------------------------
+# Parquet
+# ----------------------------------------------------------------------------
+
+
+def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool = True) -> Path:
+    """Write a database as a folder of Parquet files plus ``meta.json`` (atomically).
+
+    Parameters
+    ----------
+    db : Database
+        The database; tables are normalised (schema dtypes and column order)
+        before writing.
+    path : path
+        Target folder; an existing database folder there is replaced.
+    validate : bool
+        Refuse to write an invalid database (raise :class:`DataError`).
+
+    Returns
+    -------
+    Path
+        The database folder.
+    """
+    norm = _check_before_write(db, validate)
+
+    def write(folder: Path) -> None:
+        for name, df in norm.tables().items():
+            table = pa.Table.from_pandas(df, preserve_index=False)
+            pq.write_table(table, folder / f"{name}.parquet")
+        (folder / META_FILE).write_text(_meta_for_writing(norm.meta), encoding="utf-8")
+
+    return write_folder_atomically(path, write, [META_FILE, "cases.parquet"])
+
+
+def _read_parquet_tables(
+    folder: Path, where: str | None, problems: list[DataProblem]
+) -> dict[str, pd.DataFrame]:
+    files = {name: folder / f"{name}.parquet" for name in TABLE_NAMES}
+    present = {}
+    for name, file in files.items():
+        if file.is_file():
+            present[name] = file
+        else:
+            problems.append(DataProblem(name, "", None, None, f"file {file.name} missing "
+                                                              f"in {folder}"))
+    if where is None:
+        frames = {}
+        for name, file in present.items():
+            try:
+                frames[name] = pq.read_table(file).to_pandas()
+            except (OSError, pa.ArrowException) as exc:
+                problems.append(DataProblem(name, "", None, None, f"cannot read {file}: {exc}"))
+    elif "cases" not in present:
+        frames = {}
+    else:
+        frames = _select_parquet(present, where)
+    return {name: frames.get(name, empty_table(name)) for name in TABLE_NAMES}
+
+
+def _sql_error(where: str, exc: Exception) -> DataError:
+    return DataError(DataProblem(
+        "cases", "", None, None,
+        f"invalid case selection predicate {where!r}: {exc}".replace("\n", " "),
+    ))
+
+
+def _selection_sql(source: str, where: str) -> str:
+    sql = f"SELECT case_id FROM {source} WHERE ({where})"
+    try:
+        n_statements = len(duckdb.extract_statements(sql))
+    except duckdb.Error as exc:
+        raise _sql_error(where, exc) from exc
+    if n_statements != 1:
+        raise _sql_error(where, ValueError("the predicate must be one SQL expression"))
+    return sql
+
+
+def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFrame]:
+    """Read the tables restricted to the cases matching ``where`` (duckdb on Parquet)."""
+    con = duckdb.connect(":memory:")
+    try:
+        cases_file = str(files["cases"])
+        try:
+            selected = con.sql(
+                _selection_sql("read_parquet($cases)", where), params={"cases": cases_file}
+            ).to_arrow_table()
+        except duckdb.Error as exc:
+            raise _sql_error(where, exc) from exc
+        con.register("selected_cases", selected)
+        frames = {}
+        for name, file in files.items():
+            table = con.sql(
+                "SELECT * EXCLUDE (file_row_number) "
+                "FROM read_parquet($file, file_row_number = true) "
+                "WHERE case_id IN (SELECT case_id FROM selected_cases) "
+                "ORDER BY file_row_number",
+                params={"file": str(file)},
+            ).to_arrow_table()
+            frames[name] = table.to_pandas()
+        return frames
+    finally:
+        con.close()
+
+
+def _finish_loading(
+    frames: dict[str, pd.DataFrame], meta: dict[str, object], problems: list[DataProblem],
+    validate: bool,
+) -> Database:
+    db = Database(**frames, meta=meta).normalised()
+    if validate:
+        found = validate_database(db)
+        if any(p.table == "meta" for p in problems):  # supersedes "meta.json missing"
+            found = [p for p in found if p.table != "meta"]
+        problems = problems + found
+    if problems and (validate or any(p.table != "meta" for p in problems)):
+        raise DataError(problems)
+    return db
+
+
+def load_database(
+    path: str | os.PathLike[str], *, where: str | None = None, validate: bool = True
+) -> Database:
+    """Load a Parquet database folder.
+
+    Parameters
+    ----------
+    path : path
+        Database folder (``<table>.parquet`` files and ``meta.json``).
+    where : str, optional
+        SQL predicate on the cases table, evaluated by duckdb, e.g.
+        ``"accident_type = 241 AND road_friction < 0.5"``; the other tables
+        are restricted to the selected cases.
+    validate : bool
+        Validate and raise :class:`DataError` listing every problem.
+
+    Returns
+    -------
+    Database
+        Normalised database (schema dtypes and column order).
+
+    Raises
+    ------
+    DataError
+        If the folder or a table file is missing, the predicate is invalid
+        SQL, or (with ``validate``) the data violate the schema.
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        raise DataError(DataProblem("meta", "", None, None, f"database folder {folder} "
+                                                            "does not exist"))
+    meta, problems = read_meta(folder)
+    frames = _read_parquet_tables(folder, where, problems)
+    return _finish_loading(frames, meta, problems, validate)
+
+
+def select_cases(db: Database, where: str) -> Database:
+    """Cases of an in-memory database matching an SQL predicate (evaluated by duckdb).
+
+    Parameters
+    ----------
+    db : Database
+        The database.
+    where : str
+        SQL predicate on the columns of ``db.cases``.
+
+    Returns
+    -------
+    Database
+        :meth:`Database.subset` of the matching cases.
+
+    Raises
+    ------
+    DataError
+        If the predicate is not valid SQL for the cases table.
+    """
+    con = duckdb.connect(":memory:")
+    try:
+        con.register("cases", pa.Table.from_pandas(db.cases, preserve_index=False))
+        try:
+            ids = con.sql(_selection_sql("cases", where)).fetchnumpy()["case_id"]
+        except duckdb.Error as exc:
+            raise _sql_error(where, exc) from exc
+    finally:
+        con.close()
+    return db.subset(np.asarray(ids))
+
+
+# ----------------------------------------------------------------------------
+# CSV folders
+# ----------------------------------------------------------------------------
+
+
+def save_csv_folder(db: Database, path: str | os.PathLike[str], *, validate: bool = True) -> Path:
+    """Write a database as a folder of ``<table>.csv`` files plus ``meta.json`` (atomically).
+
+    Floats are written with full precision (round trip exact), booleans as
+    ``True``/``False``, missing values as empty fields.
+
+    Parameters
+    ----------
+    db : Database
+        The database.
+    path : path
+        Target folder; an existing database folder there is replaced.
+    validate : bool
+        Refuse to write an invalid database.
+
+    Returns
+    -------
+    Path
+        The folder.
+    """
+    norm = _check_before_write(db, validate)
+
+    def write(folder: Path) -> None:
+        for name, df in norm.tables().items():
+            df.to_csv(folder / f"{name}.csv", index=False, lineterminator="\n")
+        (folder / META_FILE).write_text(_meta_for_writing(norm.meta), encoding="utf-8")
+
+    return write_folder_atomically(path, write, [META_FILE, "cases.csv"])
+
+
+def read_csv_table(file: Path, table: str) -> pd.DataFrame:
+    """Read one CSV table: schema string columns as text (``""`` kept), others parsed.
+
+    Parameters
+    ----------
+    file : Path
+        The CSV file.
+    table : str
+        Table name (key of :data:`vfs.database.schema.TABLES`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Raw table (not yet normalised).
+    """
+    header = pd.read_csv(file, nrows=0).columns
+    text_columns = {c.name for c in TABLES[table].columns if c.kind == "str"}
+    return pd.read_csv(
+        file,
+        dtype={c: "str" for c in header if c in text_columns},
+        keep_default_na=False,
+        na_values={c: list(CSV_NA_VALUES) for c in header if c not in text_columns},
+    )
+
+
+def load_csv_folder(path: str | os.PathLike[str], *, validate: bool = True) -> Database:
+    """Load a CSV database folder written by :func:`save_csv_folder`.
+
+    Parameters
+    ----------
+    path : path
+        Folder with ``<table>.csv`` files and ``meta.json``.
+    validate : bool
+        Validate and raise :class:`DataError` listing every problem.
+
+    Returns
+    -------
+    Database
+        Normalised database; identical (dtypes included) to the database the
+        folder was written from.
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        raise DataError(DataProblem("meta", "", None, None, f"CSV folder {folder} does "
+                                                            "not exist"))
+    meta, problems = read_meta(folder)
+    frames = {}
+    for name in TABLE_NAMES:
+        file = folder / f"{name}.csv"
+        if not file.is_file():
+            problems.append(DataProblem(name, "", None, None, f"file {file.name} missing "
+                                                              f"in {folder}"))
+            frames[name] = empty_table(name)
+            continue
+        try:
+            frames[name] = read_csv_table(file, name)
+        except (OSError, ValueError) as exc:
+            problems.append(DataProblem(name, "", None, None, f"cannot read {file}: {exc}"))
+            frames[name] = empty_table(name)
+    return _finish_loading(frames, meta, problems, validate)
+
+
+# ----------------------------------------------------------------------------
+# Format detection
+# ----------------------------------------------------------------------------
+
+FORMATS: tuple[str, ...] = ("parquet", "csv", "pcm")
+
+
+def detect_format(path: str | os.PathLike[str]) -> str:
+    """Format of a database folder: ``"parquet"``, ``"csv"`` or ``"pcm"``.
+
+    Raises
+    ------
+    DataError
+        If the folder holds none of them.
+    """
+    folder = Path(path)
+    names = {p.name.lower() for p in folder.iterdir()} if folder.is_dir() else set()
+    if "cases.parquet" in names:
+        return "parquet"
+    if "cases.csv" in names:
+        return "csv"
+    if "participant_data.csv" in names:
+        return "pcm"
+    raise DataError(DataProblem(
+        "meta", "", None, None,
+        f"{folder} is not a database folder (no cases.parquet, cases.csv or "
+        "participant_data.csv)",
+    ))
+
+
+def load_any(
+    path: str | os.PathLike[str], *, fmt: str | None = None, validate: bool = True
+) -> Database:
+    """Load a database in any supported format (detected when ``fmt`` is None).
+
+    Parameters
+    ----------
+    path : path
+        Folder.
+    fmt : {"parquet", "csv", "pcm"}, optional
+        Format; default :func:`detect_format`.
+    validate : bool
+        Validate and raise :class:`DataError` listing every problem.
+
+    Returns
+    -------
+    Database
+    """
+    from vfs.database.pcm import import_pcm  # pcm imports this module
+
+    fmt = detect_format(path) if fmt is None else fmt
+    if fmt == "parquet":
+        return load_database(path, validate=validate)
+    if fmt == "csv":
+        return load_csv_folder(path, validate=validate)
+    if fmt == "pcm":
+        return import_pcm(path, validate=validate)
+    raise DataError(DataProblem("meta", "", None, None,
+                                f"unknown format {fmt!r} (known: {', '.join(FORMATS)})"))

@@ -390,14 +390,16 @@ def overlap(outline1: npt.ArrayLike, outline2: npt.ArrayLike) -> Overlap:
     nonempty = np.empty(n, dtype=bool)
     area = np.empty(n)
     centroid = np.empty((n, 2))
-    for lo in range(0, n, CHUNK):
-        hi = min(lo + CHUNK, n)
-        frame = rectangle_frame(o2[lo:hi])
-        px, py, alive = _clip_block(o1[lo:hi], frame)
-        a, cx, cy = _shoelace(px, py, alive)
-        verts[lo:hi] = frame.to_global(px, py)
-        centroid[lo:hi] = frame.to_global(cx[:, None], cy[:, None])[:, 0]
-        area[lo:hi], nonempty[lo:hi] = a, alive
+    # empty polygons carry NaN coordinates; they are masked, not errors
+    with np.errstate(invalid="ignore"):
+        for lo in range(0, n, CHUNK):
+            hi = min(lo + CHUNK, n)
+            frame = rectangle_frame(o2[lo:hi])
+            px, py, alive = _clip_block(o1[lo:hi], frame)
+            a, cx, cy = _shoelace(px, py, alive)
+            verts[lo:hi] = frame.to_global(px, py)
+            centroid[lo:hi] = frame.to_global(cx[:, None], cy[:, None])[:, 0]
+            area[lo:hi], nonempty[lo:hi] = a, alive
     return Overlap(Polygons(verts, nonempty), area, centroid)
 
 

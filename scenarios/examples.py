@@ -75,3 +75,51 @@ def write_example_impacts(path: Path = EXAMPLE_IMPACTS) -> None:
 
 if __name__ == "__main__":  # pragma: no cover
     write_example_impacts()
+
+
+def example_case_database() -> object:
+    """The built-in example case for ``vfs run-case``: a head-on with partial overlap.
+
+    Vehicle 1 (large car, 60 km/h) drives through a gentle left bend (radius
+    250 m, so it arrives with a real yaw rate) and meets vehicle 2 (small
+    car, 50 km/h, straight) with about 0.9 m lateral offset.  The records are
+    PreCrash-Matrix-like: 10 ms samples from 5 s before first contact to
+    0.5 s after it.  The database carries no reconstruction
+    (``has_reconstruction = False``).
+    """
+    from vfs.database import Database, default_meta
+    from vfs.database.schema import empty_table
+
+    dt, t_contact, radius = 0.01, 5.0, 250.0
+    t = np.arange(0.0, t_contact + 0.5 + 1e-9, dt)
+    v1, v2 = float(kmh_to_ms(60.0)), float(kmh_to_ms(50.0))
+    # vehicle 1: arc through the origin, heading 0 at t_contact
+    arc = v1 * (t - t_contact) / radius
+    x1, y1 = radius * np.sin(arc), radius * (1.0 - np.cos(arc))
+    # vehicle 2: straight, heading pi, front touching vehicle 1's front at t_contact
+    offset = 0.9
+    x2c = LARGE_CAR.cg_to_front + SMALL_CAR.cg_to_front
+    x2 = x2c - v2 * (t - t_contact)
+    trajectories = pd.concat([
+        pd.DataFrame({"case_id": 1, "participant": 1, "t": t, "x": x1, "y": y1, "yaw": arc,
+                      "speed": v1, "accel": 0.0}),
+        pd.DataFrame({"case_id": 1, "participant": 2, "t": t, "x": x2,
+                      "y": np.full(t.size, offset), "yaw": np.pi, "speed": v2, "accel": 0.0}),
+    ], ignore_index=True)
+    participants = pd.DataFrame([
+        {"case_id": 1, "participant": i, "mass": car.mass, "yaw_inertia": np.nan,
+         "length": car.length, "width": car.width, "wheelbase": car.wheelbase,
+         "cg_to_front_axle": car.cg_to_front_axle, "front_overhang": car.front_overhang,
+         "track_width": car.track_width, "cg_height": car.cg_height, "vehicle_class": "car"}
+        for i, car in ((1, LARGE_CAR), (2, SMALL_CAR))
+    ])
+    cases = pd.DataFrame([{
+        "case_id": 1, "accident_type": 242, "road_friction": 0.8, "road_surface": "dry",
+        "road_curvature": 1.0 / radius, "weight": 1.0, "collision": True,
+        "description": "built-in example: head-on with partial overlap in a bend",
+    }])
+    meta = default_meta("example", "scenarios.examples", "built-in example case")
+    meta["has_reconstruction"] = False
+    return Database(cases=cases, participants=participants, trajectories=trajectories,
+                    reconstruction=empty_table("reconstruction"),
+                    meta=meta).normalised()

@@ -277,18 +277,21 @@ class RecordState(NamedTuple):
 
 
 def record_at_time(paths: PathArrays, rows: np.ndarray, index: np.ndarray,
-                   tau: np.ndarray, last: np.ndarray | None = None) -> RecordState:
+                   tau: np.ndarray, last: np.ndarray | None = None,
+                   rows_last: bool = False) -> RecordState:
     """Recorded arc length, speed and acceleration at times ``tau`` [s] (relative).
 
     ``index`` must be the segment index of ``tau`` (see :func:`advance_index`);
-    ``last`` may pass :meth:`PathArrays.last_knots` computed once.
+    ``last`` may pass :meth:`PathArrays.last_knots` computed once (or, with
+    ``rows_last``, already taken at ``rows``).
     Inside the record: linear interpolation in time.  Beyond its end: constant
     speed, zero acceleration.
     """
     count = paths.count[rows]
     k0 = paths.knot_rows(rows, index)
     k1 = paths.knot_rows(rows, np.minimum(index + 1, count - 1))
-    kl = (paths.last_knots() if last is None else last)[rows]
+    kl = (paths.last_knots() if last is None else last)
+    kl = kl if rows_last else kl[rows]
     t0, t1 = k0[:, _T], k1[:, _T]
     with np.errstate(invalid="ignore", divide="ignore"):
         w = np.where(t1 > t0, (tau - t0) / (t1 - t0), 0.0)
@@ -312,12 +315,14 @@ class PathPose(NamedTuple):
     x: np.ndarray  # CG position [m]
     y: np.ndarray  # [m]
     yaw: np.ndarray  # vehicle heading [rad]
-    heading: np.ndarray  # direction of motion [rad]
+    tx: np.ndarray  # unit vector of the direction of motion [-]
+    ty: np.ndarray
     curvature: np.ndarray  # d(yaw)/ds [1/m]
 
 
 def pose_at_arclength(paths: PathArrays, rows: np.ndarray, index: np.ndarray,
-                      s: np.ndarray, last: np.ndarray | None = None) -> PathPose:
+                      s: np.ndarray, last: np.ndarray | None = None,
+                      rows_last: bool = False) -> PathPose:
     """Pose at arc lengths ``s`` [m]; ``index`` is the segment index of ``s``.
 
     Inside the record: linear interpolation of x, y and yaw in s (so a replay
@@ -336,11 +341,21 @@ def pose_at_arclength(paths: PathArrays, rows: np.ndarray, index: np.ndarray,
     y = k0[:, _Y] + w * (k1[:, _Y] - k0[:, _Y])
     yaw0, yaw1 = k0[:, _YAW], k1[:, _YAW]
     yaw = yaw0 + w * (yaw1 - yaw0)
-    heading = k0[:, _HEADING]
+    # direction of motion: the segment's chord, or its recorded heading
+    # where the segment has zero length (standstill)
+    moving = ds > 1e-9
     with np.errstate(invalid="ignore", divide="ignore"):
-        curvature = np.where(ds > 1e-9, (yaw1 - yaw0) / ds, 0.0)
+        inv = np.where(moving, 1.0 / ds, 0.0)
+        curvature = (yaw1 - yaw0) * inv
+    tx = (k1[:, _X] - k0[:, _X]) * inv
+    ty = (k1[:, _Y] - k0[:, _Y]) * inv
+    if not moving.all():
+        still = ~moving
+        tx = np.where(still, np.cos(k0[:, _HEADING]), tx)
+        ty = np.where(still, np.sin(k0[:, _HEADING]), ty)
     # beyond the record: arc of constant curvature from the last sample
-    kl = (paths.last_knots() if last is None else last)[rows]
+    kl = (paths.last_knots() if last is None else last)
+    kl = kl if rows_last else kl[rows]
     extra = s - kl[:, _S]
     beyond = extra > 0
     if beyond.any():
@@ -356,6 +371,7 @@ def pose_at_arclength(paths: PathArrays, rows: np.ndarray, index: np.ndarray,
         x = np.where(beyond, kl[:, _X] + dx, x)
         y = np.where(beyond, kl[:, _Y] + dy, y)
         yaw = np.where(beyond, kl[:, _YAW] + arc, yaw)
-        heading = np.where(beyond, psi0 + arc, heading)
+        tx = np.where(beyond, np.cos(psi0 + arc), tx)
+        ty = np.where(beyond, np.sin(psi0 + arc), ty)
         curvature = np.where(beyond, k, curvature)
-    return PathPose(x, y, yaw, heading, curvature)
+    return PathPose(x, y, yaw, tx, ty, curvature)

@@ -328,9 +328,16 @@ class _Track:
         self.decel = np.zeros((n, 2))  # delivered deceleration [m/s^2]
         self.t_index = np.zeros((n, 2), dtype=np.int64)
         self.s_index = np.zeros((n, 2), dtype=np.int64)
+        # closest approach so far: CG distance [m], its time and the poses
+        self.best_centre = np.full(n, np.inf)
+        self.best_time = np.full(n, np.nan)
+        self.best_x = np.full((n, 2), np.nan)
+        self.best_y = np.full((n, 2), np.nan)
+        self.best_yaw = np.full((n, 2), np.nan)
 
     def take(self, keep: np.ndarray) -> None:
-        for name in ("dv", "ds", "gap", "decel", "t_index", "s_index"):
+        for name in ("dv", "ds", "gap", "decel", "t_index", "s_index", "best_centre",
+                     "best_time", "best_x", "best_y", "best_yaw"):
             setattr(self, name, getattr(self, name)[keep])
 
 
@@ -348,7 +355,8 @@ def _last_knots(paths: PathArrays) -> np.ndarray:
 
 
 def _record(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
-            t_index: np.ndarray | None) -> tuple[np.ndarray, ...]:
+            t_index: np.ndarray | None, hint: bool = False,
+            active: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, ...]:
     """Recorded s, speed, acceleration (n, 2) at time(s) ``tau`` and the time indices.
 
     ``paths`` holds participant 1's paths followed by participant 2's (see
@@ -357,44 +365,57 @@ def _record(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
     (bisection, arbitrary times) found by binary search.
     """
     n = rows.shape[0]
-    both = np.concatenate([rows, rows + paths.size // 2])
+    both, last = active if active is not None else _active(paths, rows)
     tau2 = np.broadcast_to(np.asarray(tau, float), (n,))
     tau2 = np.concatenate([tau2, tau2])
     if t_index is None:
         ti = find_index(paths, "t", tau2, both)
     else:
         ti = advance_index(paths, "t", t_index.T.reshape(-1), tau2, both)
-    rec = record_at_time(paths, both, ti, tau2, _last_knots(paths))
+    rec = record_at_time(paths, both, ti, tau2, last, rows_last=True)
     pair = lambda a: a.reshape(2, n).T  # noqa: E731
     return pair(rec.s), pair(rec.speed), pair(rec.accel), pair(ti)
 
 
+def _active(paths: PathArrays, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Path rows of both participants of cases ``rows`` and their last knots."""
+    both = np.concatenate([rows, rows + paths.size // 2])
+    return both, _last_knots(paths)[both]
+
+
 def _state(paths: PathArrays, rows: np.ndarray, s: np.ndarray,
-           speed: np.ndarray, s_index: np.ndarray | None) -> tuple[KinematicState, np.ndarray]:
+           speed: np.ndarray, s_index: np.ndarray | None,
+           active: tuple[np.ndarray, np.ndarray] | None = None,
+           ) -> tuple[KinematicState, np.ndarray]:
     """Kinematic state of both vehicles at arc lengths ``s`` moving at ``speed`` (n, 2)."""
     n = rows.shape[0]
-    both = np.concatenate([rows, rows + paths.size // 2])
+    both, last = active if active is not None else _active(paths, rows)
     s2 = s.T.reshape(-1)
     if s_index is None:
         si = find_index(paths, "s", s2, both)
     else:
         si = advance_index(paths, "s", s_index.T.reshape(-1), s2, both)
-    pose = pose_at_arclength(paths, both, si, s2, _last_knots(paths))
+    pose = pose_at_arclength(paths, both, si, s2, last, rows_last=True)
     pair = lambda a: a.reshape(2, n).T  # noqa: E731
-    heading = pair(pose.heading)
     state = KinematicState(
         x=pair(pose.x), y=pair(pose.y), yaw=pair(pose.yaw),
-        vx=speed * np.cos(heading), vy=speed * np.sin(heading),
+        vx=speed * pair(pose.tx), vy=speed * pair(pose.ty),
         yaw_rate=speed * pair(pose.curvature), speed=speed,
     )
     return state, pair(si)
 
 
 def _kinematics(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
-                dv: np.ndarray, ds: np.ndarray) -> KinematicState:
-    """State at arbitrary time(s) ``tau`` given the reductions dv, ds (n, 2)."""
-    s_rec, v_rec, _, _ = _record(paths, rows, tau, None)
-    return _state(paths, rows, s_rec - ds, np.maximum(v_rec - dv, 0.0), None)[0]
+                dv: np.ndarray, ds: np.ndarray,
+                hint: tuple[np.ndarray, np.ndarray] | None = None) -> KinematicState:
+    """State at arbitrary time(s) ``tau`` given the reductions dv, ds (n, 2).
+
+    ``hint`` = (time index, arc-length index) (n, 2) at an earlier time lets
+    the look-up advance from there instead of searching.
+    """
+    t_hint, s_hint = hint if hint is not None else (None, None)
+    s_rec, v_rec, _, _ = _record(paths, rows, tau, t_hint)
+    return _state(paths, rows, s_rec - ds, np.maximum(v_rec - dv, 0.0), s_hint)[0]
 
 
 def _outlines(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
@@ -404,11 +425,41 @@ def _outlines(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
     return o1, o2
 
 
+def _overlap_area(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
+                  st: KinematicState) -> np.ndarray:
+    """Overlap area of the outlines [m^2]."""
+    o1, o2 = _outlines(v1, v2, rows, st)
+    return overlap(o1, o2).area
+
+
 def _overlapping(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
                  st: KinematicState) -> np.ndarray:
     """True where the outlines overlap with positive area."""
-    o1, o2 = _outlines(v1, v2, rows, st)
-    return overlap(o1, o2).area > AREA_TOLERANCE
+    return _overlap_area(v1, v2, rows, st) > AREA_TOLERANCE
+
+
+#: Samples of the penetration window searched for the largest overlap of a graze.
+GRAZE_SAMPLES = 16
+
+
+def _largest_overlap(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
+                     rows: np.ndarray, t_contact: np.ndarray, t_impact: np.ndarray,
+                     dv: np.ndarray, ds: np.ndarray) -> tuple[np.ndarray, KinematicState]:
+    """Time of the largest overlap within [t_contact, t_impact] and the state then.
+
+    Used for grazing contacts, where the outlines separate again before the
+    penetration time is over.  The reductions dv, ds are held at their
+    values at first contact over this short window (tens of ms).
+    """
+    best_t = t_contact.copy()
+    best_area = np.full(rows.shape[0], -1.0)
+    for frac in np.linspace(0.0, 1.0, GRAZE_SAMPLES + 1):
+        tt = t_contact + frac * (t_impact - t_contact)
+        a = _overlap_area(v1, v2, rows, _kinematics(paths, rows, tt, dv, ds))
+        better = a > best_area
+        best_t = np.where(better, tt, best_t)
+        best_area = np.where(better, a, best_area)
+    return best_t, _kinematics(paths, rows, best_t, dv, ds)
 
 
 def _nan_state(n: int) -> KinematicState:
@@ -477,31 +528,38 @@ def simulate_precrash(
     impact_state = _nan_state(n)
     contact_state = _nan_state(n)
     end_state = _nan_state(n)
+    contact_dv = np.zeros((n, 2))  # reductions at first contact
+    contact_ds = np.zeros((n, 2))
     # per case, the integration state at impact time is interpolated between
     # the two steps around it; remember the reductions at both
     pending = np.zeros(n, dtype=bool)  # in contact, waiting for impact time
     impact_time = np.full(n, np.nan)
 
-    best_centre = np.full(n, np.inf)  # smallest CG distance so far [m]
-    best_time = np.full(n, np.nan)
+    best_time = np.full(n, np.nan)  # time of the smallest CG distance
     best_pose = np.full((3, n, 2), np.nan)  # x, y, yaw of both at that moment
 
     rows = np.arange(n)  # cases still running
+    active: tuple[np.ndarray, np.ndarray] | None = None
     track = _Track(n)
     prev_dv = track.dv.copy()
     prev_ds = track.ds.copy()
+    prev_ti, prev_si = track.t_index.copy(), track.s_index.copy()
     prev_tau = 0.0
     steps = int(np.ceil(horizon / dt)) + 1
     for k in range(steps):
         tau = k * dt
         # recorded kinematics; trapezoidal arc-length reduction ds
-        s_rec, v_rec, a_rec, track.t_index = _record(paths, rows, tau, track.t_index)
+        if active is None or active[0].shape[0] != 2 * rows.shape[0]:
+            active = _active(paths, rows)
+        s_rec, v_rec, a_rec, track.t_index = _record(paths, rows, tau, track.t_index,
+                                                     active=active)
         gap_now = np.minimum(track.dv, v_rec)
         if k > 0:
             track.ds = track.ds + 0.5 * dt * (track.gap + gap_now)
         track.gap = gap_now
         state, track.s_index = _state(paths, rows, s_rec - track.ds,
-                                      np.maximum(v_rec - track.dv, 0.0), track.s_index)
+                                      np.maximum(v_rec - track.dv, 0.0), track.s_index,
+                                      active=active)
 
         # ---- impact time reached for cases in penetration
         due = pending[rows] & (impact_time[rows] <= tau + 1e-12)
@@ -519,6 +577,8 @@ def simulate_precrash(
                 a_rec[keep]
             track.take(keep)
             prev_dv, prev_ds = prev_dv[keep], prev_ds[keep]
+            prev_ti, prev_si = prev_ti[keep], prev_si[keep]
+            active = None
 
         # ---- contact detection for cases not yet in contact
         free = ~pending[rows]
@@ -537,7 +597,8 @@ def simulate_precrash(
                 t_c = _bisect_contact(paths, vehicle1, vehicle2, r, prev_tau, tau,
                                       prev_dv[new_contact], track.dv[new_contact],
                                       prev_ds[new_contact], track.ds[new_contact],
-                                      params.contact_tolerance)
+                                      params.contact_tolerance,
+                                      (prev_ti[new_contact], prev_si[new_contact]))
             collided[r] = True
             contact_time[r] = t_c
             impact_time[r] = t_c + params.penetration_time
@@ -549,6 +610,7 @@ def simulate_precrash(
             dv_c = prev_dv[new_contact] + w * (track.dv[new_contact] - prev_dv[new_contact])
             ds_c = prev_ds[new_contact] + w * (track.ds[new_contact] - prev_ds[new_contact])
             _put(contact_state, r, _kinematics(paths, r, t_c, dv_c, ds_c))
+            contact_dv[r], contact_ds[r] = dv_c, ds_c
             if params.penetration_time == 0.0:
                 _put(impact_state, r, contact_state_rows(contact_state, r))
                 pending[r] = False
@@ -556,13 +618,13 @@ def simulate_precrash(
         # closest approach: exact outline distance while the outlines are
         # within CLOSE_RANGE; beyond it, the pose of minimal CG distance is
         # kept and measured at the end
-        closer = free & (centre < best_centre[rows])
-        if closer.any():
-            r = rows[closer]
-            best_centre[r] = centre[closer]
-            best_time[r] = tau
-            best_pose[0, r], best_pose[1, r] = state.x[closer], state.y[closer]
-            best_pose[2, r] = state.yaw[closer]
+        closer = free & (centre < track.best_centre)
+        track.best_centre = np.where(closer, centre, track.best_centre)
+        track.best_time = np.where(closer, tau, track.best_time)
+        c2 = closer[:, None]
+        track.best_x = np.where(c2, state.x, track.best_x)
+        track.best_y = np.where(c2, state.y, track.best_y)
+        track.best_yaw = np.where(c2, state.yaw, track.best_yaw)
         cand = closer & ~touching & (lower < np.minimum(min_distance[rows], CLOSE_RANGE))
         if cand.any():
             sub = _take_state(state, cand)
@@ -580,13 +642,18 @@ def simulate_precrash(
             rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
                 a_rec[keep]
             track.take(keep)
+            active = None
         if rows.size == 0 or tau >= horizon:
             _put(end_state, rows, state)
             speed_reduction[rows] = track.dv
+            best_time[rows] = track.best_time
+            best_pose[0, rows], best_pose[1, rows] = track.best_x, track.best_y
+            best_pose[2, rows] = track.best_yaw
             break
 
         # ---- controller and brake actuator for the next interval
         prev_dv, prev_ds, prev_tau = track.dv.copy(), track.ds.copy(), tau
+        prev_ti, prev_si = track.t_index.copy(), track.s_index.copy()
         if controller is not None:
             obs = PrecrashObservation(
                 rows=rows, t=tau, x=state.x, y=state.y, yaw=state.yaw,
@@ -624,6 +691,17 @@ def simulate_precrash(
     hit = collided & ~np.isnan(impact_state.x[:, 0])
     if hit.any():
         r = np.flatnonzero(hit)
+        graze = _overlap_area(vehicle1, vehicle2, r, _take_state(impact_state, r)) \
+            <= AREA_TOLERANCE
+        if graze.any():
+            # grazing contact: the outlines separated again within the
+            # penetration time; take the impact at the largest overlap
+            g_rows = r[graze]
+            t_best, st_best = _largest_overlap(paths, vehicle1, vehicle2, g_rows,
+                                               contact_time[g_rows], impact_time[g_rows],
+                                               contact_dv[g_rows], contact_ds[g_rows])
+            impact_time[g_rows] = t_best
+            _put(impact_state, g_rows, st_best)
         st = _take_state(impact_state, r)
         o1, o2 = _outlines(vehicle1, vehicle2, r, st)
         cg1 = np.stack([st.x[:, 0], st.y[:, 0]], axis=1)
@@ -652,7 +730,8 @@ def _take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
 def _bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
                     rows: np.ndarray, t_free: float, t_hit: float,
                     dv0: np.ndarray, dv1: np.ndarray, ds0: np.ndarray, ds1: np.ndarray,
-                    tolerance: float) -> np.ndarray:
+                    tolerance: float,
+                    hint: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """First-contact time between a free and an overlapping step, to ``tolerance`` [s].
 
     Within the step the reductions dv, ds are interpolated linearly (their
@@ -664,7 +743,7 @@ def _bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
     while span > tolerance:
         mid = 0.5 * (lo + hi)
         w = ((mid - t_free) / (t_hit - t_free))[:, None]
-        st = _kinematics(paths, rows, mid, dv0 + w * (dv1 - dv0), ds0 + w * (ds1 - ds0))
+        st = _kinematics(paths, rows, mid, dv0 + w * (dv1 - dv0), ds0 + w * (ds1 - ds0), hint)
         inside = _overlapping(v1, v2, rows, st)
         hi = np.where(inside, mid, hi)
         lo = np.where(inside, lo, mid)

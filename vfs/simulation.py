@@ -1,0 +1,276 @@
+"""One virtual forward simulation per case, for many cases at once.
+
+    pre-crash replay (+ controller)  ->  first contact, penetration
+        ->  POI / contact plane (geometry)  ->  impulse impact  ->  run-out to rest
+
+Every stage is a vectorised kernel over the cases of a :class:`CaseBatch`;
+one case is a batch of one.  :func:`results_table` flattens the outcome into
+one tidy row per case.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from vfs.errors import ParameterError
+from vfs.impact import IMPACT_TYPE_NAMES, ImpactConfig, ImpactParams, ImpactResult, solve_impact
+from vfs.paths import PathArrays, concat_paths, paths_from_trajectories
+from vfs.precrash import BrakeController, PrecrashParams, PrecrashResult, simulate_precrash
+from vfs.runout import PairRunoutResult, RunoutParams, RunoutState, run_out_pair
+from vfs.vehicle import VehicleArrays
+
+
+@dataclass(frozen=True)
+class SimulationParams:
+    """Parameters of the whole simulation chain (each part documents its defaults)."""
+
+    precrash: PrecrashParams = field(default_factory=PrecrashParams)
+    impact: ImpactParams = field(default_factory=ImpactParams)
+    runout: RunoutParams = field(default_factory=RunoutParams)
+
+
+class CaseBatch(NamedTuple):
+    """N cases ready for simulation.
+
+    Attributes
+    ----------
+    case_id : ndarray (N,)
+        Case identifiers.
+    vehicle1, vehicle2 : VehicleArrays
+        The two vehicles of each case.
+    paths : PathArrays
+        Recorded paths, participant 1 of all cases then participant 2 (2N).
+    road_friction : ndarray (N,)
+        Tyre-road friction coefficient.
+    restitution, contact_friction : ndarray (N,)
+        Impact parameters per case; NaN = the default of :class:`ImpactParams`.
+    """
+
+    case_id: np.ndarray
+    vehicle1: VehicleArrays
+    vehicle2: VehicleArrays
+    paths: PathArrays
+    road_friction: np.ndarray
+    restitution: np.ndarray
+    contact_friction: np.ndarray
+
+    @property
+    def size(self) -> int:
+        """Number of cases N."""
+        return int(self.case_id.shape[0])
+
+    def take(self, index: npt.ArrayLike) -> CaseBatch:
+        """Select cases by index (or mask)."""
+        idx = np.arange(self.size)[index]
+        both = np.concatenate([idx, idx + self.size])
+        return CaseBatch(self.case_id[idx], self.vehicle1.take(idx), self.vehicle2.take(idx),
+                         self.paths.take(both), self.road_friction[idx],
+                         self.restitution[idx], self.contact_friction[idx])
+
+    @classmethod
+    def from_database(cls, db: object, case_ids: npt.ArrayLike | None = None) -> CaseBatch:
+        """Build a batch from a :class:`vfs.database.Database` (all cases by default).
+
+        The impact parameters are left at NaN (the VFS uses its own defaults,
+        not the reconstruction's).
+        """
+        ids = np.asarray(db.case_ids if case_ids is None else case_ids)  # type: ignore[attr-defined]
+        sub = db.subset(ids) if case_ids is not None else db  # type: ignore[attr-defined]
+        v1, v2 = sub.vehicles()
+        order = pd.Index(sub.case_ids).get_indexer(ids)
+        v1, v2 = v1.take(order), v2.take(order)
+        cases = sub.cases.set_index("case_id").loc[ids]
+        paths = concat_paths(paths_from_trajectories(sub.trajectories, ids, 1),
+                             paths_from_trajectories(sub.trajectories, ids, 2))
+        nan = np.full(ids.shape[0], np.nan)
+        return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), nan, nan.copy())
+
+
+class CaseResults(NamedTuple):
+    """Outcome of :func:`simulate_cases` for N cases (arrays aligned with the batch).
+
+    Attributes
+    ----------
+    precrash : PrecrashResult
+        Contact, impact configuration, closest approach, braking.
+    impact : ImpactResult
+        Impact outcome; rows without a collision are NaN (impact_type 0).
+    runout : PairRunoutResult
+        Rest positions etc.; rows without a collision hold the pose at the
+        end of the pre-crash phase with NaN run-out figures.
+    restitution, contact_friction : ndarray (N,)
+        The impact parameters used.
+    """
+
+    precrash: PrecrashResult
+    impact: ImpactResult
+    runout: PairRunoutResult
+    restitution: np.ndarray
+    contact_friction: np.ndarray
+
+
+def _scatter_impact(n: int, rows: np.ndarray, part: ImpactResult) -> ImpactResult:
+    out = []
+    for values in part:
+        if values.dtype.kind in "iu":
+            full = np.zeros(n, dtype=values.dtype)
+        else:
+            full = np.full(n, np.nan)
+        full[rows] = values
+        out.append(full)
+    return ImpactResult(*out)
+
+
+def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
+                   params: SimulationParams | None = None,
+                   rng: np.random.Generator | None = None) -> CaseResults:
+    """Simulate N cases end to end (pre-crash, impact, run-out to rest).
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    controller : BrakeController, optional
+        Brake demand during the pre-crash phase (None: replay the record).
+    params : SimulationParams, optional
+    rng : numpy.random.Generator, optional
+        Randomness for the controller (sensor noise, reaction times).
+
+    Returns
+    -------
+    CaseResults
+    """
+    params = params or SimulationParams()
+    n = batch.size
+    if n == 0:
+        raise ParameterError("empty case batch")
+    pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                            controller=controller, params=params.precrash, rng=rng)
+    eps = np.where(np.isnan(batch.restitution), params.impact.restitution, batch.restitution)
+    mu = np.where(np.isnan(batch.contact_friction), params.impact.contact_friction,
+                  batch.contact_friction)
+    hit = np.flatnonzero(pre.collided)
+    st = pre.impact_state
+    if hit.size:
+        v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
+        config = ImpactConfig.from_arrays(
+            m1=v1.mass, izz1=v1.yaw_inertia, x1=st.x[hit, 0], y1=st.y[hit, 0],
+            yaw1=st.yaw[hit, 0], vx1=st.vx[hit, 0], vy1=st.vy[hit, 0],
+            yaw_rate1=st.yaw_rate[hit, 0],
+            m2=v2.mass, izz2=v2.yaw_inertia, x2=st.x[hit, 1], y2=st.y[hit, 1],
+            yaw2=st.yaw[hit, 1], vx2=st.vx[hit, 1], vy2=st.vy[hit, 1],
+            yaw_rate2=st.yaw_rate[hit, 1],
+            poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
+            restitution=eps[hit], contact_friction=mu[hit],
+        )
+        part = solve_impact(config)
+    else:
+        part = solve_impact(ImpactConfig.from_arrays(**{f: np.zeros(0) for f in
+                                                        ImpactConfig._fields}))
+    impact = _scatter_impact(n, hit, part)
+    # run-out from the post-impact state (all cases; non-colliding ones are at
+    # the pose where the pre-crash phase left them and are not run)
+    post1 = RunoutState(st.x[hit, 0], st.y[hit, 0], st.yaw[hit, 0], impact.vx1_post[hit],
+                        impact.vy1_post[hit], impact.yaw_rate1_post[hit])
+    post2 = RunoutState(st.x[hit, 1], st.y[hit, 1], st.yaw[hit, 1], impact.vx2_post[hit],
+                        impact.vy2_post[hit], impact.yaw_rate2_post[hit])
+    runout = _scatter_runout(
+        n, hit,
+        run_out_pair(batch.vehicle1.take(hit), batch.vehicle2.take(hit), post1, post2,
+                     batch.road_friction[hit], params.runout) if hit.size else None,
+    )
+    return CaseResults(pre, impact, runout, eps, mu)
+
+
+def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:
+    """Expand a run-out result of the colliding rows to all N cases (NaN elsewhere)."""
+    from vfs.runout import RunoutResult
+
+    def expand(r: RunoutResult | None) -> RunoutResult:
+        fields = []
+        for name in RunoutResult._fields:
+            if r is None:
+                values = np.zeros((0, 1, 3)) if name == "path" else (
+                    np.zeros(1) if name == "path_t" else np.zeros((0,) if name != "kinetic_energy"
+                                                                  else (0, 1)))
+            else:
+                values = getattr(r, name)
+            if name == "path_t":
+                fields.append(values)
+                continue
+            shape = (n,) + values.shape[1:]
+            full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
+            full[rows] = values
+            fields.append(full)
+        return RunoutResult(*fields)
+
+    if part is None:
+        return PairRunoutResult(expand(None), expand(None), np.zeros(n, dtype=bool),
+                                np.full(n, np.nan))
+    sec = np.zeros(n, dtype=bool)
+    sec[rows] = part.secondary_collision
+    sec_t = np.full(n, np.nan)
+    sec_t[rows] = part.secondary_collision_time
+    return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
+
+
+def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
+    """One tidy row per case with the main figures (SI units; angles in rad).
+
+    Columns: case_id, collided, avoided, contact_time, impact_time,
+    impact_type, impact_speed{i} [m/s], closing_speed, x{i}, y{i}, yaw{i},
+    vx{i}, vy{i}, yaw_rate{i} at impact, poi_x, poi_y, cp_angle, cp_rule,
+    overlap_area, restitution, contact_friction, delta_v{i}, ees{i},
+    energy_loss, pdof{i}, velocity_angle_change{i}, vx{i}_post, vy{i}_post,
+    yaw_rate{i}_post, rest_x{i}, rest_y{i}, rest_yaw{i}, time_to_rest{i},
+    runout_distance{i}, at_rest{i}, secondary_collision,
+    secondary_collision_time, min_distance, time_closest, brake_start{i},
+    speed_reduction{i}.
+    """
+    pre, imp, ro = res.precrash, res.impact, res.runout
+    st = pre.impact_state
+    cols: dict[str, object] = {
+        "case_id": batch.case_id,
+        "collided": pre.collided,
+        "avoided": ~pre.collided,
+        "contact_time": pre.contact_time,
+        "impact_time": pre.impact_time,
+        "impact_type": np.array([IMPACT_TYPE_NAMES[int(k)] for k in imp.impact_type],
+                                dtype=object),
+    }
+    for i in (1, 2):
+        j = i - 1
+        cols[f"impact_speed{i}"] = st.speed[:, j]
+        for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
+            cols[f"{name}{i}"] = getattr(st, name)[:, j]
+    cols.update({
+        "closing_speed": imp.closing_speed, "poi_x": pre.poi[:, 0], "poi_y": pre.poi[:, 1],
+        "cp_angle": pre.cp_angle, "cp_rule": pre.cp_rule, "overlap_area": pre.overlap_area,
+        "restitution": res.restitution, "contact_friction": res.contact_friction,
+        "energy_loss": imp.energy_loss,
+    })
+    for i in (1, 2):
+        r = ro.result1 if i == 1 else ro.result2
+        for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
+            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")
+        for name in ("vx", "vy", "yaw_rate"):
+            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")
+        cols[f"rest_x{i}"] = r.rest_x
+        cols[f"rest_y{i}"] = r.rest_y
+        cols[f"rest_yaw{i}"] = r.rest_yaw
+        cols[f"time_to_rest{i}"] = r.time_to_rest
+        cols[f"runout_distance{i}"] = r.distance
+        cols[f"at_rest{i}"] = r.at_rest
+    cols.update({
+        "secondary_collision": ro.secondary_collision,
+        "secondary_collision_time": ro.secondary_collision_time,
+        "min_distance": pre.min_distance, "time_closest": pre.time_closest,
+    })
+    for i in (1, 2):
+        cols[f"brake_start{i}"] = pre.brake_start[:, i - 1]
+        cols[f"speed_reduction{i}"] = pre.speed_reduction[:, i - 1]
+    return pd.DataFrame(cols)

@@ -397,7 +397,7 @@ class _Working(NamedTuple):
     contiguous.  :func:`_compact` selects columns of every field alike.
     """
 
-    index: np.ndarray  # (n,) positions in the full arrays
+    rows: np.ndarray  # (n,) positions in the full arrays
     mass: np.ndarray  # [kg]
     inertia: np.ndarray  # [kg m^2]
     lf: np.ndarray  # CG to front axle L1 [m]
@@ -443,7 +443,7 @@ def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
     coef = (brake * mu[:, None] + params.rolling_resistance).T.copy()
     zeros = np.zeros(n)
     return _Working(
-        index=np.arange(n), mass=vehicles.mass.copy(), inertia=vehicles.yaw_inertia.copy(),
+        rows=np.arange(n), mass=vehicles.mass.copy(), inertia=vehicles.yaw_inertia.copy(),
         lf=lf.copy(), lr=lr.copy(), half_track=0.5 * vehicles.track_width,
         front_share=lr / wb, rear_share=lf / wb,
         lon_transfer=vehicles.mass * vehicles.cg_height / wb,
@@ -708,7 +708,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         if not now.any():
             return
         _freeze(w, now)
-        idx = w.index[now]
+        idx = w.rows[now]
         x[idx], y[idx], yaw[idx] = w.x[now], w.y[now], w.yaw[now]
         vx[idx] = vy[idx] = r[idx] = 0.0
         distance[idx] = w.distance[now]
@@ -716,7 +716,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         moving[idx] = False
 
     def publish() -> None:
-        idx = w.index
+        idx = w.rows
         x[idx], y[idx], yaw[idx] = w.x, w.y, w.yaw
         vx[idx], vy[idx], r[idx] = w.vx, w.vy, w.r
 
@@ -738,7 +738,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     per_sample = params.steps_per_sample
     step = 0
     while step < params.max_steps and moving.any():
-        size = w.index.shape[0]
+        size = w.rows.shape[0]
         if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
             w = _compact(w)
         moved = moving.copy() if on_step is not None else moving
@@ -754,7 +754,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     if step % per_sample != 0:
         sample()  # the rest poses (or the poses at max_time) at the next sample time
     publish()
-    distance[w.index] = w.distance
+    distance[w.rows] = w.distance
     path = np.stack(poses, axis=1) if n else np.zeros((0, len(poses), 3))
     kinetic = np.stack(energies, axis=1) if n else np.zeros((0, len(energies)))
     path_t = np.arange(len(poses)) * (per_sample * params.dt)
@@ -923,7 +923,7 @@ class _SecondaryCollisions:
         with np.errstate(divide="ignore", invalid="ignore"):
             wait = np.where(gap > 0.0, gap / closing, 0.0)
             wait = np.where(~was_separated & (depth > _CORNER_DEPTH),
-                            0.0 * (depth - _CORNER_DEPTH) / escape, wait)
+                            (depth - _CORNER_DEPTH) / escape, wait)
         self.next_check[check] = t + wait
         hit = check[was_separated & over]
         self.secondary[hit] = True

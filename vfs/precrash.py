@@ -110,7 +110,10 @@ class PrecrashParams:
         (seed 001).
     contact_tolerance : float
         First contact is located to within this [s] by bisection; default
-        0.0005 (the issue asks for 1 ms).
+        0.05 ms.  1 ms would do for the contact time itself, but the impact
+        configuration 30 ms later inherits the error, and sliding impacts
+        amplify it (seed 001), so the tolerance is kept small; it costs
+        only a few extra bisection steps on the colliding cases.
     extra_time : float
         How long [s] to simulate beyond the end of the longer record, so
         that delayed collisions (after braking) are still found; default 3.
@@ -120,7 +123,7 @@ class PrecrashParams:
 
     dt: float = 0.01
     penetration_time: float = 0.030
-    contact_tolerance: float = 0.0005
+    contact_tolerance: float = 0.00005
     extra_time: float = 3.0
     brake: BrakeActuatorParams = BrakeActuatorParams()
 
@@ -194,7 +197,8 @@ class ScheduledBraking:
 
     def demand(self, obs: PrecrashObservation) -> np.ndarray:  # noqa: D102
         start = self.start_time[obs.rows]
-        on = obs.t >= np.nan_to_num(start, nan=np.inf)
+        # 1 ns slack: a start time on the step grid is not missed by rounding
+        on = obs.t >= np.nan_to_num(start, nan=np.inf) - 1e-9
         return np.where(on, self.deceleration[obs.rows], 0.0)
 
 

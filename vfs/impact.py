@@ -355,7 +355,7 @@ def _angle_between(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray,
 
 
 #: Configurations solved per block (keeps temporaries in the CPU cache).
-CHUNK = 8192
+CHUNK = 4096
 
 
 def solve_impact(config: ImpactConfig,

@@ -345,19 +345,6 @@ class _Track:
             setattr(self, name, getattr(self, name)[keep])
 
 
-_LAST_KNOTS: dict[int, tuple[PathArrays, np.ndarray]] = {}
-
-
-def _last_knots(paths: PathArrays) -> np.ndarray:
-    """Last knots of ``paths``, cached for the duration of one simulation."""
-    cached = _LAST_KNOTS.get(id(paths))
-    if cached is None or cached[0] is not paths:
-        _LAST_KNOTS.clear()
-        cached = (paths, paths.last_knots())
-        _LAST_KNOTS[id(paths)] = cached
-    return cached[1]
-
-
 def _record(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
             t_index: np.ndarray | None, hint: bool = False,
             active: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, ...]:
@@ -384,7 +371,7 @@ def _record(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
 def _active(paths: PathArrays, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Path rows of both participants of cases ``rows`` and their last knots."""
     both = np.concatenate([rows, rows + paths.size // 2])
-    return both, _last_knots(paths)[both]
+    return both, paths.knots[paths.count[both] - 1, both]
 
 
 def _state(paths: PathArrays, rows: np.ndarray, s: np.ndarray,
@@ -616,7 +603,7 @@ def simulate_precrash(
             _put(contact_state, r, _kinematics(paths, r, t_c, dv_c, ds_c))
             contact_dv[r], contact_ds[r] = dv_c, ds_c
             if params.penetration_time == 0.0:
-                _put(impact_state, r, contact_state_rows(contact_state, r))
+                _put(impact_state, r, _take_state(contact_state, r))
                 pending[r] = False
                 speed_reduction[r] = dv_c
         # closest approach: exact outline distance while the outlines are
@@ -722,12 +709,8 @@ def simulate_precrash(
     )
 
 
-def contact_state_rows(state: KinematicState, rows: np.ndarray) -> KinematicState:
-    """Rows of a state (copy)."""
-    return KinematicState(*(a[rows] for a in state))
-
-
 def _take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
+    """Rows of a state (by mask or index)."""
     return KinematicState(*(a[mask] for a in state))
 
 

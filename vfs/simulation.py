@@ -21,7 +21,7 @@ from vfs.errors import ParameterError
 from vfs.impact import IMPACT_TYPE_NAMES, ImpactConfig, ImpactParams, ImpactResult, solve_impact
 from vfs.paths import PathArrays, concat_paths, paths_from_trajectories
 from vfs.precrash import BrakeController, PrecrashParams, PrecrashResult, simulate_precrash
-from vfs.runout import PairRunoutResult, RunoutParams, RunoutState, run_out_pair
+from vfs.runout import PairRunoutResult, RunoutParams, RunoutResult, RunoutState, run_out_pair
 from vfs.vehicle import VehicleArrays
 
 
@@ -188,32 +188,30 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
 
 def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:
     """Expand a run-out result of the colliding rows to all N cases (NaN elsewhere)."""
-    from vfs.runout import RunoutResult
 
     def expand(r: RunoutResult | None) -> RunoutResult:
         fields = []
         for name in RunoutResult._fields:
-            if r is None:
-                values = np.zeros((0, 1, 3)) if name == "path" else (
-                    np.zeros(1) if name == "path_t" else np.zeros((0,) if name != "kinetic_energy"
-                                                                  else (0, 1)))
-            else:
-                values = getattr(r, name)
             if name == "path_t":
-                fields.append(values)
+                fields.append(np.zeros(1) if r is None else r.path_t)
                 continue
+            if r is None:
+                shape = {"path": (n, 1, 3), "kinetic_energy": (n, 1)}.get(name, (n,))
+                fields.append(np.zeros(n, dtype=bool) if name == "at_rest"
+                              else np.full(shape, np.nan))
+                continue
+            values = getattr(r, name)
             shape = (n,) + values.shape[1:]
             full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
             full[rows] = values
             fields.append(full)
         return RunoutResult(*fields)
 
-    if part is None:
-        return PairRunoutResult(expand(None), expand(None), np.zeros(n, dtype=bool),
-                                np.full(n, np.nan))
     sec = np.zeros(n, dtype=bool)
-    sec[rows] = part.secondary_collision
     sec_t = np.full(n, np.nan)
+    if part is None:
+        return PairRunoutResult(expand(None), expand(None), sec, sec_t)
+    sec[rows] = part.secondary_collision
     sec_t[rows] = part.secondary_collision_time
     return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
 

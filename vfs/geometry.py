@@ -556,3 +556,59 @@ def contact_geometry(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
     poi = np.where((ov.area > AREA_TOLERANCE)[:, None], ov.centroid, touch_point)
     poi = np.where((rule == 0)[:, None], np.nan, poi)
     return ContactGeometry(ov.polygon, ov.area, poi, cp_angle, n_points, rule)
+
+
+# ----------------------------------------------------------------------------
+# Descriptors of a collision configuration
+# ----------------------------------------------------------------------------
+
+#: Codes of :func:`contact_faces`.
+FACE_FRONT, FACE_REAR, FACE_LEFT, FACE_RIGHT = 0, 1, 2, 3
+FACE_NAMES: dict[int, str] = {FACE_FRONT: "front", FACE_REAR: "rear", FACE_LEFT: "left",
+                              FACE_RIGHT: "right"}
+
+
+def swept_overlap(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
+                  direction: npt.ArrayLike) -> np.ndarray:
+    """Overlap ratio [-] of two outlines seen along a direction of approach.
+
+    Both outlines (N, K, 2) are projected on the axis perpendicular to
+    ``direction`` (N, 2), e.g. the relative velocity v1 - v2; the ratio is the
+    length of the common part of the two projections divided by the shorter
+    projection, in [0, 1].  For a head-on or rear-end collision this is the
+    usual lateral overlap (width of the engaged front over the vehicle
+    width, seed 001); for a front-to-side collision it is the engaged share
+    of the striking front.  NaN where ``direction`` is zero.
+    """
+    o1 = np.asarray(outline1, float)
+    o2 = np.asarray(outline2, float)
+    d = np.asarray(direction, float)
+    norm = np.hypot(d[:, 0], d[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        px, py = -d[:, 1] / norm, d[:, 0] / norm
+    p1 = o1[..., 0] * px[:, None] + o1[..., 1] * py[:, None]
+    p2 = o2[..., 0] * px[:, None] + o2[..., 1] * py[:, None]
+    lo1, hi1, lo2, hi2 = p1.min(axis=1), p1.max(axis=1), p2.min(axis=1), p2.max(axis=1)
+    common = np.maximum(np.minimum(hi1, hi2) - np.maximum(lo1, lo2), 0.0)
+    shorter = np.minimum(hi1 - lo1, hi2 - lo2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(norm > 0.0, np.minimum(common / shorter, 1.0), np.nan)
+
+
+def contact_faces(points: npt.ArrayLike, vehicles: VehicleArrays, x: npt.ArrayLike,
+                  y: npt.ArrayLike, yaw: npt.ArrayLike) -> np.ndarray:
+    """Face of each vehicle outline nearest to a point (e.g. the POI).
+
+    The point is expressed in the vehicle frame relative to the outline
+    centre; the face is front/rear if |x| / (length / 2) >= |y| / (width / 2),
+    else left/right.  Returns codes :data:`FACE_FRONT`, :data:`FACE_REAR`,
+    :data:`FACE_LEFT`, :data:`FACE_RIGHT` (N,); NaN points give front.
+    """
+    local = to_vehicle_frame(points, x, y, yaw)
+    centre = 0.5 * (vehicles.cg_to_front - vehicles.cg_to_rear)
+    qx, qy = local[:, 0] - centre, local[:, 1]
+    ax = np.abs(qx) / (0.5 * vehicles.length)
+    ay = np.abs(qy) / (0.5 * vehicles.width)
+    end = ~(ay > ax)
+    return np.where(end, np.where(~(qx < 0.0), FACE_FRONT, FACE_REAR),
+                    np.where(qy >= 0.0, FACE_LEFT, FACE_RIGHT)).astype(np.int64)

@@ -358,6 +358,84 @@ def _angle_between(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray,
 CHUNK = 4096
 
 
+class ContactFrame(NamedTuple):
+    """Contact-plane frame of N configurations and the relative POI velocity in it.
+
+    nx, ny: unit normal from vehicle 2 towards vehicle 1; tx, ty: tangent (n
+    turned clockwise by 90 deg); u_t, u_n: components of u = v1_P - v2_P
+    [m/s] (u_n < 0: approaching; the closing speed is -u_n).
+    """
+
+    nx: np.ndarray
+    ny: np.ndarray
+    tx: np.ndarray
+    ty: np.ndarray
+    u_t: np.ndarray
+    u_n: np.ndarray
+
+
+def contact_frame(config: ImpactConfig) -> ContactFrame:
+    """Contact frame and relative POI velocity before the impact (module conventions)."""
+    c = config
+    nx0, ny0 = -np.sin(c.cp_angle), np.cos(c.cp_angle)
+    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
+    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    # POI velocities, v + omega x r
+    u_x = (c.vx1 - c.yaw_rate1 * r1y) - (c.vx2 - c.yaw_rate2 * r2y)
+    u_y = (c.vy1 + c.yaw_rate1 * r1x) - (c.vy2 + c.yaw_rate2 * r2x)
+    side = nx0 * (c.x1 - c.x2) + ny0 * (c.y1 - c.y2)
+    scale = np.sqrt((c.x1 - c.x2) ** 2 + (c.y1 - c.y2) ** 2)
+    # CGs on the plane line: orient n against the relative POI velocity instead
+    degenerate = np.abs(side) <= 1e-9 * np.maximum(scale, 1.0)
+    sign = np.where(degenerate, np.where(nx0 * u_x + ny0 * u_y <= 0.0, 1.0, -1.0),
+                    np.where(side > 0.0, 1.0, -1.0))
+    nx, ny = sign * nx0, sign * ny0
+    tx, ty = ny, -nx
+    return ContactFrame(nx, ny, tx, ty, u_x * tx + u_y * ty, u_x * nx + u_y * ny)
+
+
+def poi_relative_velocity(config: ImpactConfig, vx1: np.ndarray, vy1: np.ndarray,
+                          w1: np.ndarray, vx2: np.ndarray, vy2: np.ndarray,
+                          w2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative POI velocity u = v1_P - v2_P [m/s] (x, y) for given body velocities
+    (e.g. the post-impact ones) at the configuration's poses and POI."""
+    c = config
+    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
+    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    return ((vx1 - w1 * r1y) - (vx2 - w2 * r2y), (vy1 + w1 * r1x) - (vy2 + w2 * r2x))
+
+
+def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
+                 vy1: np.ndarray, w1: np.ndarray, vx2: np.ndarray, vy2: np.ndarray,
+                 w2: np.ndarray, e1: np.ndarray | None = None,
+                 e2: np.ndarray | None = None) -> ImpactResult:
+    """Result with changed post-impact velocities [m/s, rad/s] and, optionally,
+    deformation energies e1, e2 [J]; delta-v, EES and the change of velocity
+    angle follow.  The impulse, impact type, energy loss and PDOF describe
+    the impulse exchange and stay as they are."""
+    dvx1, dvy1 = vx1 - config.vx1, vy1 - config.vy1
+    dvx2, dvy2 = vx2 - config.vx2, vy2 - config.vy2
+    none = result.impact_type == IMPACT_NONE
+    keep = {k: getattr(result, k) for k in ImpactResult._fields}
+    keep.update(
+        vx1_post=vx1, vy1_post=vy1, yaw_rate1_post=w1, vx2_post=vx2, vy2_post=vy2,
+        yaw_rate2_post=w2, delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
+        delta_v1=np.sqrt(dvx1**2 + dvy1**2), delta_v2=np.sqrt(dvx2**2 + dvy2**2),
+        velocity_angle_change1=_angle_between(config.vx1, config.vy1, vx1, vy1),
+        velocity_angle_change2=_angle_between(config.vx2, config.vy2, vx2, vy2),
+    )
+    if e1 is not None and e2 is not None:
+        keep["ees1"] = np.where(none, result.ees1, ees_from_energy(e1, config.m1))
+        keep["ees2"] = np.where(none, result.ees2, ees_from_energy(e2, config.m2))
+    return ImpactResult(**keep)
+
+
+def deformation_energies(config: ImpactConfig,
+                         result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
+    """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
+    return 0.5 * config.m1 * result.ees1**2, 0.5 * config.m2 * result.ees2**2
+
+
 def solve_impact(config: ImpactConfig,
                  stiffness_ratio: npt.ArrayLike | None = None) -> ImpactResult:
     """Solve N planar impacts with the Kudlich-Slibar impulse model.
@@ -394,23 +472,10 @@ def _solve_block(config: ImpactConfig,
     c = config
     m1, m2, i1, i2 = c.m1, c.m2, c.izz1, c.izz2
     eps, mu = c.restitution, c.contact_friction
-    # contact-plane frame: n from vehicle 2 towards vehicle 1, t = n turned -90 deg
-    nx0, ny0 = -np.sin(c.cp_angle), np.cos(c.cp_angle)
+    f = contact_frame(c)
+    nx, ny, tx, ty, u_t, u_n = f.nx, f.ny, f.tx, f.ty, f.u_t, f.u_n
     r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
     r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
-    # POI velocities, v + omega x r
-    u_x = (c.vx1 - c.yaw_rate1 * r1y) - (c.vx2 - c.yaw_rate2 * r2y)
-    u_y = (c.vy1 + c.yaw_rate1 * r1x) - (c.vy2 + c.yaw_rate2 * r2x)
-    side = nx0 * (c.x1 - c.x2) + ny0 * (c.y1 - c.y2)
-    scale = np.sqrt((c.x1 - c.x2) ** 2 + (c.y1 - c.y2) ** 2)
-    # CGs on the plane line: orient n against the relative POI velocity instead
-    degenerate = np.abs(side) <= 1e-9 * np.maximum(scale, 1.0)
-    sign = np.where(degenerate, np.where(nx0 * u_x + ny0 * u_y <= 0.0, 1.0, -1.0),
-                    np.where(side > 0.0, 1.0, -1.0))
-    nx, ny = sign * nx0, sign * ny0
-    tx, ty = ny, -nx
-    u_t = u_x * tx + u_y * ty
-    u_n = u_x * nx + u_y * ny
     approaching = u_n < 0.0
 
     r1t, r1n = r1x * tx + r1y * ty, r1x * nx + r1y * ny

@@ -30,6 +30,7 @@ reports the minimum outline distance and the time of closest approach.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
@@ -472,6 +473,7 @@ def simulate_precrash(
     paths: PathArrays, road_friction: npt.ArrayLike,
     controller: BrakeController | None = None, params: PrecrashParams | None = None,
     rng: np.random.Generator | None = None,
+    penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
 ) -> PrecrashResult:
     """Re-simulate N cases from the start of their records to impact or the horizon.
 
@@ -492,6 +494,11 @@ def simulate_precrash(
     params : PrecrashParams, optional
     rng : numpy.random.Generator, optional
         Passed to ``controller.reset`` (sensor noise, reaction times).
+    penetration : callable, optional
+        ``penetration(rows, contact_state) -> seconds``: penetration time per
+        case [s], in [0, 0.5], called once at first contact with the case
+        indices and their :class:`KinematicState` there (e.g. a penetration
+        depth effect, :mod:`vfs.effects`); default ``params.penetration_time``.
 
     Returns
     -------
@@ -592,7 +599,6 @@ def simulate_precrash(
                                       (prev_ti[new_contact], prev_si[new_contact]))
             collided[r] = True
             contact_time[r] = t_c
-            impact_time[r] = t_c + params.penetration_time
             pending[r] = True
             min_distance[r] = 0.0
             time_closest[r] = t_c
@@ -600,12 +606,21 @@ def simulate_precrash(
                 np.zeros((r.shape[0], 1))
             dv_c = prev_dv[new_contact] + w * (track.dv[new_contact] - prev_dv[new_contact])
             ds_c = prev_ds[new_contact] + w * (track.ds[new_contact] - prev_ds[new_contact])
-            _put(contact_state, r, _kinematics(paths, r, t_c, dv_c, ds_c))
+            st_c = _kinematics(paths, r, t_c, dv_c, ds_c)
+            _put(contact_state, r, st_c)
             contact_dv[r], contact_ds[r] = dv_c, ds_c
-            if params.penetration_time == 0.0:
-                _put(impact_state, r, _take_state(contact_state, r))
-                pending[r] = False
-                speed_reduction[r] = dv_c
+            t_pen = np.full(r.shape[0], params.penetration_time)
+            if penetration is not None:
+                t_pen = np.asarray(penetration(r, st_c), float)
+                if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
+                    raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
+            impact_time[r] = t_c + t_pen
+            instant = t_pen == 0.0
+            if instant.any():
+                ri = r[instant]
+                _put(impact_state, ri, _take_state(contact_state, ri))
+                pending[ri] = False
+                speed_reduction[ri] = dv_c[instant]
         # closest approach: exact outline distance while the outlines are
         # within CLOSE_RANGE; beyond it, the pose of minimal CG distance is
         # kept and measured at the end

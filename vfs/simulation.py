@@ -17,21 +17,50 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
+from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
-from vfs.impact import IMPACT_TYPE_NAMES, ImpactConfig, ImpactParams, ImpactResult, solve_impact
+from vfs.impact import (
+    IMPACT_TYPE_NAMES,
+    ImpactConfig,
+    ImpactParams,
+    ImpactResult,
+    deformation_energies,
+    solve_impact,
+    with_outcome,
+)
 from vfs.paths import PathArrays, concat_paths, paths_from_trajectories
-from vfs.precrash import BrakeController, PrecrashParams, PrecrashResult, simulate_precrash
+from vfs.precrash import (
+    BrakeController,
+    KinematicState,
+    PrecrashParams,
+    PrecrashResult,
+    simulate_precrash,
+)
 from vfs.runout import PairRunoutResult, RunoutParams, RunoutResult, RunoutState, run_out_pair
 from vfs.vehicle import VehicleArrays
 
 
 @dataclass(frozen=True)
 class SimulationParams:
-    """Parameters of the whole simulation chain (each part documents its defaults)."""
+    """Parameters of the whole simulation chain (each part documents its defaults).
+
+    Attributes
+    ----------
+    precrash, impact, runout
+        Parameters of the three phases.
+    effects : tuple of Effect
+        Physical effects added to the default model (:mod:`vfs.effects`),
+        applied at their stages in this order; default none.
+    """
 
     precrash: PrecrashParams = field(default_factory=PrecrashParams)
     impact: ImpactParams = field(default_factory=ImpactParams)
     runout: RunoutParams = field(default_factory=RunoutParams)
+    effects: tuple[Effect, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "effects", check_effects(self.effects))
 
 
 class CaseBatch(NamedTuple):
@@ -49,6 +78,9 @@ class CaseBatch(NamedTuple):
         Tyre-road friction coefficient.
     restitution, contact_friction : ndarray (N,)
         Impact parameters per case; NaN = the default of :class:`ImpactParams`.
+    yaw_inertia_known : ndarray of bool (N, 2), optional
+        True where the data gave the yaw inertia (False: estimated by the
+        default formula); None = all estimated.
     """
 
     case_id: np.ndarray
@@ -58,6 +90,7 @@ class CaseBatch(NamedTuple):
     road_friction: np.ndarray
     restitution: np.ndarray
     contact_friction: np.ndarray
+    yaw_inertia_known: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -68,17 +101,37 @@ class CaseBatch(NamedTuple):
         """Select cases by index (or mask)."""
         idx = np.arange(self.size)[index]
         both = np.concatenate([idx, idx + self.size])
+        known = None if self.yaw_inertia_known is None else self.yaw_inertia_known[idx]
         return CaseBatch(self.case_id[idx], self.vehicle1.take(idx), self.vehicle2.take(idx),
                          self.paths.take(both), self.road_friction[idx],
-                         self.restitution[idx], self.contact_friction[idx])
+                         self.restitution[idx], self.contact_friction[idx], known)
+
+    @property
+    def inertia_known(self) -> np.ndarray:
+        """:attr:`yaw_inertia_known` with None expanded to all False (N, 2)."""
+        if self.yaw_inertia_known is None:
+            return np.zeros((self.size, 2), dtype=bool)
+        return self.yaw_inertia_known
 
     @classmethod
-    def from_database(cls, db: object, case_ids: npt.ArrayLike | None = None) -> CaseBatch:
+    def from_database(cls, db: object, case_ids: npt.ArrayLike | None = None,
+                      impact_parameters: str = "reconstruction") -> CaseBatch:
         """Build a batch from a :class:`vfs.database.Database` (all cases by default).
 
-        The impact parameters are left at NaN (the VFS uses its own defaults,
-        not the reconstruction's).
+        Parameters
+        ----------
+        db : Database
+        case_ids : array_like, optional
+            Cases in the wanted order (default: all, in database order).
+        impact_parameters : {"reconstruction", "default"}
+            Where restitution and contact friction come from:
+            ``"reconstruction"`` takes the expert's per-case values where the
+            database has them (the others use :class:`ImpactParams`);
+            ``"default"`` uses :class:`ImpactParams` for every case.
         """
+        if impact_parameters not in ("reconstruction", "default"):
+            raise ParameterError(f"impact_parameters={impact_parameters!r}; "
+                                 "use 'reconstruction' or 'default'")
         ids = np.asarray(db.case_ids if case_ids is None else case_ids)  # type: ignore[attr-defined]
         sub = db.subset(ids) if case_ids is not None else db  # type: ignore[attr-defined]
         v1, v2 = sub.vehicles()
@@ -87,8 +140,20 @@ class CaseBatch(NamedTuple):
         cases = sub.cases.set_index("case_id").loc[ids]
         paths = concat_paths(paths_from_trajectories(sub.trajectories, ids, 1),
                              paths_from_trajectories(sub.trajectories, ids, 2))
-        nan = np.full(ids.shape[0], np.nan)
-        return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), nan, nan.copy())
+        eps = np.full(ids.shape[0], np.nan)
+        mu = eps.copy()
+        rec = getattr(sub, "reconstruction", None)
+        if (impact_parameters == "reconstruction" and rec is not None and not rec.empty
+                and {"restitution", "contact_friction"} <= set(rec.columns)):
+            r = rec.drop_duplicates("case_id").set_index("case_id").reindex(ids)
+            eps = r["restitution"].to_numpy(float)
+            mu = r["contact_friction"].to_numpy(float)
+        parts = sub.participants.drop_duplicates(["case_id", "participant"]).set_index(
+            ["case_id", "participant"])["yaw_inertia"]
+        known = np.stack([
+            np.isfinite(parts.reindex(pd.MultiIndex.from_arrays(
+                [ids, np.full(ids.shape[0], k)])).to_numpy(float)) for k in (1, 2)], axis=1)
+        return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), eps, mu, known)
 
 
 class CaseResults(NamedTuple):
@@ -97,14 +162,21 @@ class CaseResults(NamedTuple):
     Attributes
     ----------
     precrash : PrecrashResult
-        Contact, impact configuration, closest approach, braking.
+        Contact, impact configuration, closest approach, braking; its POI and
+        contact plane are the geometric ones (before any effect).
     impact : ImpactResult
         Impact outcome; rows without a collision are NaN (impact_type 0).
     runout : PairRunoutResult
         Rest positions etc.; rows without a collision hold the pose at the
         end of the pre-crash phase with NaN run-out figures.
     restitution, contact_friction : ndarray (N,)
-        The impact parameters used.
+        The impact parameters used (after effects).
+    poi : ndarray (N, 2)
+        The POI the impact was solved at [m] (after effects).
+    cp_angle : ndarray (N,)
+        The contact-plane tangent used [rad] (after effects).
+    wheel_brake : ndarray (N, 2, 4)
+        Brake factors of the wheels FL, FR, RL, RR of both vehicles in the run-out.
     """
 
     precrash: PrecrashResult
@@ -112,6 +184,9 @@ class CaseResults(NamedTuple):
     runout: PairRunoutResult
     restitution: np.ndarray
     contact_friction: np.ndarray
+    poi: np.ndarray
+    cp_angle: np.ndarray
+    wheel_brake: np.ndarray
 
 
 def _scatter_impact(n: int, rows: np.ndarray, part: ImpactResult) -> ImpactResult:
@@ -126,10 +201,82 @@ def _scatter_impact(n: int, rows: np.ndarray, part: ImpactResult) -> ImpactResul
     return ImpactResult(*out)
 
 
+def _take_rows(state: KinematicState, rows: np.ndarray) -> KinematicState:
+    return KinematicState(*(a[rows] for a in state))
+
+
+def _penetration_rule(batch: CaseBatch, effects: tuple[Effect, ...]):  # type: ignore[no-untyped-def]
+    """The penetration-time callback of :func:`simulate_precrash` from the effects' hooks."""
+    stage = hooks(effects, "penetration")
+    if not stage:
+        return None
+
+    def rule(rows: np.ndarray, state: KinematicState) -> np.ndarray:
+        ctx = ContactContext(rows, batch.vehicle1.take(rows), batch.vehicle2.take(rows), state,
+                             batch.road_friction[rows])
+        t = np.full(rows.shape[0], np.nan)
+        for hook in stage:
+            t = np.asarray(hook(ctx, t), float)
+        return t
+
+    return rule
+
+
+def _impact_stages(batch: CaseBatch, pre: PrecrashResult, hit: np.ndarray, eps: np.ndarray,
+                   mu: np.ndarray, params: SimulationParams
+                   ) -> tuple[ImpactConfig, ImpactResult, np.ndarray, np.ndarray]:
+    """Impact configuration, solution and run-out inputs of the colliding rows ``hit``,
+    with every effect hook applied at its stage."""
+    effects = params.effects
+    st = _take_rows(pre.impact_state, hit)
+    v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
+    config = ImpactConfig.from_arrays(
+        m1=v1.mass, izz1=v1.yaw_inertia, x1=st.x[:, 0], y1=st.y[:, 0], yaw1=st.yaw[:, 0],
+        vx1=st.vx[:, 0], vy1=st.vy[:, 0], yaw_rate1=st.yaw_rate[:, 0],
+        m2=v2.mass, izz2=v2.yaw_inertia, x2=st.x[:, 1], y2=st.y[:, 1], yaw2=st.yaw[:, 1],
+        vx2=st.vx[:, 1], vy2=st.vy[:, 1], yaw_rate2=st.yaw_rate[:, 1],
+        poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
+        restitution=eps[hit], contact_friction=mu[hit],
+    )
+    ctx = ImpactContext(hit, v1, v2, st, batch.road_friction[hit],
+                        pre.contact_time[hit], pre.impact_time[hit])
+    for stage in ("impact_configuration", "impact_parameters"):
+        for hook in hooks(effects, stage):
+            config = hook(ctx, config)
+    result = solve_impact(config)
+    impulse_hooks = hooks(effects, "contact_impulse")
+    split_hooks = hooks(effects, "energy_split")
+    if impulse_hooks or split_hooks:
+        change = VelocityChange.zeros(config.size)
+        for hook in impulse_hooks:
+            change = change + hook(ctx, config, result)
+        e1, e2 = deformation_energies(config, result)
+        for hook in split_hooks:
+            e1, e2 = hook(ctx, config, result, e1, e2)
+        active = result.impact_type != 0
+        change = VelocityChange(*(np.where(active, a, 0.0) for a in change))
+        result = with_outcome(
+            config, result,
+            vx1=result.vx1_post + change.dvx1, vy1=result.vy1_post + change.dvy1,
+            w1=result.yaw_rate1_post + change.dw1, vx2=result.vx2_post + change.dvx2,
+            vy2=result.vy2_post + change.dvy2, w2=result.yaw_rate2_post + change.dw2,
+            e1=e1, e2=e2)
+    b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
+    b2 = b1.copy()
+    for hook in hooks(effects, "post_impact"):
+        b1, b2 = hook(ctx, config, result, b1, b2)
+    return config, result, b1, b2
+
+
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
                    rng: np.random.Generator | None = None) -> CaseResults:
     """Simulate N cases end to end (pre-crash, impact, run-out to rest).
+
+    The effects of ``params.effects`` act at their stages (:mod:`vfs.effects`):
+    vehicle data, penetration time, impact configuration and parameters,
+    external impulses of the contact phase, the EES energy split and the
+    run-out inputs.
 
     Parameters
     ----------
@@ -148,29 +295,29 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     n = batch.size
     if n == 0:
         raise ParameterError("empty case batch")
+    for hook in hooks(params.effects, "vehicles"):
+        batch = hook(batch)
     pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
-                            controller=controller, params=params.precrash, rng=rng)
+                            controller=controller, params=params.precrash, rng=rng,
+                            penetration=_penetration_rule(batch, params.effects))
     eps = np.where(np.isnan(batch.restitution), params.impact.restitution, batch.restitution)
     mu = np.where(np.isnan(batch.contact_friction), params.impact.contact_friction,
                   batch.contact_friction)
     hit = np.flatnonzero(pre.collided)
+    poi = np.full((n, 2), np.nan)
+    cp = np.full(n, np.nan)
+    brakes = np.full((n, 2, 4), np.nan)
     st = pre.impact_state
     if hit.size:
-        v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
-        config = ImpactConfig.from_arrays(
-            m1=v1.mass, izz1=v1.yaw_inertia, x1=st.x[hit, 0], y1=st.y[hit, 0],
-            yaw1=st.yaw[hit, 0], vx1=st.vx[hit, 0], vy1=st.vy[hit, 0],
-            yaw_rate1=st.yaw_rate[hit, 0],
-            m2=v2.mass, izz2=v2.yaw_inertia, x2=st.x[hit, 1], y2=st.y[hit, 1],
-            yaw2=st.yaw[hit, 1], vx2=st.vx[hit, 1], vy2=st.vy[hit, 1],
-            yaw_rate2=st.yaw_rate[hit, 1],
-            poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
-            restitution=eps[hit], contact_friction=mu[hit],
-        )
-        part = solve_impact(config)
+        config, part, b1, b2 = _impact_stages(batch, pre, hit, eps, mu, params)
+        eps, mu = eps.copy(), mu.copy()
+        eps[hit], mu[hit] = config.restitution, config.contact_friction
+        poi[hit, 0], poi[hit, 1], cp[hit] = config.poi_x, config.poi_y, config.cp_angle
+        brakes[hit, 0], brakes[hit, 1] = b1, b2
     else:
         part = solve_impact(ImpactConfig.from_arrays(**{f: np.zeros(0) for f in
                                                         ImpactConfig._fields}))
+        b1 = b2 = np.zeros((0, 4))
     impact = _scatter_impact(n, hit, part)
     # run-out from the post-impact state (all cases; non-colliding ones are at
     # the pose where the pre-crash phase left them and are not run)
@@ -181,9 +328,10 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     runout = _scatter_runout(
         n, hit,
         run_out_pair(batch.vehicle1.take(hit), batch.vehicle2.take(hit), post1, post2,
-                     batch.road_friction[hit], params.runout) if hit.size else None,
+                     batch.road_friction[hit], params.runout, wheel_brake1=b1,
+                     wheel_brake2=b2) if hit.size else None,
     )
-    return CaseResults(pre, impact, runout, eps, mu)
+    return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
 
 
 def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:
@@ -246,8 +394,8 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
         for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
             cols[f"{name}{i}"] = getattr(st, name)[:, j]
     cols.update({
-        "closing_speed": imp.closing_speed, "poi_x": pre.poi[:, 0], "poi_y": pre.poi[:, 1],
-        "cp_angle": pre.cp_angle, "cp_rule": pre.cp_rule, "overlap_area": pre.overlap_area,
+        "closing_speed": imp.closing_speed, "poi_x": res.poi[:, 0], "poi_y": res.poi[:, 1],
+        "cp_angle": res.cp_angle, "cp_rule": pre.cp_rule, "overlap_area": pre.overlap_area,
         "restitution": res.restitution, "contact_friction": res.contact_friction,
         "energy_loss": imp.energy_loss,
     })

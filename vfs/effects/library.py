@@ -1,0 +1,380 @@
+"""The built-in physical effects the default model leaves out.
+
+Each is a candidate for the diagnosis (``vfs diagnose``) and a hidden effect
+of the synthetic database generator (``vfs generate --hidden NAME=VALUE``).
+The parameter defaults are the *nominal strengths* used when an effect is
+hidden without a value; the *neutral* values switch the physics off.
+docs/effects.md lists them with equations and sources.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vfs.effects.base import Effect, EffectParameter, VelocityChange, register_effect
+from vfs.effects.context import ContactContext, ImpactContext
+from vfs.geometry import FACE_FRONT, FACE_LEFT, FACE_REAR, FACE_RIGHT, to_vehicle_frame
+from vfs.impact import (
+    ImpactConfig,
+    ImpactResult,
+    contact_frame,
+    poi_relative_velocity,
+)
+from vfs.units import G
+from vfs.vehicle import VehicleArrays
+
+#: Closing speed [m/s] below which the restitution law is held constant.
+_MIN_CLOSING_SPEED = 2.0
+
+
+@register_effect
+class RestitutionSpeed(Effect):
+    """Restitution falling with closing speed.
+
+    eps = min(eps_0 (v_ref / max(v_c, 2 m/s))^k, 0.8), with eps_0 the case's
+    restitution (the value the model uses), v_c the closing speed normal to
+    the contact plane.  Seeds 004 ("the higher the deformations, the lower
+    the coefficient of restitution; only for very small deformations are
+    values higher than 0.3 possible"), 002 ("nonlinearly and inversely
+    proportional to the relative velocity") and 000 (identified 0 -> 0.24).
+    """
+
+    name = "restitution_speed"
+    summary = "restitution falls with closing speed"
+    parameters = (
+        EffectParameter("exponent", 0.8, 0.0, 3.0, "-", "exponent k of (v_ref / v_c)", 0.0),
+        EffectParameter("reference_speed", 15.0, 3.0, 40.0, "m/s",
+                        "closing speed v_ref at which eps equals the case's value"),
+    )
+    outputs = ("delta_v", "ees", "energy_loss", "post_speed", "rest_position")
+
+    def impact_parameters(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
+        """Scale eps by (v_ref / v_c)^k."""
+        v_c = np.maximum(-contact_frame(config).u_n, _MIN_CLOSING_SPEED)
+        factor = (self["reference_speed"] / v_c) ** self["exponent"]
+        eps = np.minimum(config.restitution * factor, 0.8)
+        return config._replace(restitution=eps)
+
+
+@register_effect
+class TyreImpulse(Effect):
+    """Tyre forces during a finite contact phase.
+
+    The impulse model treats the contact as instantaneous; a real contact
+    lasts about 0.08-0.15 s, during which braked tyres keep pulling against
+    the motion.  Each vehicle receives the extra impulse
+    -b mu_road m g T u/|u| (u: its velocity before the impact), never more
+    than would stop it.  Seed 003 (Table 2): tyre-road work during the
+    contact is 5-9 % of the initial kinetic energy.
+    """
+
+    name = "tyre_impulse"
+    summary = "braked tyres act during the finite contact phase"
+    parameters = (
+        EffectParameter("duration", 0.10, 0.0, 0.4, "s", "contact duration T", 0.0),
+        EffectParameter("brake_factor", 0.8, 0.0, 1.0, "-",
+                        "share b of the friction limit the tyres use"),
+    )
+    outputs = ("delta_v", "post_speed", "velocity_angle_change", "rest_position")
+
+    def contact_impulse(self, ctx: ImpactContext, config: ImpactConfig,
+                        result: ImpactResult) -> VelocityChange:
+        """Velocity change -b mu g T along each vehicle's pre-impact motion."""
+        dv = self["brake_factor"] * ctx.road_friction * G * self["duration"]
+        out = []
+        for vx, vy, vxp, vyp in ((config.vx1, config.vy1, result.vx1_post, result.vy1_post),
+                                 (config.vx2, config.vy2, result.vx2_post, result.vy2_post)):
+            speed = np.hypot(vx, vy)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
+            # no more than the post-impact velocity component along u
+            along = np.maximum(vxp * ux + vyp * uy, 0.0)
+            mag = np.minimum(dv, along)
+            out += [-mag * ux, -mag * uy, np.zeros_like(mag)]
+        return VelocityChange(*out)
+
+
+@register_effect
+class BodyFriction(Effect):
+    """Friction work between the bodies.
+
+    Part of the energy the impulse exchange dissipates is friction between
+    the sliding bodies, not deformation; the EES (which measures deformation
+    energy) is smaller than the model's, which attributes the whole loss to
+    deformation.  Friction work W = |S_t| |u_t + u_t'| / 2 (tangential
+    impulse times the mean tangential sliding speed at the POI); a share f of
+    it is taken from the deformation energies in proportion to their split.
+    Seed 003 (Table 2): friction between the bodies is 2-5 % of the initial
+    energy and deformation work only 70-75 % of the contact-phase loss.
+    """
+
+    name = "body_friction"
+    summary = "part of the impact loss is friction between the bodies, not deformation"
+    parameters = (
+        EffectParameter("share", 0.6, 0.0, 1.0, "-",
+                        "share f of the tangential work that is friction", 0.0),
+    )
+    outputs = ("ees",)
+
+    def energy_split(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                     e1: np.ndarray, e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Remove f W from the deformation energies."""
+        f = contact_frame(config)
+        ux, uy = poi_relative_velocity(config, result.vx1_post, result.vy1_post,
+                                       result.yaw_rate1_post, result.vx2_post,
+                                       result.vy2_post, result.yaw_rate2_post)
+        u_t_post = ux * f.tx + uy * f.ty
+        work = np.abs(result.impulse_t) * np.abs(f.u_t + u_t_post) / 2.0
+        total = e1 + e2
+        removed = np.minimum(self["share"] * work, total)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            keep = np.where(total > 0, (total - removed) / total, 1.0)
+        return e1 * keep, e2 * keep
+
+
+@register_effect
+class PenetrationDepth(Effect):
+    """Penetration depth growing with closing speed and falling overlap.
+
+    Instead of a fixed time (30 ms, seed 001) the outlines penetrate to a
+    depth d = d_0 (v_c / 20 m/s)^a (1 + c (1 - overlap)), i.e. for the time
+    d / v_c, clipped to [5, 150] ms; v_c = |v1 - v2| at first contact,
+    overlap = :func:`vfs.geometry.swept_overlap` at first contact.  Seed 001
+    (outlook): "it would be necessary to find a correlation between the
+    closing speed, the overlap and the penetration depth".  With d_0 = 0.6 m,
+    a = 1, c = 0 it is the fixed 30 ms.
+    """
+
+    name = "penetration_depth"
+    summary = "penetration depth grows with closing speed and small overlap"
+    parameters = (
+        EffectParameter("overlap_factor", 0.8, 0.0, 3.0, "-",
+                        "growth c of the depth as the overlap falls", 0.0),
+        EffectParameter("speed_exponent", 1.3, 0.3, 3.0, "-",
+                        "exponent a of the closing speed"),
+        EffectParameter("depth", 0.6, 0.1, 2.0, "m", "depth d_0 at 20 m/s and full overlap"),
+    )
+    outputs = ("delta_v", "ees", "impact_type", "velocity_angle_change", "rest_position")
+
+    def penetration(self, ctx: ContactContext, penetration_time: np.ndarray) -> np.ndarray:
+        """Penetration time d / v_c [s]."""
+        v_c = np.maximum(ctx.relative_speed, _MIN_CLOSING_SPEED)
+        ov = np.nan_to_num(ctx.swept_overlap, nan=1.0)
+        depth = self["depth"] * (v_c / 20.0) ** self["speed_exponent"] * (
+            1.0 + self["overlap_factor"] * (1.0 - ov))
+        return np.clip(depth / v_c, 0.005, 0.15)
+
+
+def _axial_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Mean of two axial directions (defined modulo pi) [rad]."""
+    return 0.5 * np.arctan2(np.sin(2 * a) + np.sin(2 * b), np.cos(2 * a) + np.cos(2 * b))
+
+
+def _wrap_half(a: np.ndarray) -> np.ndarray:
+    """Wrap an axial angle difference to [-pi/2, pi/2)."""
+    return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+
+
+#: Lateral position of the longitudinal rails, as a share of the half width.
+RAIL_POSITION = 0.6
+
+
+def _structure_point(vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
+                     face: np.ndarray, polygon: np.ndarray, centroid: np.ndarray) -> np.ndarray:
+    """Load-carrying point of each vehicle's engaged face (global (n, 2)) [m].
+
+    Front and rear faces: the longitudinal rails at +-0.6 half widths; side
+    faces: the axles and the B pillar (at 45 % of the wheelbase behind the
+    front axle).  The point is the mean of the members inside the overlap's
+    extent along the face, else the extent's end nearest to a member; across
+    the face it stays at the centroid.
+    """
+    n = x.shape[0]
+    local = to_vehicle_frame(polygon.reshape(-1, 2), np.repeat(x, polygon.shape[1]),
+                             np.repeat(y, polygon.shape[1]),
+                             np.repeat(yaw, polygon.shape[1])).reshape(n, -1, 2)
+    c_loc = to_vehicle_frame(centroid, x, y, yaw)
+    ends = (face == FACE_FRONT) | (face == FACE_REAR)
+    # coordinate along the face: y for front/rear, x for the sides
+    along = np.where(ends[:, None], local[..., 1], local[..., 0])
+    lo, hi = along.min(axis=1), along.max(axis=1)
+    rail = RAIL_POSITION * 0.5 * vehicles.width
+    lf, wb = vehicles.cg_to_front_axle, vehicles.wheelbase
+    members = np.where(ends[:, None], np.stack([-rail, rail, np.full(n, np.nan)], axis=1),
+                       np.stack([lf, lf - 0.45 * wb, lf - wb], axis=1))
+    inside = (members >= lo[:, None]) & (members <= hi[:, None])
+    count = inside.sum(axis=1)
+    mean_inside = np.where(inside, members, 0.0).sum(axis=1) / np.maximum(count, 1)
+    clipped = np.clip(members, lo[:, None], hi[:, None])
+    dist = np.where(np.isnan(members), np.inf, np.abs(clipped - members))
+    nearest = np.take_along_axis(clipped, np.argmin(dist, axis=1)[:, None], axis=1)[:, 0]
+    target = np.where(count > 0, mean_inside, nearest)
+    px = np.where(ends, c_loc[:, 0], target)
+    py = np.where(ends, target, c_loc[:, 1])
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([x + c * px - s * py, y + s * px + c * py], axis=1)
+
+
+def _face_tangent(yaw: np.ndarray, face: np.ndarray) -> np.ndarray:
+    """Direction of the engaged face [rad]: across the vehicle for front/rear, along it
+    for the sides."""
+    ends = (face == FACE_FRONT) | (face == FACE_REAR)
+    return np.where(ends, yaw + 0.5 * np.pi, yaw)
+
+
+@register_effect
+class StructurePOI(Effect):
+    """Point of impact and contact plane placed by the structures (the expert's rule).
+
+    A reconstruction expert reads the POI and the contact plane from the
+    damage: the force goes through the load-carrying members (longitudinal
+    rails of a front or rear, axles and B pillar of a side) and the contact
+    plane follows the deformed faces.  The POI moves from the overlap
+    centroid towards the mean of the two vehicles' structure points by the
+    share s; the contact plane turns from the line through the outline
+    intersections towards the mean direction of the two engaged faces by s.
+    Seed 001: the geometric rules give more sliding impacts than the
+    reconstructions and POIs 0.19 m away on average.
+    """
+
+    name = "structure_poi"
+    summary = "POI and contact plane follow the load-carrying structures"
+    parameters = (
+        EffectParameter("strength", 0.8, 0.0, 1.0, "-",
+                        "share s of the move towards the structure point and face", 0.0),
+    )
+    outputs = ("impact_type", "delta_v", "ees", "velocity_angle_change", "pdof",
+               "rest_position")
+
+    def impact_configuration(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
+        """Move POI and turn the contact plane by the share s."""
+        s = self["strength"]
+        st = ctx.state
+        ov = ctx.overlap
+        ok = ov.polygon.nonempty & ~np.isnan(ov.centroid[:, 0])
+        faces = ctx.faces
+        poly = ov.polygon.vertices
+        cen = np.where(ok[:, None], ov.centroid, np.stack([config.poi_x, config.poi_y], axis=1))
+        p1 = _structure_point(ctx.vehicle1, st.x[:, 0], st.y[:, 0], st.yaw[:, 0], faces[:, 0],
+                              poly, cen)
+        p2 = _structure_point(ctx.vehicle2, st.x[:, 1], st.y[:, 1], st.yaw[:, 1], faces[:, 1],
+                              poly, cen)
+        target = 0.5 * (p1 + p2)
+        poi_x = np.where(ok, config.poi_x + s * (target[:, 0] - config.poi_x), config.poi_x)
+        poi_y = np.where(ok, config.poi_y + s * (target[:, 1] - config.poi_y), config.poi_y)
+        face_dir = _axial_mean(_face_tangent(st.yaw[:, 0], faces[:, 0]),
+                               _face_tangent(st.yaw[:, 1], faces[:, 1]))
+        cp = config.cp_angle + s * _wrap_half(face_dir - config.cp_angle)
+        cp = np.where(ok, cp, config.cp_angle)
+        return config._replace(poi_x=poi_x, poi_y=poi_y, cp_angle=cp)
+
+
+@register_effect
+class WheelLock(Effect):
+    """Front wheels locked by frontal deformation.
+
+    Seed 000: in a frontal crash test the front wheels of the car were
+    blocked 35 ms into the impact by the deforming front, which made it
+    pull back after the impact; its conclusions ask for "automatic
+    identification of wheel blocking in the function of the body depth
+    deformations".  A vehicle whose engaged face is its front and whose
+    overlap reaches deeper than ``depth`` behind the front bumper runs out
+    with both front wheels locked (brake factor 1).
+    """
+
+    name = "wheel_lock"
+    summary = "deep frontal deformation locks the front wheels in the run-out"
+    parameters = (
+        EffectParameter("depth", 0.35, 0.05, 3.0, "m",
+                        "deformation depth behind the bumper that locks the wheels", 3.0),
+    )
+    outputs = ("rest_position", "rest_yaw", "runout_distance")
+
+    def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Set the front brake factors to 1 where the depth is exceeded."""
+        poly = ctx.overlap.polygon
+        st = ctx.state
+        out = []
+        for j, (veh, brake) in enumerate(((ctx.vehicle1, brake1), (ctx.vehicle2, brake2))):
+            k = poly.vertices.shape[1]
+            local = to_vehicle_frame(poly.vertices.reshape(-1, 2),
+                                     np.repeat(st.x[:, j], k), np.repeat(st.y[:, j], k),
+                                     np.repeat(st.yaw[:, j], k)).reshape(-1, k, 2)
+            depth = veh.cg_to_front - local[..., 0].min(axis=1)
+            lock = poly.nonempty & (ctx.faces[:, j] == FACE_FRONT) & (depth > self["depth"])
+            b = np.array(brake, float, copy=True)
+            b[lock, 0:2] = 1.0
+            out.append(b)
+        return out[0], out[1]
+
+
+@register_effect
+class EESStiffness(Effect):
+    """Energy split by structural stiffness instead of mass.
+
+    The model splits the deformation energy E1 / E2 = m2 / m1 (stiffness
+    proportional to mass).  Here k_i = m_i^a * (side factor if the engaged
+    face is a side), E1 / E2 = k2 / k1 (shared/REFERENCES.md: with known
+    stiffness E1 / E2 = k2 / k1; sides are softer than fronts).
+    """
+
+    name = "ees_stiffness"
+    summary = "EES energy split by structural stiffness (sides softer), not mass"
+    parameters = (
+        EffectParameter("mass_exponent", 0.5, 0.0, 2.0, "-",
+                        "exponent a of the mass in the stiffness", 1.0),
+        EffectParameter("side_factor", 0.5, 0.1, 1.0, "-",
+                        "stiffness of a side relative to a front or rear", 1.0),
+    )
+    outputs = ("ees",)
+
+    def energy_split(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                     e1: np.ndarray, e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Re-split the total E1 + E2 with E1 / E2 = k2 / k1."""
+        side = (ctx.faces == FACE_LEFT) | (ctx.faces == FACE_RIGHT)
+        f = np.where(side, self["side_factor"], 1.0)
+        k1 = config.m1 ** self["mass_exponent"] * f[:, 0]
+        k2 = config.m2 ** self["mass_exponent"] * f[:, 1]
+        total = e1 + e2
+        share1 = k2 / (k1 + k2)
+        return total * share1, total * (1.0 - share1)
+
+
+@register_effect
+class YawInertia(Effect):
+    """Yaw inertia different from the model's default formula.
+
+    Where the data give no yaw inertia the model uses I = m L1 L2 (seed 003);
+    the box formula m (l^2 + w^2) / 12 (openPASS) and 0.1269 m R L (Zeidler)
+    differ from it by 10-30 %.  This effect scales the unknown inertias by a
+    factor.
+    """
+
+    name = "yaw_inertia"
+    summary = "unknown yaw inertias differ from I = m L1 L2 by a factor"
+    parameters = (
+        EffectParameter("factor", 1.3, 0.3, 3.0, "-", "true / default yaw inertia", 1.0),
+    )
+    outputs = ("velocity_angle_change", "rest_yaw", "rest_position", "delta_v")
+
+    def vehicles(self, batch: Any) -> Any:
+        """Scale the yaw inertia of the vehicles whose inertia is unknown."""
+        known = batch.inertia_known
+        v1 = batch.vehicle1._replace(yaw_inertia=np.where(
+            known[:, 0], batch.vehicle1.yaw_inertia, batch.vehicle1.yaw_inertia * self["factor"]))
+        v2 = batch.vehicle2._replace(yaw_inertia=np.where(
+            known[:, 1], batch.vehicle2.yaw_inertia, batch.vehicle2.yaw_inertia * self["factor"]))
+        return batch._replace(vehicle1=v1, vehicle2=v2)
+
+
+#: Names of the built-in effects, in documentation order.
+BUILTIN_EFFECTS: tuple[str, ...] = (
+    RestitutionSpeed.name, TyreImpulse.name, BodyFriction.name, PenetrationDepth.name,
+    StructurePOI.name, WheelLock.name, EESStiffness.name, YawInertia.name,
+)
+
+__all__ = ["BUILTIN_EFFECTS", "BodyFriction", "EESStiffness", "PenetrationDepth",
+           "RestitutionSpeed", "StructurePOI", "TyreImpulse", "WheelLock", "YawInertia"]

@@ -295,13 +295,13 @@ def test_structure_poi_moves_to_the_rails_and_the_plane_to_the_fronts():
     eff = get_effect("structure_poi")
     # offset = one rail spacing: the left rails of both cars meet at y = 0.6 w / 2
     ctx, config, v = _head_on_context(0.0, 0.6 * 1.8)
-    same = eff(strength=0.0).impact_configuration(ctx, config)
+    same = eff(strength=0.0, poi_share=0.0).impact_configuration(ctx, config)
     assert all(np.array_equal(a, b) for a, b in zip(same, config, strict=True))
-    full = eff(strength=1.0).impact_configuration(ctx, config)
+    full = eff(strength=1.0, poi_share=1.0).impact_configuration(ctx, config)
     assert full.poi_y[0] == pytest.approx(0.6 * 0.9, abs=1e-12)
     assert full.poi_x[0] == pytest.approx(config.poi_x[0], abs=1e-12)
     assert np.degrees(full.cp_angle[0]) % 180 == pytest.approx(90.0, abs=1e-9)
-    half = eff(strength=0.5).impact_configuration(ctx, config)
+    half = eff(strength=0.5, poi_share=0.5).impact_configuration(ctx, config)
     assert half.poi_y[0] == pytest.approx(0.5 * (config.poi_y[0] + 0.54), abs=1e-12)
     assert np.degrees(half.cp_angle[0]) == pytest.approx(75.0, abs=1e-9)
     # a 10 deg relative angle: the plane is the mean of the two bumper lines

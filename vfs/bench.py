@@ -206,6 +206,23 @@ def bench_case_runs(quick: bool) -> dict[str, Any]:
     }
 
 
+@register_benchmark("generate")
+def bench_generate(quick: bool) -> dict[str, Any]:
+    """Synthetic database generation (scenes + truth simulation + noise), cases per second."""
+    from scenarios.generator import generate_database
+
+    n = 1_000 if quick else 10_000
+    t0 = time.perf_counter()
+    db, truth = generate_database("default", n_cases=n, seed=1)
+    seconds = time.perf_counter() - t0
+    return {
+        "cases": n, "seconds": seconds, "cases_per_s": n / seconds,
+        "trajectory_samples": len(db.trajectories),
+        "reconstructions": len(db.reconstruction),
+        "hidden_effects": len(truth.effects),
+    }
+
+
 @register_benchmark("timestep_convergence")
 def bench_timestep_convergence(quick: bool) -> dict[str, Any]:
     """Change of rest positions when both time steps (pre-crash, run-out) are halved."""

@@ -69,7 +69,8 @@ def _add_run_case(subparsers: argparse._SubParsersAction) -> None:
         "with braking), contact, penetration, impact, run-out to rest. Without --db the "
         "built-in example (head-on with partial overlap in a bend) is used.",
     )
-    p.add_argument("--db", help="database folder (Parquet or CSV); default: built-in example")
+    p.add_argument("--db", help=("database folder (Parquet or CSV), or 'default' for the "
+                                 "bundled synthetic database; default: built-in example"))
     p.add_argument("--case", help="case_id (default: the first case)")
     p.add_argument("--plot", metavar="FILE", help="write a top-view figure (PNG/SVG/PDF)")
     p.add_argument("--brake-at-s", type=float, metavar="T",
@@ -91,7 +92,7 @@ def _run_case(args: argparse.Namespace) -> int:
     if args.db:
         from vfs.database import load_any
 
-        db = load_any(args.db)
+        db = load_any(database_path(args.db))
     else:
         from scenarios.examples import example_case_database
 
@@ -120,6 +121,15 @@ def _run_case(args: argparse.Namespace) -> int:
         plot_case_topview(batch, res, 0, args.plot)
         print(f"top view -> {args.plot}")
     return 0
+
+
+def database_path(text: str) -> str:
+    """A ``--db`` argument as a folder: ``default`` is the bundled synthetic database."""
+    if text == "default":
+        from scenarios.generator import bundled_database_path
+
+        return str(bundled_database_path())
+    return text
 
 
 def format_case_report(row: object) -> str:
@@ -180,6 +190,7 @@ COMMAND_GROUPS: list[Callable[[argparse._SubParsersAction], None]] = [
     _add_run_case,
     _add_bench,
     _optional("vfs.database.cli"),
+    _optional("scenarios.cli"),
 ]
 
 

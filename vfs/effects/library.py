@@ -233,8 +233,9 @@ class StructurePOI(Effect):
     rails of a front or rear, axles and B pillar of a side) and the contact
     plane follows the deformed faces.  The POI moves from the overlap
     centroid towards the mean of the two vehicles' structure points by the
-    share s; the contact plane turns from the line through the outline
-    intersections towards the mean direction of the two engaged faces by s.
+    share p; the contact plane turns from the line through the outline
+    intersections towards the mean direction of the two engaged faces by
+    the share s.
     Seed 001: the geometric rules give more sliding impacts than the
     reconstructions and POIs 0.19 m away on average.
     """
@@ -242,15 +243,17 @@ class StructurePOI(Effect):
     name = "structure_poi"
     summary = "POI and contact plane follow the load-carrying structures"
     parameters = (
-        EffectParameter("strength", 0.8, 0.0, 1.0, "-",
-                        "share s of the move towards the structure point and face", 0.0),
+        EffectParameter("strength", 0.3, 0.0, 1.0, "-",
+                        "share s of the turn of the contact plane towards the faces", 0.0),
+        EffectParameter("poi_share", 1.0, 0.0, 1.0, "-",
+                        "share p of the move of the POI towards the structure point", 0.0),
     )
     outputs = ("impact_type", "delta_v", "ees", "velocity_angle_change", "pdof",
                "rest_position")
 
     def impact_configuration(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
-        """Move POI and turn the contact plane by the share s."""
-        s = self["strength"]
+        """Move the POI by the share p and turn the contact plane by the share s."""
+        s, share = self["strength"], self["poi_share"]
         st = ctx.state
         ov = ctx.overlap
         ok = ov.polygon.nonempty & ~np.isnan(ov.centroid[:, 0])
@@ -262,8 +265,8 @@ class StructurePOI(Effect):
         p2 = _structure_point(ctx.vehicle2, st.x[:, 1], st.y[:, 1], st.yaw[:, 1], faces[:, 1],
                               poly, cen)
         target = 0.5 * (p1 + p2)
-        poi_x = np.where(ok, config.poi_x + s * (target[:, 0] - config.poi_x), config.poi_x)
-        poi_y = np.where(ok, config.poi_y + s * (target[:, 1] - config.poi_y), config.poi_y)
+        poi_x = np.where(ok, config.poi_x + share * (target[:, 0] - config.poi_x), config.poi_x)
+        poi_y = np.where(ok, config.poi_y + share * (target[:, 1] - config.poi_y), config.poi_y)
         face_dir = _axial_mean(_face_tangent(st.yaw[:, 0], faces[:, 0]),
                                _face_tangent(st.yaw[:, 1], faces[:, 1]))
         cp = config.cp_angle + s * _wrap_half(face_dir - config.cp_angle)

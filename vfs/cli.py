@@ -179,7 +179,13 @@ def _optional(module: str) -> Callable[[argparse._SubParsersAction], None]:
     """Command group living in another module (``module.add_parsers``)."""
 
     def add(subparsers: argparse._SubParsersAction) -> None:
-        importlib.import_module(module).add_parsers(subparsers)
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name == module:  # command group not (yet) part of this installation
+                return
+            raise
+        mod.add_parsers(subparsers)
 
     return add
 
@@ -191,6 +197,8 @@ COMMAND_GROUPS: list[Callable[[argparse._SubParsersAction], None]] = [
     _add_bench,
     _optional("vfs.database.cli"),
     _optional("scenarios.cli"),
+    _optional("vfs.study_cli"),
+    _optional("vfs.compare_cli"),
 ]
 
 

@@ -202,3 +202,27 @@ def test_parameter_validation():
     v1, v2 = cars(2)
     with pytest.raises(ParameterError):
         simulate_precrash(v1, v2, paths, [0.8, 0.8])
+
+
+def test_a_case_does_not_depend_on_the_other_cases_of_its_batch():
+    """Each case ends at its own horizon (record + extra time), whatever else is batched."""
+    from scenarios.generator import bundled_database_path
+    from vfs.database import load_database
+    from vfs.simulation import CaseBatch, simulate_cases
+
+    db = load_database(bundled_database_path(), where="case_id <= 24")
+    batch = CaseBatch.from_database(db)
+    n = batch.size
+    durations = np.maximum(batch.paths.duration[:n], batch.paths.duration[n:])
+    assert np.ptp(durations) > 0.2  # records of different lengths
+    brake = ScheduledBraking(np.c_[np.full(n, 2.0), np.full(n, 2.0)], np.full((n, 2), 8.0))
+    whole = simulate_cases(batch, controller=brake)
+    assert (~whole.precrash.collided).sum() >= 5
+    for i in range(0, n, 3):
+        one = simulate_cases(batch.take([i]), controller=ScheduledBraking(
+            [[2.0, 2.0]], [[8.0, 8.0]]))
+        a, b = whole.precrash, one.precrash
+        np.testing.assert_array_equal(a.collided[i], b.collided[0])
+        np.testing.assert_allclose(a.speed_reduction[i], b.speed_reduction[0], rtol=1e-12)
+        np.testing.assert_allclose(a.min_distance[i], b.min_distance[0], rtol=1e-12)
+        np.testing.assert_allclose(a.end_state.x[i], b.end_state.x[0], rtol=1e-12)

@@ -267,7 +267,9 @@ class PrecrashResult(NamedTuple):
         without a collision (NaN for colliding cases): where a braked
         vehicle came to a stop.
     end_time : float
-        Time of the end of the horizon [s].
+        Time of the end of the simulated horizon [s] (the longest case's;
+        each case ends at its own horizon: its longer record plus
+        ``extra_time``).
     """
 
     collided: np.ndarray
@@ -514,7 +516,11 @@ def simulate_precrash(
         controller.reset(n, rng)
     limit = np.minimum(mu * G, params.brake.max_deceleration)[:, None]
     reach = (circumradius(vehicle1) + circumradius(vehicle2))
-    horizon = float(np.max(paths.duration)) + params.extra_time
+    # per case: its longer record + extra_time (so a case's result never depends
+    # on the other cases of the batch); the loop runs to the longest
+    duration = paths.duration
+    case_horizon = np.maximum(duration[:n], duration[n:]) + params.extra_time
+    horizon = float(np.max(case_horizon))
     dt = params.dt
 
     collided = np.zeros(n, dtype=bool)
@@ -645,6 +651,19 @@ def simulate_precrash(
         done = ~pending[rows] & collided[rows]
         if done.any():
             keep = ~done
+            rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
+                a_rec[keep]
+            track.take(keep)
+            active = None
+        expired = ~pending[rows] & (tau >= case_horizon[rows] - 1e-9)
+        if expired.any():
+            r = rows[expired]
+            _put(end_state, r, _take_state(state, expired))
+            speed_reduction[r] = track.dv[expired]
+            best_time[r] = track.best_time[expired]
+            best_pose[0, r], best_pose[1, r] = track.best_x[expired], track.best_y[expired]
+            best_pose[2, r] = track.best_yaw[expired]
+            keep = ~expired
             rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
                 a_rec[keep]
             track.take(keep)

@@ -199,6 +199,7 @@ COMMAND_GROUPS: list[Callable[[argparse._SubParsersAction], None]] = [
     _optional("scenarios.cli"),
     _optional("vfs.study_cli"),
     _optional("vfs.compare_cli"),
+    _optional("vfs.diagnose_cli"),
 ]
 
 

@@ -205,9 +205,11 @@ BOOTSTRAP_SAMPLES = 2000
 # Inputs: model configuration, run tables, margins
 # ----------------------------------------------------------------------------
 
-#: Keys of a model configuration file; "name", "description" and "comment" are
-#: free text, everything else must be handled in :func:`load_model_config`.
-MODEL_CONFIG_KEYS: tuple[str, ...] = ("effects", "name", "description", "comment")
+#: Keys of a model configuration file; "name", "description", "comment",
+#: "created_by" and "fit" (what `vfs calibrate` records about the fit) are
+#: informational, everything else must be handled in :func:`load_model_config`.
+MODEL_CONFIG_KEYS: tuple[str, ...] = ("effects", "name", "description", "comment", "created_by",
+                                     "fit")
 
 
 def load_model_config(path: str | os.PathLike[str]) -> SimulationParams:

@@ -46,6 +46,7 @@ from vfs.database import Database, default_meta, save_csv_folder, save_database
 from vfs.database.schema import empty_table, normalise_table
 from vfs.effects import Effect, check_effects, parse_effect
 from vfs.errors import ParameterError
+from vfs.impact import angle_between
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
 from vfs.units import wrap_angle
 
@@ -282,15 +283,6 @@ def _effects(hidden: Iterable[str | Effect]) -> tuple[Effect, ...]:
 # Reconstruction rows
 # ----------------------------------------------------------------------------
 
-def _angle_deg(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
-    """Angle between two vectors [deg], NaN if one is zero."""
-    na, nb = np.hypot(ax, ay), np.hypot(bx, by)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = (ax * bx + ay * by) / (na * nb)
-    out = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-    return np.where((na > 0) & (nb > 0), out, np.nan)
-
-
 def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
                         recorded_eps: np.ndarray, recorded_mu: np.ndarray) -> pd.DataFrame:
     """Reconstruction table rows (schema columns) of the cases ``rows`` of a simulation.
@@ -358,7 +350,7 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         out[f"yaw_rate{i}_post_sd"] = sd_w
         out[f"delta_v{i}"] = np.hypot(vxp - vx, vyp - vy)
         out[f"delta_v{i}_sd"] = sd_v
-        out[f"velocity_angle_change{i}"] = _angle_deg(vx, vy, vxp, vyp)
+        out[f"velocity_angle_change{i}"] = np.degrees(angle_between(vx, vy, vxp, vyp))
         ees = rec[f"ees{i}"].to_numpy(float)
         sd_e = k * noise.ees * ees
         ees_n = np.maximum(ees + sd_e * z[:, j + 3], 0.0)

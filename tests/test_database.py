@@ -505,6 +505,8 @@ def test_cli_validate(saved_db: Path, capsys: pytest.CaptureFixture[str]) -> Non
     (saved_db / "meta.json").write_text(json.dumps({**meta, "schema_version": "7"}))
     assert run_cli(["db", "validate", str(saved_db)]) == 1
     assert "unknown schema_version '7'" in capsys.readouterr().out
+    assert run_cli(["db", "validate", "default"]) == 0  # the bundled database
+    assert capsys.readouterr().out.startswith("OK: 600 cases")
 
 
 def test_cli_convert_and_import(

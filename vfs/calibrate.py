@@ -469,30 +469,22 @@ def _s_contact_impulse(self: _StackedVariants, ctx: Any, config: Any,
     return out
 
 
-def _s_energy_split(self: _StackedVariants, ctx: Any, config: Any, result: Any,
-                    e1: np.ndarray, e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    rep = self._replica(ctx.rows)
-    o1, o2 = np.array(e1, float, copy=True), np.array(e2, float, copy=True)
-    for g, hs in self._active("energy_split"):
-        a, b = e1, e2
-        for h in hs:
-            a, b = h(ctx, config, result, a, b)
-        sel = rep == g
-        o1[sel], o2[sel] = np.asarray(a)[sel], np.asarray(b)[sel]
-    return o1, o2
+def _s_pair(stage: str) -> Callable[..., Any]:
+    """Stacked hook of a stage that maps a pair of arrays (energy_split, post_impact)."""
 
+    def hook(self: _StackedVariants, ctx: Any, config: Any, result: Any, v1: np.ndarray,
+             v2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rep = self._replica(ctx.rows)
+        o1, o2 = np.array(v1, float, copy=True), np.array(v2, float, copy=True)
+        for g, hs in self._active(stage):
+            a, b = v1, v2
+            for h in hs:
+                a, b = h(ctx, config, result, a, b)
+            sel = rep == g
+            o1[sel], o2[sel] = np.asarray(a)[sel], np.asarray(b)[sel]
+        return o1, o2
 
-def _s_post_impact(self: _StackedVariants, ctx: Any, config: Any, result: Any,
-                   b1: np.ndarray, b2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    rep = self._replica(ctx.rows)
-    o1, o2 = np.array(b1, float, copy=True), np.array(b2, float, copy=True)
-    for g, hs in self._active("post_impact"):
-        a, b = b1, b2
-        for h in hs:
-            a, b = h(ctx, config, result, a, b)
-        sel = rep == g
-        o1[sel], o2[sel] = np.asarray(a)[sel], np.asarray(b)[sel]
-    return o1, o2
+    return hook
 
 
 _STAGE_IMPL: dict[str, Callable[..., Any]] = {
@@ -501,8 +493,8 @@ _STAGE_IMPL: dict[str, Callable[..., Any]] = {
     "impact_configuration": _s_config("impact_configuration"),
     "impact_parameters": _s_config("impact_parameters"),
     "contact_impulse": _s_contact_impulse,
-    "energy_split": _s_energy_split,
-    "post_impact": _s_post_impact,
+    "energy_split": _s_pair("energy_split"),
+    "post_impact": _s_pair("post_impact"),
 }
 _STACKED_CLASSES: dict[tuple[str, ...], type[_StackedVariants]] = {}
 

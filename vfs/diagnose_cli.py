@@ -280,28 +280,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     g.set_defaults(func=cmd_ledger)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """A parser with only these commands (tests, or before vfs.cli registers them)."""
-    parser = argparse.ArgumentParser(prog="vfs")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    add_parsers(sub)
-    return parser
-
-
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one of these commands (``python -m vfs.diagnose_cli diagnose ...``)."""
-    from vfs.errors import VfsError
+    """Run one of these commands (``python -m vfs.diagnose_cli diagnose ...``): the
+    ``vfs`` entry point, where they are registered."""
+    from vfs.cli import main as vfs_main
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 1
-    try:
-        return int(args.func(args))
-    except VfsError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return vfs_main(argv)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -346,7 +346,7 @@ def _pdof(ix: np.ndarray, iy: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, 
     return pdof, clock
 
 
-def _angle_between(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray,
+def angle_between(ax: np.ndarray, ay: np.ndarray, bx: np.ndarray,
                    by: np.ndarray) -> np.ndarray:
     """Unsigned angle [rad] between vectors a and b; NaN if either is shorter than 1 mm/s."""
     short = (ax * ax + ay * ay < 1e-6) | (bx * bx + by * by < 1e-6)
@@ -421,8 +421,8 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
         vx1_post=vx1, vy1_post=vy1, yaw_rate1_post=w1, vx2_post=vx2, vy2_post=vy2,
         yaw_rate2_post=w2, delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
         delta_v1=np.sqrt(dvx1**2 + dvy1**2), delta_v2=np.sqrt(dvx2**2 + dvy2**2),
-        velocity_angle_change1=_angle_between(config.vx1, config.vy1, vx1, vy1),
-        velocity_angle_change2=_angle_between(config.vx2, config.vy2, vx2, vy2),
+        velocity_angle_change1=angle_between(config.vx1, config.vy1, vx1, vy1),
+        velocity_angle_change2=angle_between(config.vx2, config.vy2, vx2, vy2),
     )
     if e1 is not None and e2 is not None:
         keep["ees1"] = np.where(none, result.ees1, ees_from_energy(e1, config.m1))
@@ -537,8 +537,8 @@ def _solve_block(config: ImpactConfig,
         delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
         delta_v1=np.sqrt(dvx1**2 + dvy1**2), delta_v2=np.sqrt(dvx2**2 + dvy2**2),
         energy_loss=loss, ees1=ees_from_energy(e1, m1), ees2=ees_from_energy(e2, m2),
-        velocity_angle_change1=_angle_between(c.vx1, c.vy1, vx1p, vy1p),
-        velocity_angle_change2=_angle_between(c.vx2, c.vy2, vx2p, vy2p),
+        velocity_angle_change1=angle_between(c.vx1, c.vy1, vx1p, vy1p),
+        velocity_angle_change2=angle_between(c.vx2, c.vy2, vx2p, vy2p),
         pdof1=np.where(none, nan, pdof1), pdof2=np.where(none, nan, pdof2),
         pdof_clock1=np.where(none, 0, clock1), pdof_clock2=np.where(none, 0, clock2),
     )

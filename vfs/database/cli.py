@@ -17,6 +17,13 @@ from vfs.database.pcm import export_pcm, import_pcm
 from vfs.errors import DataError, VfsError
 
 
+def _path(arg: str | Path) -> str:
+    """A database argument; ``default`` is the bundled synthetic database."""
+    from vfs.cli import database_path
+
+    return database_path(str(arg))
+
+
 def _print_problems(error: DataError) -> None:
     print(f"{len(error.problems)} problem(s):")
     for problem in error.problems:
@@ -26,7 +33,7 @@ def _print_problems(error: DataError) -> None:
 def cmd_validate(args: argparse.Namespace) -> int:
     """``vfs db validate DIR``: print "OK: ..." or every problem (exit code 1)."""
     try:
-        db = load_any(args.directory, validate=True)
+        db = load_any(_path(args.directory), validate=True)
     except DataError as error:
         _print_problems(error)
         return 1
@@ -41,7 +48,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def cmd_convert(args: argparse.Namespace) -> int:
     """``vfs db convert SRC DST --to {parquet,csv,pcm}``."""
     try:
-        db = load_any(args.source, validate=True)
+        db = load_any(_path(args.source), validate=True)
         writer = {"parquet": save_database, "csv": save_csv_folder, "pcm": export_pcm}[args.to]
         out = writer(db, args.destination)
     except DataError as error:
@@ -95,7 +102,7 @@ def add_parsers(
     commands = db.add_subparsers(dest="db_command", metavar="COMMAND", required=True)
 
     validate = commands.add_parser("validate", help="check a database against the schema")
-    validate.add_argument("directory", type=Path, help="Parquet, CSV or PCM folder")
+    validate.add_argument("directory", type=Path, help="Parquet, CSV or PCM folder, or 'default'")
     validate.set_defaults(func=cmd_validate)
 
     convert = commands.add_parser("convert", help="convert between database formats")

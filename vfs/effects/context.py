@@ -12,7 +12,14 @@ from functools import cached_property
 
 import numpy as np
 
-from vfs.geometry import Overlap, contact_faces, overlap, swept_overlap, vehicle_outline
+from vfs.geometry import (
+    Overlap,
+    contact_faces,
+    overlap,
+    swept_overlap,
+    to_vehicle_frame,
+    vehicle_outline,
+)
 from vfs.precrash import KinematicState
 from vfs.vehicle import VehicleArrays
 
@@ -108,3 +115,15 @@ class ImpactContext(_PairContext):
         f1 = contact_faces(c, self.vehicle1, s.x[:, 0], s.y[:, 0], s.yaw[:, 0])
         f2 = contact_faces(c, self.vehicle2, s.x[:, 1], s.y[:, 1], s.yaw[:, 1])
         return np.stack([f1, f2], axis=1)
+
+    @cached_property
+    def overlap_local(self) -> tuple[np.ndarray, np.ndarray]:
+        """Overlap polygon vertices in the frames of vehicle 1 and vehicle 2,
+        (n, W, 2) each [m] (x forward, y left, origin at the CG)."""
+        poly = self.overlap.polygon.vertices
+        n, w = poly.shape[0], poly.shape[1]
+        s = self.state
+        return tuple(  # type: ignore[return-value]
+            to_vehicle_frame(poly.reshape(-1, 2), np.repeat(s.x[:, j], w),
+                             np.repeat(s.y[:, j], w), np.repeat(s.yaw[:, j], w)).reshape(n, w, 2)
+            for j in (0, 1))

@@ -182,19 +182,17 @@ RAIL_POSITION = 0.6
 
 
 def _structure_point(vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
-                     face: np.ndarray, polygon: np.ndarray, centroid: np.ndarray) -> np.ndarray:
+                     face: np.ndarray, local: np.ndarray, centroid: np.ndarray) -> np.ndarray:
     """Load-carrying point of each vehicle's engaged face (global (n, 2)) [m].
 
     Front and rear faces: the longitudinal rails at +-0.6 half widths; side
     faces: the axles and the B pillar (at 45 % of the wheelbase behind the
     front axle).  The point is the mean of the members inside the overlap's
     extent along the face, else the extent's end nearest to a member; across
-    the face it stays at the centroid.
+    the face it stays at the centroid.  ``local``: the overlap polygon in the
+    vehicle's frame (n, W, 2) [m].
     """
     n = x.shape[0]
-    local = to_vehicle_frame(polygon.reshape(-1, 2), np.repeat(x, polygon.shape[1]),
-                             np.repeat(y, polygon.shape[1]),
-                             np.repeat(yaw, polygon.shape[1])).reshape(n, -1, 2)
     c_loc = to_vehicle_frame(centroid, x, y, yaw)
     ends = (face == FACE_FRONT) | (face == FACE_REAR)
     # coordinate along the face: y for front/rear, x for the sides
@@ -258,12 +256,12 @@ class StructurePOI(Effect):
         ov = ctx.overlap
         ok = ov.polygon.nonempty & ~np.isnan(ov.centroid[:, 0])
         faces = ctx.faces
-        poly = ov.polygon.vertices
+        local1, local2 = ctx.overlap_local
         cen = np.where(ok[:, None], ov.centroid, np.stack([config.poi_x, config.poi_y], axis=1))
         p1 = _structure_point(ctx.vehicle1, st.x[:, 0], st.y[:, 0], st.yaw[:, 0], faces[:, 0],
-                              poly, cen)
+                              local1, cen)
         p2 = _structure_point(ctx.vehicle2, st.x[:, 1], st.y[:, 1], st.yaw[:, 1], faces[:, 1],
-                              poly, cen)
+                              local2, cen)
         target = 0.5 * (p1 + p2)
         poi_x = np.where(ok, config.poi_x + share * (target[:, 0] - config.poi_x), config.poi_x)
         poi_y = np.where(ok, config.poi_y + share * (target[:, 1] - config.poi_y), config.poi_y)
@@ -299,13 +297,9 @@ class WheelLock(Effect):
                     brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Set the front brake factors to 1 where the depth is exceeded."""
         poly = ctx.overlap.polygon
-        st = ctx.state
         out = []
         for j, (veh, brake) in enumerate(((ctx.vehicle1, brake1), (ctx.vehicle2, brake2))):
-            k = poly.vertices.shape[1]
-            local = to_vehicle_frame(poly.vertices.reshape(-1, 2),
-                                     np.repeat(st.x[:, j], k), np.repeat(st.y[:, j], k),
-                                     np.repeat(st.yaw[:, j], k)).reshape(-1, k, 2)
+            local = ctx.overlap_local[j]
             depth = veh.cg_to_front - local[..., 0].min(axis=1)
             lock = poly.nonempty & (ctx.faces[:, j] == FACE_FRONT) & (depth > self["depth"])
             b = np.array(brake, float, copy=True)

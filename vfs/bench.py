@@ -265,8 +265,24 @@ def bench_timestep_convergence(quick: bool) -> dict[str, Any]:
     }
 
 
+#: Modules that register further benchmarks when imported (skipped when absent).
+BENCHMARK_MODULES: tuple[str, ...] = ("vfs.uncertainty", "adas.gym_env")
+
+
+def _load_benchmark_modules() -> None:
+    import importlib
+
+    for module in BENCHMARK_MODULES:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+
+
 def run_benchmarks(names: list[str] | None = None, quick: bool = False) -> dict[str, Any]:
     """Run the named benchmarks (all when None) and return their figures."""
+    _load_benchmark_modules()
     selected = list(BENCHMARKS) if not names else names
     unknown = [n for n in selected if n not in BENCHMARKS]
     if unknown:

@@ -200,6 +200,8 @@ COMMAND_GROUPS: list[Callable[[argparse._SubParsersAction], None]] = [
     _optional("vfs.study_cli"),
     _optional("vfs.compare_cli"),
     _optional("vfs.diagnose_cli"),
+    _optional("vfs.uncertainty_cli"),
+    _optional("adas.gym_cli"),
 ]
 
 

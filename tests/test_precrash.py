@@ -226,3 +226,58 @@ def test_a_case_does_not_depend_on_the_other_cases_of_its_batch():
         np.testing.assert_allclose(a.speed_reduction[i], b.speed_reduction[0], rtol=1e-12)
         np.testing.assert_allclose(a.min_distance[i], b.min_distance[0], rtol=1e-12)
         np.testing.assert_allclose(a.end_state.x[i], b.end_state.x[0], rtol=1e-12)
+
+
+def test_staggered_starts_equal_a_common_start():
+    """PrecrashRun with cases (re)started at different steps (the vector environment's
+    resets) gives each case exactly the result of a plain run: every case on its own clock."""
+    from scenarios.generator import bundled_database_path
+    from vfs.database import load_database
+    from vfs.precrash import PrecrashRun
+    from vfs.simulation import CaseBatch
+
+    db = load_database(bundled_database_path(), where="case_id <= 30")
+    batch = CaseBatch.from_database(db)
+    n = batch.size
+    args = (batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction)
+    demand = 6.0  # [m/s^2] on participant 1 from 2.5 s (local time) on
+
+    def brake(obs_t: np.ndarray, m: int) -> np.ndarray:
+        d = np.zeros((m, 2))
+        d[:, 0] = np.where(np.asarray(obs_t) >= 2.5 - 1e-9, demand, 0.0)
+        return d
+
+    plain = PrecrashRun(*args)
+    while not plain.done:
+        obs = plain.observation()
+        plain.advance(brake(np.broadcast_to(obs.t, obs.rows.shape), obs.rows.size))
+    ref = plain.result()
+
+    first = np.arange(0, n, 2)
+    later = {37: np.arange(1, n, 2)}  # started 37 steps later
+    run = PrecrashRun(*args, start=first, open_ended=True)
+    again = first[:3]  # ... and three cases run twice: restarted when they end
+    restarted: set[int] = set()
+    results: dict[int, object] = {}
+    for _ in range(5000):
+        obs = run.observation()
+        assert not run.common_clock or run.k < 37
+        t = run.local_time(obs.rows)
+        new = later.pop(run.k + 1, np.zeros(0, np.int64))
+        for r in run.finished:
+            results[int(r)] = run.result([r])
+        redo = [int(r) for r in run.finished if r in again and r not in restarted]
+        restarted.update(redo)
+        run.advance(brake(t, obs.rows.size), start=np.concatenate([new, redo]).astype(int))
+        if not run.rows.size and not later:
+            for r in run.finished:
+                results[int(r)] = run.result([r])
+            break
+    assert sorted(results) == list(range(n)) and restarted == set(map(int, again))
+    for i, res in results.items():
+        for name in ("collided", "contact_time", "impact_time", "poi", "cp_angle",
+                     "min_distance", "time_closest", "brake_start", "speed_reduction"):
+            np.testing.assert_array_equal(getattr(res, name)[0], getattr(ref, name)[i],
+                                          err_msg=f"case {i} {name}")
+        for a, b in zip(res.impact_state, ref.impact_state, strict=True):
+            np.testing.assert_array_equal(a[0], b[i])

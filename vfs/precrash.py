@@ -342,9 +342,11 @@ class _Track:
         self.best_y = np.full((n, 2), np.nan)
         self.best_yaw = np.full((n, 2), np.nan)
 
+    FIELDS = ("dv", "ds", "gap", "decel", "t_index", "s_index", "best_centre",
+              "best_time", "best_x", "best_y", "best_yaw")
+
     def take(self, keep: np.ndarray) -> None:
-        for name in ("dv", "ds", "gap", "decel", "t_index", "s_index", "best_centre",
-                     "best_time", "best_x", "best_y", "best_yaw"):
+        for name in self.FIELDS:
             setattr(self, name, getattr(self, name)[keep])
 
 
@@ -505,128 +507,230 @@ def simulate_precrash(
     Returns
     -------
     PrecrashResult
+
+    Notes
+    -----
+    A loop over :class:`PrecrashRun`: observe, ask the controller, advance.
+    The gym environments (:mod:`adas.gym_env`) drive the same class step by
+    step with the agent in place of the controller.
     """
-    params = params or PrecrashParams()
-    rng = rng if rng is not None else np.random.default_rng(0)
-    n = vehicle1.size
-    if paths.size != 2 * n:
-        raise ParameterError(f"paths hold {paths.size} records for {n} cases (need 2 per case)")
-    mu = np.broadcast_to(np.asarray(road_friction, float), (n,)).copy()
+    run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
+                      penetration=penetration)
     if controller is not None:
-        controller.reset(n, rng)
-    limit = np.minimum(mu * G, params.brake.max_deceleration)[:, None]
-    reach = (circumradius(vehicle1) + circumradius(vehicle2))
-    # per case: its longer record + extra_time (so a case's result never depends
-    # on the other cases of the batch); the loop runs to the longest
-    duration = paths.duration
-    case_horizon = np.maximum(duration[:n], duration[n:]) + params.extra_time
-    horizon = float(np.max(case_horizon))
-    dt = params.dt
+        controller.reset(run.n, rng if rng is not None else np.random.default_rng(0))
+    while not run.done:
+        demand = controller.demand(run.observation()) if controller is not None else None
+        run.advance(demand)
+    return run.result()
 
-    collided = np.zeros(n, dtype=bool)
-    contact_time = np.full(n, np.nan)
-    min_distance = np.full(n, np.inf)
-    time_closest = np.full(n, np.nan)
-    brake_start = np.full((n, 2), np.nan)
-    speed_reduction = np.zeros((n, 2))
-    impact_state = _nan_state(n)
-    contact_state = _nan_state(n)
-    end_state = _nan_state(n)
-    contact_dv = np.zeros((n, 2))  # reductions at first contact
-    contact_ds = np.zeros((n, 2))
-    # per case, the integration state at impact time is interpolated between
-    # the two steps around it; remember the reductions at both
-    pending = np.zeros(n, dtype=bool)  # in contact, waiting for impact time
-    impact_time = np.full(n, np.nan)
 
-    best_time = np.full(n, np.nan)  # time of the smallest CG distance
-    best_pose = np.full((3, n, 2), np.nan)  # x, y, yaw of both at that moment
+class PrecrashRun:
+    """The pre-crash simulation of N cases, advanced one time step at a time.
 
-    rows = np.arange(n)  # cases still running
-    active: tuple[np.ndarray, np.ndarray] | None = None
-    track = _Track(n)
-    prev_dv = track.dv.copy()
-    prev_ds = track.ds.copy()
-    prev_ti, prev_si = track.t_index.copy(), track.s_index.copy()
-    prev_tau = 0.0
-    steps = int(np.ceil(horizon / dt)) + 1
-    for k in range(steps):
-        tau = k * dt
-        # recorded kinematics; trapezoidal arc-length reduction ds
-        if active is None or active[0].shape[0] != 2 * rows.shape[0]:
-            active = _active(paths, rows)
+    :func:`simulate_precrash` runs it to the end with a controller; a gym
+    environment steps it with an agent's demand.  Every case ("row") runs on
+    its own clock: the time since the start of its record is (k - k0) dt,
+    with k the run's step counter and k0 the step at which the case
+    started; :func:`simulate_precrash` starts every case at k = 0.  With
+    ``open_ended=True`` the run never ends by itself and finished cases can
+    be started again (:meth:`advance` with ``start=``), which is how a
+    vector environment resets its sub-environments.
+
+    Parameters
+    ----------
+    vehicle1, vehicle2, paths, road_friction, params, penetration
+        As for :func:`simulate_precrash`.
+    start : array_like of int, optional
+        Cases running from step 0 (default: all).
+    open_ended : bool
+        Keep the run going when no case is left (default False).
+
+    Attributes
+    ----------
+    rows : ndarray of int
+        Cases still running, in the order of the observation's arrays.
+    finished : ndarray of int
+        Cases that ended (impact reached or horizon expired) at the last
+        step; their results are final after :meth:`finalize`.
+    """
+
+    def __init__(self, vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: PathArrays,
+                 road_friction: npt.ArrayLike, params: PrecrashParams | None = None,
+                 penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
+                 start: npt.ArrayLike | None = None, open_ended: bool = False) -> None:
+        params = params or PrecrashParams()
+        n = vehicle1.size
+        if paths.size != 2 * n:
+            raise ParameterError(f"paths hold {paths.size} records for {n} cases "
+                                 "(need 2 per case)")
+        self.n = n
+        self.params = params
+        self.dt = params.dt
+        self.v1, self.v2, self.paths = vehicle1, vehicle2, paths
+        self.penetration = penetration
+        self.open_ended = bool(open_ended)
+        self.mu = np.broadcast_to(np.asarray(road_friction, float), (n,)).copy()
+        self.limit = np.minimum(self.mu * G, params.brake.max_deceleration)[:, None]
+        self.reach = circumradius(vehicle1) + circumradius(vehicle2)
+        # per case: its longer record + extra_time (so a case's result never depends
+        # on the other cases of the batch)
+        duration = paths.duration
+        self.case_horizon = np.maximum(duration[:n], duration[n:]) + params.extra_time
+        self.horizon = float(np.max(self.case_horizon)) if n else 0.0
+        self.k = 0
+        self.k0 = np.zeros(n, dtype=np.int64)
+        self.common_clock = True
+
+        self.collided = np.zeros(n, dtype=bool)
+        self.contact_time = np.full(n, np.nan)
+        self.min_distance = np.full(n, np.inf)
+        self.time_closest = np.full(n, np.nan)
+        self.brake_start = np.full((n, 2), np.nan)
+        self.speed_reduction = np.zeros((n, 2))
+        self.impact_state = _nan_state(n)
+        self.contact_state = _nan_state(n)
+        self.end_state = _nan_state(n)
+        self.contact_dv = np.zeros((n, 2))  # reductions at first contact
+        self.contact_ds = np.zeros((n, 2))
+        # per case, the integration state at impact time is interpolated between
+        # the two steps around it; remember the reductions at both
+        self.pending = np.zeros(n, dtype=bool)  # in contact, waiting for impact time
+        self.impact_time = np.full(n, np.nan)
+        self.best_time = np.full(n, np.nan)  # time of the smallest CG distance
+        self.best_pose = np.full((3, n, 2), np.nan)  # x, y, yaw of both at that moment
+        self.poi = np.full((n, 2), np.nan)
+        self.cp_angle = np.full(n, np.nan)
+        self.cp_rule = np.zeros(n, dtype=np.int64)
+        self.area = np.zeros(n)
+        self.final = np.zeros(n, dtype=bool)  # post-processed by finalize
+        self.running = np.zeros(n, dtype=bool)
+
+        rows = np.arange(n) if start is None else np.unique(np.asarray(start, np.int64))
+        self.rows = rows
+        self.running[rows] = True
+        self.track = _Track(rows.shape[0])
+        self.active: tuple[np.ndarray, np.ndarray] | None = None
+        self._save_previous()
+        self.finished = np.zeros(0, dtype=np.int64)
+        self.done = False
+        self._settle()
+
+    # ------------------------------------------------------------------ clocks
+
+    @property
+    def time(self) -> float:
+        """Time of the run's current step k dt [s] (a case's own time when all started at 0)."""
+        return self.k * self.dt
+
+    def local_time(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """Time since the start of their records [s] of cases ``rows`` (default: running)."""
+        rows = self.rows if rows is None else rows
+        return (self.k - self.k0[rows]) * self.dt
+
+    def _save_previous(self) -> None:
+        t = self.track
+        self.prev_dv, self.prev_ds = t.dv.copy(), t.ds.copy()
+        self.prev_ti, self.prev_si = t.t_index.copy(), t.s_index.copy()
+
+    def _keep(self, keep: np.ndarray) -> None:
+        """Drop the running rows where ``keep`` is False."""
+        self.rows = self.rows[keep]
+        self.state = _take_state(self.state, keep)
+        self.v_rec, self.a_rec = self.v_rec[keep], self.a_rec[keep]
+        self.track.take(keep)
+        self.prev_dv, self.prev_ds = self.prev_dv[keep], self.prev_ds[keep]
+        self.prev_ti, self.prev_si = self.prev_ti[keep], self.prev_si[keep]
+        self.active = None
+
+    # ------------------------------------------------------------------ one step
+
+    def _settle(self) -> None:
+        """Kinematics at the current step; impacts due, contacts, closest approach, ends."""
+        params, dt, paths = self.params, self.dt, self.paths
+        v1, v2 = self.v1, self.v2
+        track = self.track
+        rows = self.rows
+        ended: list[np.ndarray] = []
+        kk = self.k - self.k0[rows]  # steps since each case's start
+        tau = kk * dt
+        if self.active is None or self.active[0].shape[0] != 2 * rows.shape[0]:
+            self.active = _active(paths, rows)
         s_rec, v_rec, a_rec, track.t_index = _record(paths, rows, tau, track.t_index,
-                                                     active=active)
+                                                     active=self.active)
         gap_now = np.minimum(track.dv, v_rec)
-        if k > 0:
-            track.ds = track.ds + 0.5 * dt * (track.gap + gap_now)
+        stepped = (kk > 0)[:, None]
+        track.ds = np.where(stepped, track.ds + 0.5 * dt * (track.gap + gap_now), track.ds)
         track.gap = gap_now
-        state, track.s_index = _state(paths, rows, s_rec - track.ds,
-                                      np.maximum(v_rec - track.dv, 0.0), track.s_index,
-                                      active=active)
+        self.state, track.s_index = _state(paths, rows, s_rec - track.ds,
+                                           np.maximum(v_rec - track.dv, 0.0), track.s_index,
+                                           active=self.active)
+        self.v_rec, self.a_rec = v_rec, a_rec
+        prev_tau = (kk - 1) * dt
 
         # ---- impact time reached for cases in penetration
+        pending, impact_time = self.pending, self.impact_time
         due = pending[rows] & (impact_time[rows] <= tau + 1e-12)
         if due.any():
             r = rows[due]
-            w = np.clip((impact_time[r] - prev_tau) / dt, 0.0, 1.0)[:, None]
-            dv_i = prev_dv[due] + w * (track.dv[due] - prev_dv[due])
-            ds_i = prev_ds[due] + w * (track.ds[due] - prev_ds[due])
+            w = np.clip((impact_time[r] - prev_tau[due]) / dt, 0.0, 1.0)[:, None]
+            dv_i = self.prev_dv[due] + w * (track.dv[due] - self.prev_dv[due])
+            ds_i = self.prev_ds[due] + w * (track.ds[due] - self.prev_ds[due])
             st_i = _kinematics(paths, r, impact_time[r], dv_i, ds_i)
-            _put(impact_state, r, st_i)
+            _put(self.impact_state, r, st_i)
             pending[r] = False
-            speed_reduction[r] = dv_i
+            self.speed_reduction[r] = dv_i
+            ended.append(r)
             keep = ~due
-            rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
-                a_rec[keep]
-            track.take(keep)
-            prev_dv, prev_ds = prev_dv[keep], prev_ds[keep]
-            prev_ti, prev_si = prev_ti[keep], prev_si[keep]
-            active = None
+            self._keep(keep)
+            rows, tau, prev_tau, kk = self.rows, tau[keep], prev_tau[keep], kk[keep]
 
         # ---- contact detection for cases not yet in contact
+        state = self.state
         free = ~pending[rows]
         centre = np.hypot(state.x[:, 0] - state.x[:, 1], state.y[:, 0] - state.y[:, 1])
-        lower = centre - reach[rows]
+        lower = centre - self.reach[rows]
         near = free & (lower <= 0.0)
         touching = np.zeros(rows.shape[0], dtype=bool)
         if near.any():
-            touching[near] = _overlapping(vehicle1, vehicle2, rows[near], _take_state(state, near))
+            touching[near] = _overlapping(v1, v2, rows[near], _take_state(state, near))
         new_contact = touching
         if new_contact.any():
             r = rows[new_contact]
-            if k == 0:
-                t_c = np.zeros(r.shape[0])  # overlapping from the start of the record
-            else:
-                t_c = _bisect_contact(paths, vehicle1, vehicle2, r, prev_tau, tau,
-                                      prev_dv[new_contact], track.dv[new_contact],
-                                      prev_ds[new_contact], track.ds[new_contact],
-                                      params.contact_tolerance,
-                                      (prev_ti[new_contact], prev_si[new_contact]))
-            collided[r] = True
-            contact_time[r] = t_c
+            first = kk[new_contact] == 0  # overlapping from the start of the record
+            t_c = np.zeros(r.shape[0])
+            later = ~first
+            if later.any():
+                sel = np.flatnonzero(new_contact)[later]
+                t_c[later] = _bisect_contact(
+                    paths, v1, v2, rows[sel], prev_tau[sel], tau[sel],
+                    self.prev_dv[sel], track.dv[sel], self.prev_ds[sel], track.ds[sel],
+                    params.contact_tolerance, (self.prev_ti[sel], self.prev_si[sel]))
+            self.collided[r] = True
+            self.contact_time[r] = t_c
             pending[r] = True
-            min_distance[r] = 0.0
-            time_closest[r] = t_c
-            w = np.clip((t_c - prev_tau) / dt, 0.0, 1.0)[:, None] if k > 0 else \
-                np.zeros((r.shape[0], 1))
-            dv_c = prev_dv[new_contact] + w * (track.dv[new_contact] - prev_dv[new_contact])
-            ds_c = prev_ds[new_contact] + w * (track.ds[new_contact] - prev_ds[new_contact])
+            self.min_distance[r] = 0.0
+            self.time_closest[r] = t_c
+            w = np.where(first, 0.0, np.clip((t_c - prev_tau[new_contact]) / dt, 0.0,
+                                             1.0))[:, None]
+            dv_c = self.prev_dv[new_contact] + w * (track.dv[new_contact]
+                                                    - self.prev_dv[new_contact])
+            ds_c = self.prev_ds[new_contact] + w * (track.ds[new_contact]
+                                                    - self.prev_ds[new_contact])
             st_c = _kinematics(paths, r, t_c, dv_c, ds_c)
-            _put(contact_state, r, st_c)
-            contact_dv[r], contact_ds[r] = dv_c, ds_c
+            _put(self.contact_state, r, st_c)
+            self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
             t_pen = np.full(r.shape[0], params.penetration_time)
-            if penetration is not None:
-                t_pen = np.asarray(penetration(r, st_c), float)
+            if self.penetration is not None:
+                t_pen = np.asarray(self.penetration(r, st_c), float)
                 if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
                     raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
             impact_time[r] = t_c + t_pen
             instant = t_pen == 0.0
             if instant.any():
                 ri = r[instant]
-                _put(impact_state, ri, _take_state(contact_state, ri))
+                _put(self.impact_state, ri, _take_state(self.contact_state, ri))
                 pending[ri] = False
-                speed_reduction[ri] = dv_c[instant]
+                self.speed_reduction[ri] = dv_c[instant]
         # closest approach: exact outline distance while the outlines are
         # within CLOSE_RANGE; beyond it, the pose of minimal CG distance is
         # kept and measured at the end
@@ -637,110 +741,210 @@ def simulate_precrash(
         track.best_x = np.where(c2, state.x, track.best_x)
         track.best_y = np.where(c2, state.y, track.best_y)
         track.best_yaw = np.where(c2, state.yaw, track.best_yaw)
-        cand = closer & ~touching & (lower < np.minimum(min_distance[rows], CLOSE_RANGE))
+        cand = closer & ~touching & (lower < np.minimum(self.min_distance[rows], CLOSE_RANGE))
         if cand.any():
             sub = _take_state(state, cand)
-            o1, o2 = _outlines(vehicle1, vehicle2, rows[cand], sub)
+            o1, o2 = _outlines(v1, v2, rows[cand], sub)
             dist = outline_distance(o1, o2)
             r = rows[cand]
-            better = dist < min_distance[r]
-            min_distance[r[better]] = dist[better]
-            time_closest[r[better]] = tau
+            better = dist < self.min_distance[r]
+            self.min_distance[r[better]] = dist[better]
+            self.time_closest[r[better]] = tau[cand][better]
 
         # drop cases that are finished: impacted with zero penetration time
-        done = ~pending[rows] & collided[rows]
+        done = ~pending[rows] & self.collided[rows]
         if done.any():
+            ended.append(rows[done])
             keep = ~done
-            rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
-                a_rec[keep]
-            track.take(keep)
-            active = None
-        expired = ~pending[rows] & (tau >= case_horizon[rows] - 1e-9)
+            self._keep(keep)
+            rows, tau = self.rows, tau[keep]
+        expired = ~pending[rows] & (tau >= self.case_horizon[rows] - 1e-9)
         if expired.any():
             r = rows[expired]
-            _put(end_state, r, _take_state(state, expired))
-            speed_reduction[r] = track.dv[expired]
-            best_time[r] = track.best_time[expired]
-            best_pose[0, r], best_pose[1, r] = track.best_x[expired], track.best_y[expired]
-            best_pose[2, r] = track.best_yaw[expired]
-            keep = ~expired
-            rows, state, v_rec, a_rec = rows[keep], _take_state(state, keep), v_rec[keep], \
-                a_rec[keep]
-            track.take(keep)
-            active = None
-        if rows.size == 0 or tau >= horizon:
-            _put(end_state, rows, state)
-            speed_reduction[rows] = track.dv
-            best_time[rows] = track.best_time
-            best_pose[0, rows], best_pose[1, rows] = track.best_x, track.best_y
-            best_pose[2, rows] = track.best_yaw
-            break
+            self._close(r, expired)
+            ended.append(r)
+            self._keep(~expired)
+            rows = self.rows
+        if not self.open_ended and (rows.size == 0 or self.time >= self.horizon):
+            self._close(rows, np.ones(rows.shape[0], dtype=bool))
+            ended.append(rows)
+            self.done = True
+        self.finished = np.concatenate(ended) if ended else np.zeros(0, dtype=np.int64)
+        self.running[self.finished] = False
 
-        # ---- controller and brake actuator for the next interval
-        prev_dv, prev_ds, prev_tau = track.dv.copy(), track.ds.copy(), tau
-        prev_ti, prev_si = track.t_index.copy(), track.s_index.copy()
-        if controller is not None:
-            obs = PrecrashObservation(
-                rows=rows, t=tau, x=state.x, y=state.y, yaw=state.yaw,
-                heading=np.arctan2(state.vy, state.vx), speed=state.speed,
-                accel=np.where(track.decel > 0, -np.maximum(track.decel, -a_rec), a_rec),
-                yaw_rate=state.yaw_rate, deceleration=track.decel, road_friction=mu[rows],
-            )
-            demand = np.asarray(controller.demand(obs), float)
-            new_decel = actuator_step(track.decel, demand, limit[rows], params.brake, dt)
+    def _close(self, r: np.ndarray, sel: np.ndarray) -> None:
+        """End rows ``r`` (= running rows ``sel``) without a collision at the current step."""
+        track = self.track
+        _put(self.end_state, r, _take_state(self.state, sel))
+        self.speed_reduction[r] = track.dv[sel]
+        self.best_time[r] = track.best_time[sel]
+        self.best_pose[0, r], self.best_pose[1, r] = track.best_x[sel], track.best_y[sel]
+        self.best_pose[2, r] = track.best_yaw[sel]
+
+    def observation(self) -> PrecrashObservation:
+        """What a controller sees now, for the running cases :attr:`rows`.
+
+        ``t`` is the current time [s] as a float while every case runs on the
+        same clock (as in :func:`simulate_precrash`), else an array (n,) of
+        each case's own time.
+        """
+        state, track = self.state, self.track
+        rows = self.rows
+        return PrecrashObservation(
+            rows=rows, t=self.time if self.common_clock else self.local_time(rows),
+            x=state.x, y=state.y, yaw=state.yaw,
+            heading=np.arctan2(state.vy, state.vx), speed=state.speed,
+            accel=np.where(track.decel > 0, -np.maximum(track.decel, -self.a_rec), self.a_rec),
+            yaw_rate=state.yaw_rate, deceleration=track.decel, road_friction=self.mu[rows],
+        )
+
+    def advance(self, demand: npt.ArrayLike | None = None,
+                start: npt.ArrayLike | None = None) -> None:
+        """Apply ``demand`` over one step, then settle the next step.
+
+        Parameters
+        ----------
+        demand : array_like (n, 2), optional
+            Demanded deceleration [m/s^2] of the running cases (:attr:`rows`
+            order) over the coming step; None keeps the actuator's output.
+        start : array_like of int, optional
+            Cases (not running) that start from the beginning of their
+            records at the new step; their earlier results are discarded.
+        """
+        if self.done:
+            raise ParameterError("the pre-crash run has ended")
+        dt, track, rows = self.dt, self.track, self.rows
+        self._save_previous()
+        if demand is not None:
+            demand = np.asarray(demand, float)
+            new_decel = actuator_step(track.decel, demand, self.limit[rows], self.params.brake,
+                                      dt)
         else:
             new_decel = track.decel
         mean_decel = 0.5 * (track.decel + new_decel)
         braking = mean_decel > 0
-        track.dv = track.dv + dt * np.where(braking, np.maximum(0.0, a_rec + mean_decel), 0.0)
-        started = (new_decel > 0) & np.isnan(brake_start[rows])
+        track.dv = track.dv + dt * np.where(braking, np.maximum(0.0, self.a_rec + mean_decel),
+                                            0.0)
+        started = (new_decel > 0) & np.isnan(self.brake_start[rows])
         if started.any():
             ri, ci = np.nonzero(started)
-            brake_start[rows[ri], ci] = tau
+            self.brake_start[rows[ri], ci] = self.local_time(rows)[ri]
         track.decel = new_decel
+        self.k += 1
+        if start is not None:
+            self._start(np.asarray(start, np.int64).reshape(-1))
+        self._settle()
 
-    # never within CLOSE_RANGE: outline distance at the moment of minimal CG distance
-    far = np.isinf(min_distance) & ~np.isnan(best_time)
-    if far.any():
-        r = np.flatnonzero(far)
-        bp = best_pose[:, r]
-        o1 = vehicle_outline(vehicle1.take(r), bp[0, :, 0], bp[1, :, 0], bp[2, :, 0])
-        o2 = vehicle_outline(vehicle2.take(r), bp[0, :, 1], bp[1, :, 1], bp[2, :, 1])
-        min_distance[r] = outline_distance(o1, o2)
-        time_closest[r] = best_time[r]
-    min_distance = np.where(np.isinf(min_distance), np.nan, min_distance)
-    poi = np.full((n, 2), np.nan)
-    cp_angle = np.full(n, np.nan)
-    cp_rule = np.zeros(n, dtype=np.int64)
-    area = np.zeros(n)
-    hit = collided & ~np.isnan(impact_state.x[:, 0])
-    if hit.any():
-        r = np.flatnonzero(hit)
-        graze = _overlap_area(vehicle1, vehicle2, r, _take_state(impact_state, r)) \
-            <= AREA_TOLERANCE
-        if graze.any():
-            # grazing contact: the outlines separated again within the
-            # penetration time; take the impact at the largest overlap
-            g_rows = r[graze]
-            t_best, st_best = _largest_overlap(paths, vehicle1, vehicle2, g_rows,
-                                               contact_time[g_rows], impact_time[g_rows],
-                                               contact_dv[g_rows], contact_ds[g_rows])
-            impact_time[g_rows] = t_best
-            _put(impact_state, g_rows, st_best)
-        st = _take_state(impact_state, r)
-        o1, o2 = _outlines(vehicle1, vehicle2, r, st)
-        cg1 = np.stack([st.x[:, 0], st.y[:, 0]], axis=1)
-        cg2 = np.stack([st.x[:, 1], st.y[:, 1]], axis=1)
-        g = contact_geometry(o1, o2, cg1, cg2)
-        poi[r], cp_angle[r], cp_rule[r], area[r] = g.poi, g.cp_angle, g.rule, g.area
-    return PrecrashResult(
-        collided=hit, contact_time=np.where(hit, contact_time, np.nan),
-        impact_time=np.where(hit, impact_time, np.nan), impact_state=impact_state,
-        contact_state=contact_state, poi=poi, cp_angle=cp_angle, cp_rule=cp_rule,
-        overlap_area=area, min_distance=min_distance, time_closest=time_closest,
-        brake_start=brake_start, speed_reduction=speed_reduction,
-        end_state=end_state, end_time=tau,
-    )
+    def _start(self, new: np.ndarray) -> None:
+        """(Re)start cases ``new`` at the current step with fresh results."""
+        if new.size == 0:
+            return
+        if np.unique(new).size != new.size or self.running[new].any():
+            raise ParameterError("cases to start must be distinct and not running")
+        self.k0[new] = self.k
+        self.common_clock = False
+        for arr, value in ((self.collided, False), (self.contact_time, np.nan),
+                           (self.min_distance, np.inf), (self.time_closest, np.nan),
+                           (self.brake_start, np.nan), (self.speed_reduction, 0.0),
+                           (self.contact_dv, 0.0), (self.contact_ds, 0.0),
+                           (self.pending, False), (self.impact_time, np.nan),
+                           (self.best_time, np.nan), (self.poi, np.nan),
+                           (self.cp_angle, np.nan), (self.cp_rule, 0), (self.area, 0.0),
+                           (self.final, False)):
+            arr[new] = value
+        self.best_pose[:, new] = np.nan
+        for st in (self.impact_state, self.contact_state, self.end_state):
+            _put(st, new, _nan_state(new.size))
+        m = new.size
+        fresh = _Track(m)
+        track = self.track
+        for name in _Track.FIELDS:
+            setattr(track, name, np.concatenate([getattr(track, name), getattr(fresh, name)]))
+        for name in ("prev_dv", "prev_ds", "prev_ti", "prev_si"):
+            old = getattr(self, name)
+            setattr(self, name, np.concatenate([old, np.zeros((m, 2), old.dtype)]))
+        self.rows = np.concatenate([self.rows, new])
+        # placeholders; _settle computes them for every running row
+        self.v_rec = np.concatenate([self.v_rec, np.zeros((m, 2))])
+        self.a_rec = np.concatenate([self.a_rec, np.zeros((m, 2))])
+        self.state = KinematicState(*(np.concatenate([a, np.zeros((m, 2))])
+                                      for a in self.state))
+        self.running[new] = True
+        self.active = None
+
+    # ------------------------------------------------------------------ results
+
+    def finalize(self, rows: npt.ArrayLike | None = None) -> None:
+        """Post-process ended cases ``rows`` (default: all ended, not yet finalized).
+
+        Outline distance of far passes, grazing contacts (impact moved to the
+        largest overlap) and the contact geometry (POI, contact plane) at
+        impact.
+        """
+        if rows is None:
+            sel = np.flatnonzero(~self.final & ~self.running)
+        else:
+            sel = np.asarray(rows, np.int64).reshape(-1)
+            sel = sel[~self.final[sel]]
+        if sel.size == 0:
+            return
+        v1, v2, paths = self.v1, self.v2, self.paths
+        # never within CLOSE_RANGE: outline distance at the moment of minimal CG distance
+        far = np.isinf(self.min_distance[sel]) & ~np.isnan(self.best_time[sel])
+        if far.any():
+            r = sel[far]
+            bp = self.best_pose[:, r]
+            o1 = vehicle_outline(v1.take(r), bp[0, :, 0], bp[1, :, 0], bp[2, :, 0])
+            o2 = vehicle_outline(v2.take(r), bp[0, :, 1], bp[1, :, 1], bp[2, :, 1])
+            self.min_distance[r] = outline_distance(o1, o2)
+            self.time_closest[r] = self.best_time[r]
+        hit = self.collided[sel] & ~np.isnan(self.impact_state.x[sel, 0])
+        self.collided[sel] = hit
+        if hit.any():
+            r = sel[hit]
+            graze = _overlap_area(v1, v2, r, _take_state(self.impact_state, r)) \
+                <= AREA_TOLERANCE
+            if graze.any():
+                # grazing contact: the outlines separated again within the
+                # penetration time; take the impact at the largest overlap
+                g_rows = r[graze]
+                t_best, st_best = _largest_overlap(paths, v1, v2, g_rows,
+                                                   self.contact_time[g_rows],
+                                                   self.impact_time[g_rows],
+                                                   self.contact_dv[g_rows],
+                                                   self.contact_ds[g_rows])
+                self.impact_time[g_rows] = t_best
+                _put(self.impact_state, g_rows, st_best)
+            st = _take_state(self.impact_state, r)
+            o1, o2 = _outlines(v1, v2, r, st)
+            cg1 = np.stack([st.x[:, 0], st.y[:, 0]], axis=1)
+            cg2 = np.stack([st.x[:, 1], st.y[:, 1]], axis=1)
+            g = contact_geometry(o1, o2, cg1, cg2)
+            self.poi[r], self.cp_angle[r], self.cp_rule[r], self.area[r] = \
+                g.poi, g.cp_angle, g.rule, g.area
+        self.final[sel] = True
+
+    def result(self, rows: npt.ArrayLike | None = None) -> PrecrashResult:
+        """The :class:`PrecrashResult` of all cases (default) or of the ended ``rows``.
+
+        Finalizes what is not yet; a case still running has NaN results.
+        """
+        self.finalize(None if rows is None else rows)
+        idx = slice(None) if rows is None else np.asarray(rows, np.int64).reshape(-1)
+        hit = self.collided[idx]
+        min_distance = self.min_distance[idx]
+        take = lambda st: KinematicState(*(a[idx] for a in st))  # noqa: E731
+        return PrecrashResult(
+            collided=hit, contact_time=np.where(hit, self.contact_time[idx], np.nan),
+            impact_time=np.where(hit, self.impact_time[idx], np.nan),
+            impact_state=take(self.impact_state), contact_state=take(self.contact_state),
+            poi=self.poi[idx], cp_angle=self.cp_angle[idx], cp_rule=self.cp_rule[idx],
+            overlap_area=self.area[idx],
+            min_distance=np.where(np.isinf(min_distance), np.nan, min_distance),
+            time_closest=self.time_closest[idx], brake_start=self.brake_start[idx],
+            speed_reduction=self.speed_reduction[idx], end_state=take(self.end_state),
+            end_time=self.time,
+        )
 
 
 def _take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
@@ -749,7 +953,7 @@ def _take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
 
 
 def _bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
-                    rows: np.ndarray, t_free: float, t_hit: float,
+                    rows: np.ndarray, t_free: float | np.ndarray, t_hit: float | np.ndarray,
                     dv0: np.ndarray, dv1: np.ndarray, ds0: np.ndarray, ds1: np.ndarray,
                     tolerance: float,
                     hint: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -760,7 +964,7 @@ def _bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
     """
     lo = np.full(rows.shape[0], t_free)
     hi = np.full(rows.shape[0], t_hit)
-    span = t_hit - t_free
+    span = float(np.max(hi - lo))  # one step [s] (each case on its own clock)
     while span > tolerance:
         mid = 0.5 * (lo + hi)
         w = ((mid - t_free) / (t_hit - t_free))[:, None]

@@ -100,3 +100,51 @@ def outline_visible(sx: np.ndarray, sy: np.ndarray, boresight: np.ndarray, field
     """
     return sector_distance(sx, sy, boresight, 0.5 * field_of_view, cx, cy, yaw, hl, hw) \
         <= max_range
+
+
+def _corners_to_box(px: np.ndarray, py: np.ndarray, c: np.ndarray, s: np.ndarray,
+                    hl_b: np.ndarray, hw_b: np.ndarray, hl_a: np.ndarray,
+                    hw_a: np.ndarray) -> np.ndarray:
+    """Smallest squared distance [m^2] of the corners of rectangle B to the axis-aligned
+    box A.
+
+    B's centre is (px, py) in A's frame, its axis at angle (c, s) = (cos, sin)
+    of the relative yaw; half sizes hl, hw [m].  (Unrolled over the four
+    corners: one-dimensional array operations only.)
+    """
+    u1, u2, v1, v2 = hl_b * c, hl_b * s, hw_b * s, hw_b * c
+    xa, xb, ya, yb = px + u1, px - u1, py + u2, py - u2
+    best = None
+    for x, y in ((xa - v1, ya + v2), (xa + v1, ya - v2), (xb - v1, yb + v2),
+                 (xb + v1, yb - v2)):
+        gx = np.maximum(np.abs(x) - hl_a, 0.0)
+        gy = np.maximum(np.abs(y) - hw_a, 0.0)
+        d2 = gx * gx + gy * gy
+        best = d2 if best is None else np.minimum(best, d2)
+    return best  # type: ignore[return-value]
+
+
+def rectangle_gap(ax: np.ndarray, ay: np.ndarray, ayaw: np.ndarray, ahl: np.ndarray,
+                  ahw: np.ndarray, bx: np.ndarray, by: np.ndarray, byaw: np.ndarray,
+                  bhl: np.ndarray, bhw: np.ndarray) -> np.ndarray:
+    """Distance [m] between rectangles A and B (centres, yaws [rad], half sizes [m]); 0 if
+    they overlap.
+
+    Overlap by the separating-axis test on the four edge normals; otherwise
+    the smallest distance of a corner of either rectangle to the other (the
+    closest points of disjoint convex polygons include a vertex).
+    """
+    ca, sa = np.cos(ayaw), np.sin(ayaw)
+    cb, sb = np.cos(byaw), np.sin(byaw)
+    dx, dy = bx - ax, by - ay
+    c, s = ca * cb + sa * sb, ca * sb - sa * cb  # relative yaw of B in A's frame
+    pxa, pya = ca * dx + sa * dy, -sa * dx + ca * dy  # B's centre in A's frame
+    pxb, pyb = -(cb * dx + sb * dy), -(-sb * dx + cb * dy)  # A's centre in B's frame
+    ac, as_ = np.abs(c), np.abs(s)
+    overlap = ((np.abs(pxa) <= ahl + bhl * ac + bhw * as_)
+               & (np.abs(pya) <= ahw + bhl * as_ + bhw * ac)
+               & (np.abs(pxb) <= bhl + ahl * ac + ahw * as_)
+               & (np.abs(pyb) <= bhw + ahl * as_ + ahw * ac))
+    d2 = np.minimum(_corners_to_box(pxa, pya, c, s, bhl, bhw, ahl, ahw),
+                    _corners_to_box(pxb, pyb, c, -s, ahl, ahw, bhl, bhw))
+    return np.where(overlap, 0.0, np.sqrt(d2))

@@ -349,29 +349,32 @@ def pose_at_arclength(paths: PathArrays, rows: np.ndarray, index: np.ndarray,
         curvature = (yaw1 - yaw0) * inv
     tx = (k1[:, _X] - k0[:, _X]) * inv
     ty = (k1[:, _Y] - k0[:, _Y]) * inv
+    # (the trigonometric functions are evaluated on the rows that need them only:
+    # float64 sin/cos cost about 50 times a multiplication)
     if not moving.all():
-        still = ~moving
-        tx = np.where(still, np.cos(k0[:, _HEADING]), tx)
-        ty = np.where(still, np.sin(k0[:, _HEADING]), ty)
+        still = np.flatnonzero(~moving)
+        tx[still] = np.cos(k0[still, _HEADING])
+        ty[still] = np.sin(k0[still, _HEADING])
     # beyond the record: arc of constant curvature from the last sample
     kl = (paths.last_knots() if last is None else last)
     kl = kl if rows_last else kl[rows]
     extra = s - kl[:, _S]
     beyond = extra > 0
     if beyond.any():
-        k = paths.end_curvature[rows]
-        psi0 = kl[:, _HEADING]
-        arc = k * extra
+        b = np.flatnonzero(beyond)
+        kb, eb = kl[b], extra[b]
+        k = paths.end_curvature[rows[b]]
+        psi0 = kb[:, _HEADING]
+        arc = k * eb
         straight = np.abs(k) < STRAIGHT_CURVATURE
+        c0, s0_ = np.cos(psi0), np.sin(psi0)
+        c1, s1_ = np.cos(psi0 + arc), np.sin(psi0 + arc)
         with np.errstate(invalid="ignore", divide="ignore"):
-            dx = np.where(straight, extra * np.cos(psi0),
-                          (np.sin(psi0 + arc) - np.sin(psi0)) / k)
-            dy = np.where(straight, extra * np.sin(psi0),
-                          (np.cos(psi0) - np.cos(psi0 + arc)) / k)
-        x = np.where(beyond, kl[:, _X] + dx, x)
-        y = np.where(beyond, kl[:, _Y] + dy, y)
-        yaw = np.where(beyond, kl[:, _YAW] + arc, yaw)
-        tx = np.where(beyond, np.cos(psi0 + arc), tx)
-        ty = np.where(beyond, np.sin(psi0 + arc), ty)
-        curvature = np.where(beyond, k, curvature)
+            dx = np.where(straight, eb * c0, (s1_ - s0_) / k)
+            dy = np.where(straight, eb * s0_, (c0 - c1) / k)
+        x[b] = kb[:, _X] + dx
+        y[b] = kb[:, _Y] + dy
+        yaw[b] = kb[:, _YAW] + arc
+        tx[b], ty[b] = c1, s1_
+        curvature[b] = k
     return PathPose(x, y, yaw, tx, ty, curvature)

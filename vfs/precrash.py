@@ -162,6 +162,8 @@ class PrecrashObservation(NamedTuple):
     yaw_rate: np.ndarray  # [rad/s] (n, 2)
     deceleration: np.ndarray  # delivered brake deceleration [m/s^2] (n, 2)
     road_friction: np.ndarray  # (n,)
+    vx: np.ndarray | None = None  # CG velocity [m/s], global (n, 2) (speed x heading)
+    vy: np.ndarray | None = None
 
 
 class BrakeController(Protocol):
@@ -544,6 +546,11 @@ class PrecrashRun:
         Cases running from step 0 (default: all).
     open_ended : bool
         Keep the run going when no case is left (default False).
+    case_of : array_like of int, optional
+        Run case instances: row i simulates case ``case_of[i]`` of the
+        vehicles and paths (several rows may share a case; results are per
+        row); default one row per case.  The ``penetration`` callback gets
+        these case indices.
 
     Attributes
     ----------
@@ -557,25 +564,33 @@ class PrecrashRun:
     def __init__(self, vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: PathArrays,
                  road_friction: npt.ArrayLike, params: PrecrashParams | None = None,
                  penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
-                 start: npt.ArrayLike | None = None, open_ended: bool = False) -> None:
+                 start: npt.ArrayLike | None = None, open_ended: bool = False,
+                 case_of: npt.ArrayLike | None = None) -> None:
         params = params or PrecrashParams()
-        n = vehicle1.size
-        if paths.size != 2 * n:
-            raise ParameterError(f"paths hold {paths.size} records for {n} cases "
+        n_data = vehicle1.size
+        if paths.size != 2 * n_data:
+            raise ParameterError(f"paths hold {paths.size} records for {n_data} cases "
                                  "(need 2 per case)")
+        self.case_of = None if case_of is None else np.asarray(case_of, np.int64).reshape(-1)
+        if self.case_of is not None and self.case_of.size and (
+                self.case_of.min() < 0 or self.case_of.max() >= n_data):
+            raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
+        n = n_data if self.case_of is None else self.case_of.size
         self.n = n
         self.params = params
         self.dt = params.dt
         self.v1, self.v2, self.paths = vehicle1, vehicle2, paths
         self.penetration = penetration
         self.open_ended = bool(open_ended)
-        self.mu = np.broadcast_to(np.asarray(road_friction, float), (n,)).copy()
+        mu = np.broadcast_to(np.asarray(road_friction, float), (n_data,))
+        self.mu = mu[self._d(np.arange(n))].copy()
         self.limit = np.minimum(self.mu * G, params.brake.max_deceleration)[:, None]
-        self.reach = circumradius(vehicle1) + circumradius(vehicle2)
+        self.reach = (circumradius(vehicle1) + circumradius(vehicle2))[self._d(np.arange(n))]
         # per case: its longer record + extra_time (so a case's result never depends
         # on the other cases of the batch)
         duration = paths.duration
-        self.case_horizon = np.maximum(duration[:n], duration[n:]) + params.extra_time
+        self.case_horizon = (np.maximum(duration[:n_data], duration[n_data:])
+                             + params.extra_time)[self._d(np.arange(n))]
         self.horizon = float(np.max(self.case_horizon)) if n else 0.0
         self.k = 0
         self.k0 = np.zeros(n, dtype=np.int64)
@@ -617,6 +632,10 @@ class PrecrashRun:
 
     # ------------------------------------------------------------------ clocks
 
+    def _d(self, rows: np.ndarray) -> np.ndarray:
+        """Data rows (vehicles, paths) of case instances ``rows``."""
+        return rows if self.case_of is None else self.case_of[rows]
+
     @property
     def time(self) -> float:
         """Time of the run's current step k dt [s] (a case's own time when all started at 0)."""
@@ -654,7 +673,7 @@ class PrecrashRun:
         kk = self.k - self.k0[rows]  # steps since each case's start
         tau = kk * dt
         if self.active is None or self.active[0].shape[0] != 2 * rows.shape[0]:
-            self.active = _active(paths, rows)
+            self.active = _active(paths, self._d(rows))
         s_rec, v_rec, a_rec, track.t_index = _record(paths, rows, tau, track.t_index,
                                                      active=self.active)
         gap_now = np.minimum(track.dv, v_rec)
@@ -675,7 +694,7 @@ class PrecrashRun:
             w = np.clip((impact_time[r] - prev_tau[due]) / dt, 0.0, 1.0)[:, None]
             dv_i = self.prev_dv[due] + w * (track.dv[due] - self.prev_dv[due])
             ds_i = self.prev_ds[due] + w * (track.ds[due] - self.prev_ds[due])
-            st_i = _kinematics(paths, r, impact_time[r], dv_i, ds_i)
+            st_i = _kinematics(paths, self._d(r), impact_time[r], dv_i, ds_i)
             _put(self.impact_state, r, st_i)
             pending[r] = False
             self.speed_reduction[r] = dv_i
@@ -692,7 +711,8 @@ class PrecrashRun:
         near = free & (lower <= 0.0)
         touching = np.zeros(rows.shape[0], dtype=bool)
         if near.any():
-            touching[near] = _overlapping(v1, v2, rows[near], _take_state(state, near))
+            touching[near] = _overlapping(v1, v2, self._d(rows[near]),
+                                          _take_state(state, near))
         new_contact = touching
         if new_contact.any():
             r = rows[new_contact]
@@ -702,7 +722,7 @@ class PrecrashRun:
             if later.any():
                 sel = np.flatnonzero(new_contact)[later]
                 t_c[later] = _bisect_contact(
-                    paths, v1, v2, rows[sel], prev_tau[sel], tau[sel],
+                    paths, v1, v2, self._d(rows[sel]), prev_tau[sel], tau[sel],
                     self.prev_dv[sel], track.dv[sel], self.prev_ds[sel], track.ds[sel],
                     params.contact_tolerance, (self.prev_ti[sel], self.prev_si[sel]))
             self.collided[r] = True
@@ -716,12 +736,12 @@ class PrecrashRun:
                                                     - self.prev_dv[new_contact])
             ds_c = self.prev_ds[new_contact] + w * (track.ds[new_contact]
                                                     - self.prev_ds[new_contact])
-            st_c = _kinematics(paths, r, t_c, dv_c, ds_c)
+            st_c = _kinematics(paths, self._d(r), t_c, dv_c, ds_c)
             _put(self.contact_state, r, st_c)
             self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
             t_pen = np.full(r.shape[0], params.penetration_time)
             if self.penetration is not None:
-                t_pen = np.asarray(self.penetration(r, st_c), float)
+                t_pen = np.asarray(self.penetration(self._d(r), st_c), float)
                 if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
                     raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
             impact_time[r] = t_c + t_pen
@@ -744,7 +764,7 @@ class PrecrashRun:
         cand = closer & ~touching & (lower < np.minimum(self.min_distance[rows], CLOSE_RANGE))
         if cand.any():
             sub = _take_state(state, cand)
-            o1, o2 = _outlines(v1, v2, rows[cand], sub)
+            o1, o2 = _outlines(v1, v2, self._d(rows[cand]), sub)
             dist = outline_distance(o1, o2)
             r = rows[cand]
             better = dist < self.min_distance[r]
@@ -796,6 +816,7 @@ class PrecrashRun:
             heading=np.arctan2(state.vy, state.vx), speed=state.speed,
             accel=np.where(track.decel > 0, -np.maximum(track.decel, -self.a_rec), self.a_rec),
             yaw_rate=state.yaw_rate, deceleration=track.decel, road_friction=self.mu[rows],
+            vx=state.vx, vy=state.vy,
         )
 
     def advance(self, demand: npt.ArrayLike | None = None,
@@ -872,6 +893,27 @@ class PrecrashRun:
         self.running[new] = True
         self.active = None
 
+    def stop(self, rows: npt.ArrayLike, keep_state: bool = False) -> None:
+        """Stop running cases ``rows`` now.
+
+        With ``keep_state`` they end as if their horizon had expired (no
+        collision; end state, closest approach and :meth:`finalize` as
+        usual), e.g. when an environment ends an episode at standstill;
+        without, their results are left incomplete (an abandoned episode).
+        """
+        rows = np.asarray(rows, np.int64).reshape(-1)
+        if rows.size == 0:
+            return
+        sel = np.isin(self.rows, rows)
+        if int(sel.sum()) != np.unique(rows).size:
+            raise ParameterError("stop: some cases are not running")
+        if keep_state:
+            self._close(self.rows[sel], sel)
+        self._keep(~sel)
+        self.running[rows] = False
+        if keep_state:
+            self.finalize(rows)
+
     # ------------------------------------------------------------------ results
 
     def finalize(self, rows: npt.ArrayLike | None = None) -> None:
@@ -894,21 +936,21 @@ class PrecrashRun:
         if far.any():
             r = sel[far]
             bp = self.best_pose[:, r]
-            o1 = vehicle_outline(v1.take(r), bp[0, :, 0], bp[1, :, 0], bp[2, :, 0])
-            o2 = vehicle_outline(v2.take(r), bp[0, :, 1], bp[1, :, 1], bp[2, :, 1])
+            o1 = vehicle_outline(v1.take(self._d(r)), bp[0, :, 0], bp[1, :, 0], bp[2, :, 0])
+            o2 = vehicle_outline(v2.take(self._d(r)), bp[0, :, 1], bp[1, :, 1], bp[2, :, 1])
             self.min_distance[r] = outline_distance(o1, o2)
             self.time_closest[r] = self.best_time[r]
         hit = self.collided[sel] & ~np.isnan(self.impact_state.x[sel, 0])
         self.collided[sel] = hit
         if hit.any():
             r = sel[hit]
-            graze = _overlap_area(v1, v2, r, _take_state(self.impact_state, r)) \
+            graze = _overlap_area(v1, v2, self._d(r), _take_state(self.impact_state, r)) \
                 <= AREA_TOLERANCE
             if graze.any():
                 # grazing contact: the outlines separated again within the
                 # penetration time; take the impact at the largest overlap
                 g_rows = r[graze]
-                t_best, st_best = _largest_overlap(paths, v1, v2, g_rows,
+                t_best, st_best = _largest_overlap(paths, v1, v2, self._d(g_rows),
                                                    self.contact_time[g_rows],
                                                    self.impact_time[g_rows],
                                                    self.contact_dv[g_rows],
@@ -916,7 +958,7 @@ class PrecrashRun:
                 self.impact_time[g_rows] = t_best
                 _put(self.impact_state, g_rows, st_best)
             st = _take_state(self.impact_state, r)
-            o1, o2 = _outlines(v1, v2, r, st)
+            o1, o2 = _outlines(v1, v2, self._d(r), st)
             cg1 = np.stack([st.x[:, 0], st.y[:, 0]], axis=1)
             cg2 = np.stack([st.x[:, 1], st.y[:, 1]], axis=1)
             g = contact_geometry(o1, o2, cg1, cg2)

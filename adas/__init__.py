@@ -23,6 +23,9 @@ from adas.systems import (
     register_system,
     system_names,
 )
+from vfs.gym_registration import register_envs as _register_envs
+
+_register_envs()  # gymnasium.make("vfs/AEB-v0", ...)
 
 #: Version of the AEB models (recorded by ``vfs study`` next to the results).
 __version__ = "0.1.0"

@@ -11,6 +11,10 @@ from vfs.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_ar
 
 __version__ = "0.1.0"
 
+from vfs.gym_registration import register_envs as _register_envs  # noqa: E402
+
+_register_envs()  # gymnasium.make("vfs/AEB-v0", ...) works after ``import vfs``
+
 __all__ = [
     "DataError",
     "GeometryError",

@@ -594,7 +594,6 @@ class PrecrashRun:
         self.horizon = float(np.max(self.case_horizon)) if n else 0.0
         self.k = 0
         self.k0 = np.zeros(n, dtype=np.int64)
-        self.common_clock = True
 
         self.collided = np.zeros(n, dtype=bool)
         self.contact_time = np.full(n, np.nan)
@@ -645,6 +644,18 @@ class PrecrashRun:
         """Time since the start of their records [s] of cases ``rows`` (default: running)."""
         rows = self.rows if rows is None else rows
         return (self.k - self.k0[rows]) * self.dt
+
+    @property
+    def common_clock(self) -> bool:
+        """All running cases started at the same step (their times are equal)."""
+        k0 = self.k0[self.rows]
+        return bool(k0.size == 0 or (k0 == k0[0]).all())
+
+    def _observed_time(self, rows: np.ndarray) -> float | np.ndarray:
+        k0 = self.k0[rows]
+        if k0.size == 0 or (k0 == k0[0]).all():
+            return (self.k - int(k0[0])) * self.dt if k0.size else self.time
+        return (self.k - k0) * self.dt
 
     def _save_previous(self) -> None:
         t = self.track
@@ -804,14 +815,15 @@ class PrecrashRun:
     def observation(self) -> PrecrashObservation:
         """What a controller sees now, for the running cases :attr:`rows`.
 
-        ``t`` is the current time [s] as a float while every case runs on the
-        same clock (as in :func:`simulate_precrash`), else an array (n,) of
-        each case's own time.
+        ``t`` is the time since the start of the records [s]: a float while
+        every running case started at the same step (as in
+        :func:`simulate_precrash`, or one case at a time), else an array (n,)
+        of each case's own time.
         """
         state, track = self.state, self.track
         rows = self.rows
         return PrecrashObservation(
-            rows=rows, t=self.time if self.common_clock else self.local_time(rows),
+            rows=rows, t=self._observed_time(rows),
             x=state.x, y=state.y, yaw=state.yaw,
             heading=np.arctan2(state.vy, state.vx), speed=state.speed,
             accel=np.where(track.decel > 0, -np.maximum(track.decel, -self.a_rec), self.a_rec),
@@ -863,7 +875,6 @@ class PrecrashRun:
         if np.unique(new).size != new.size or self.running[new].any():
             raise ParameterError("cases to start must be distinct and not running")
         self.k0[new] = self.k
-        self.common_clock = False
         for arr, value in ((self.collided, False), (self.contact_time, np.nan),
                            (self.min_distance, np.inf), (self.time_closest, np.nan),
                            (self.brake_start, np.nan), (self.speed_reduction, 0.0),

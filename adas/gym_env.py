@@ -706,8 +706,8 @@ class EpisodeBatch:
             "time": run.local_time(rows),
         }
         if imp is not None and imp_rows is not None and imp_rows.size:
-            pos = np.searchsorted(rows, imp_rows) if np.all(np.diff(rows) > 0) else \
-                np.array([int(np.flatnonzero(rows == r)[0]) for r in imp_rows])
+            order = np.argsort(rows, kind="stable")
+            pos = order[np.searchsorted(rows[order], imp_rows)]
             dv = (imp.delta_v1, imp.delta_v2)
             info["delta_v"][pos] = dv[e]
             info["delta_v_other"][pos] = dv[1 - e]

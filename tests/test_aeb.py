@@ -1,7 +1,7 @@
 """Generic AEB systems (adas): registry, kernels, and Euro NCAP-like CCRs runs.
 
 Oracles: brute-force time stepping with the Sutherland-Hodgman overlap of
-vfs.geometry (TTC), shapely (sensor sector), closed forms (head-on TTC,
+vfs.physics.geometry (TTC), shapely (sensor sector), closed forms (head-on TTC,
 jerk-limited stopping distance, impact speed after braking from the first
 moment), ScheduledBraking (latency and build-up), and invariants (monotone
 impact speed, identical replay without AEB, reproducibility).
@@ -18,7 +18,7 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-from adas import (
+from vfs.adas import (
     EVENT_KEYS,
     SYSTEM_NAMES,
     AEBParams,
@@ -29,20 +29,20 @@ from adas import (
     register_system,
     system_names,
 )
-from adas.sensor import sector_distance
-from adas.threat import Motion, braked_contact, time_to_collision, ttc_cv
+from vfs.adas.sensor import sector_distance
+from vfs.adas.threat import Motion, braked_contact, time_to_collision, ttc_cv
 from vfs.errors import ParameterError
-from vfs.geometry import outline_corners, overlap
-from vfs.paths import concat_paths, pack_paths
-from vfs.precrash import (
+from vfs.physics.geometry import outline_corners, overlap
+from vfs.physics.paths import concat_paths, pack_paths
+from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
     outline_distance,
 )
+from vfs.physics.vehicle import vehicle_arrays
 from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 from vfs.units import G
-from vfs.vehicle import vehicle_arrays
 
 DT = 0.01
 SPEEDS_KMH = np.arange(10.0, 50.1, 5.0)  # Euro NCAP CCRs AEB test speeds

@@ -11,9 +11,7 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from scenarios.generator import NO_NOISE, generate_database
-from vfs.cli import main
-from vfs.compare import (
+from vfs.analysis.compare import (
     DEFAULT_MARGINS,
     GROUP_ALL,
     GROUP_CHANGED,
@@ -29,8 +27,10 @@ from vfs.compare import (
     parse_margins,
     read_run_table,
 )
-from vfs.compare_report import write_comparison_report
+from vfs.cli import main
 from vfs.errors import DataError, ParameterError
+from vfs.report.compare import write_comparison_report
+from vfs.scenarios.generator import NO_NOISE, generate_database
 from vfs.units import KMH_PER_MS
 
 # ----------------------------------------------------------------------------

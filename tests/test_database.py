@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from vfs.cli.db import add_parsers
 from vfs.database import (
     SCHEMA_VERSION,
     Database,
@@ -21,19 +22,18 @@ from vfs.database import (
     import_pcm,
     load_csv_folder,
     load_database,
-    make_example_database,
     save_csv_folder,
     save_database,
     select_cases,
     validate_database,
 )
-from vfs.database.cli import add_parsers
 from vfs.database.docs import stale_blocks
 from vfs.database.schema import TABLES, normalise_table
 from vfs.database.validation import MAX_REPORTED_ROWS
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.physics.vehicle import yaw_inertia_axle_product
+from vfs.scenarios.example_database import make_example_database
 from vfs.units import G
-from vfs.vehicle import yaw_inertia_axle_product
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
 

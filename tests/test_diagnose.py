@@ -1,4 +1,5 @@
-"""Model diagnosis, calibration and the error ledger (vfs.diagnose, vfs.calibrate, vfs.ledger).
+"""Model diagnosis, calibration and the error ledger (vfs.analysis.diagnose, .calibrate,
+.ledger).
 
 Fast tests use small databases and ``--quick`` settings; the exhaustive
 checks (every built-in effect hidden alone, noise only, two effects, the
@@ -20,8 +21,7 @@ import pandas as pd
 import pytest
 from conftest import slow_scale
 
-from scenarios.generator import NO_NOISE, generate_database, write_generated
-from vfs.calibrate import (
+from vfs.analysis.calibrate import (
     CalibrationData,
     FitSpace,
     VariantSimulator,
@@ -31,8 +31,9 @@ from vfs.calibrate import (
     read_model_config,
     write_model_config,
 )
-from vfs.diagnose import diagnose, residual_associations, write_report
-from vfs.diagnose_cli import main as dcli
+from vfs.analysis.diagnose import diagnose, residual_associations, write_report
+from vfs.analysis.ledger import ledger_chain, read_ledger
+from vfs.cli import main as dcli
 from vfs.effects import (
     BUILTIN_EFFECTS,
     Effect,
@@ -42,7 +43,7 @@ from vfs.effects import (
     unregister_effect,
 )
 from vfs.errors import DataError, ParameterError
-from vfs.ledger import ledger_chain, read_ledger
+from vfs.scenarios.generator import NO_NOISE, generate_database, write_generated
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -383,7 +384,7 @@ def test_tutorial_commands_run(tmp_path, monkeypatch):
             elif argv[0] == "vfs" and argv[1] in ("diagnose", "calibrate", "ledger"):
                 assert dcli(_reduce(argv[1:], cases)) == 0, body
             elif argv[0] == "vfs" and argv[1] == "compare":
-                from vfs.compare import load_model_config
+                from vfs.analysis.compare import load_model_config
 
                 try:
                     load_model_config(argv[argv.index("--model") + 1])

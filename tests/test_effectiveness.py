@@ -9,8 +9,7 @@ import pandas as pd
 import pytest
 from scipy.special import expit
 
-from vfs.cli import main
-from vfs.effectiveness import (
+from vfs.analysis.effectiveness import (
     ALL,
     bootstrap_sums,
     effectiveness,
@@ -18,9 +17,10 @@ from vfs.effectiveness import (
     risk_curves_for,
     write_effectiveness_report,
 )
+from vfs.analysis.risk import MS_PER_MPH, get_risk_curve
+from vfs.cli import main
 from vfs.errors import DataError, ParameterError
-from vfs.risk import MS_PER_MPH, get_risk_curve
-from vfs.study import normalise_runs
+from vfs.study.core import normalise_runs
 
 NAN = np.nan
 
@@ -202,7 +202,7 @@ def test_risk_curve_selection_and_argument_checks() -> None:
 
 
 def write_study(folder, runs: pd.DataFrame, status: str = "complete") -> None:  # noqa: ANN001
-    """A study folder as vfs.study writes it (manifest + runs.parquet)."""
+    """A study folder as vfs.study.core writes it (manifest + runs.parquet)."""
     folder.mkdir(parents=True)
     manifest = {"format": "vfs-study", "format_version": 1, "status": status,
                 "db": "hand-built", "n_cases": int(runs["case_id"].nunique()), "seed": 0,

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vfs.bench import synthetic_case_batch
 from vfs.effects import (
     BUILTIN_EFFECTS,
     Effect,
@@ -19,6 +18,7 @@ from vfs.effects import (
 )
 from vfs.effects import base as effects_base
 from vfs.errors import ParameterError
+from vfs.scenarios.random import synthetic_case_batch
 from vfs.simulation import SimulationParams, simulate_cases
 
 
@@ -140,8 +140,10 @@ def test_entry_point_effects_are_loaded(monkeypatch):
 
             return EpEffect
 
-    monkeypatch.setattr(effects_base, "_ENTRY_POINTS_LOADED", False)
-    monkeypatch.setattr(effects_base.metadata, "entry_points",
+    import vfs.registry
+
+    monkeypatch.setattr(effects_base.EFFECTS, "_entry_points_loaded", False)
+    monkeypatch.setattr(vfs.registry.metadata, "entry_points",
                         lambda group: [FakeEntryPoint()] if group == "vfs.effects" else [])
     try:
         assert get_effect("test_ep_effect").name == "test_ep_effect"
@@ -269,9 +271,9 @@ def test_penetration_depth_grows_with_small_overlap(batch, baseline):
 
 def _head_on_context(angle_deg: float, offset: float):
     from vfs.effects.context import ImpactContext
-    from vfs.impact import ImpactConfig
-    from vfs.precrash import KinematicState
-    from vfs.vehicle import VehicleParams, stack_vehicles
+    from vfs.physics.impact import ImpactConfig
+    from vfs.physics.precrash import KinematicState
+    from vfs.physics.vehicle import VehicleParams, stack_vehicles
 
     v = stack_vehicles([VehicleParams()])
     front = float(v.cg_to_front[0])

@@ -1,12 +1,12 @@
-"""The bundled example impact table is what scenarios/examples.py builds, and solves."""
+"""The bundled example impact table is what vfs/scenarios/examples.py builds, and solves."""
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from scenarios.examples import EXAMPLE_IMPACTS, example_impact_table
-from vfs.impact_table import solve_impact_table
+from vfs.database.impact_table import solve_impact_table
+from vfs.scenarios.examples import EXAMPLE_IMPACTS, example_impact_table
 
 
 def test_bundled_table_is_current():

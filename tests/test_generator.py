@@ -8,7 +8,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scenarios.generator import (
+from vfs.cli import main
+from vfs.database import load_csv_folder, load_database, save_csv_folder, validate_database
+from vfs.effects import BUILTIN_EFFECTS
+from vfs.errors import ParameterError
+from vfs.physics.paths import find_index, paths_from_trajectories, pose_at_arclength, record_at_time
+from vfs.scenarios.generator import (
     GROUND_TRUTH_CASES_FILE,
     GROUND_TRUTH_FILE,
     NO_NOISE,
@@ -17,11 +22,6 @@ from scenarios.generator import (
     read_ground_truth,
     write_generated,
 )
-from vfs.cli import main
-from vfs.database import load_csv_folder, load_database, save_csv_folder, validate_database
-from vfs.effects import BUILTIN_EFFECTS
-from vfs.errors import ParameterError
-from vfs.paths import find_index, paths_from_trajectories, pose_at_arclength, record_at_time
 from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
 ALL_TYPES = {241, 242, 243, 264, 601, 321, 211}
@@ -206,7 +206,7 @@ def test_presets_are_documented():
 
 
 def test_bundled_default_database_is_the_default_preset():
-    from scenarios.generator import bundled_database_path
+    from vfs.database import bundled_database_path
 
     folder = bundled_database_path()
     db = load_database(folder)

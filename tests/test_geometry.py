@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tests.conftest import slow_scale
-from vfs.geometry import (
+from vfs.physics.geometry import (
     AREA_TOLERANCE,
     contact_geometry,
     outline_corners,
@@ -22,7 +22,7 @@ from vfs.geometry import (
     to_vehicle_frame,
     vehicle_outline,
 )
-from vfs.vehicle import VehicleParams, stack_vehicles
+from vfs.physics.vehicle import VehicleParams, stack_vehicles
 
 
 def random_pairs(rng: np.random.Generator, n: int, spread: float = 3.0):
@@ -188,7 +188,7 @@ def test_swapping_vehicles_keeps_poi_and_plane(seed: int):
 
 
 def test_area_centroid_of_known_polygon_and_frames():
-    from vfs.geometry import Polygons
+    from vfs.physics.geometry import Polygons
 
     tri = np.array([[[0.0, 0.0], [3.0, 0.0], [0.0, 3.0], [0.0, 3.0]]])
     area, centroid = polygon_area_centroid(Polygons(tri, np.array([True])))

@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 
 import vfs  # noqa: F401  (registers vfs/AEB-v0)
-from adas import get_system
-from adas.gym_env import (
+from vfs.adas import get_system
+from vfs.adas.sensor import rectangle_gap
+from vfs.errors import ParameterError
+from vfs.gym.env import (
     OBSERVATION_NAMES,
     PRIVILEGED_NAMES,
     AEBEnv,
     AEBVectorEnv,
     split_case_ids,
 )
-from adas.policies import ALWAYS_BRAKE, NEVER_BRAKE, AEBPolicy, load_policy
-from adas.sensor import rectangle_gap
-from vfs.errors import ParameterError
+from vfs.gym.policies import ALWAYS_BRAKE, NEVER_BRAKE, AEBPolicy, load_policy
 
 
 @pytest.fixture(scope="module")
@@ -117,9 +117,9 @@ def test_rectangle_gap_equals_shapely():
 
 @pytest.mark.parametrize("name", ["openpass-like", "ideal"])
 def test_aeb_policy_in_env_equals_the_same_aeb_in_a_study(name, tmp_path):
-    from vfs.cli import database_path
     from vfs.database import load_database
-    from vfs.study import run_study
+    from vfs.database import resolve_database_path as database_path
+    from vfs.study.core import run_study
 
     system = get_system(name)
     env = AEBEnv(split="test", brake=system.brake)

@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from vfs.errors import ParameterError
-from vfs.impact import (
+from vfs.physics.impact import (
     IMPACT_FULL,
     IMPACT_NONE,
     IMPACT_SLIDING,

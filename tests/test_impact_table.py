@@ -7,9 +7,9 @@ import pandas as pd
 import pytest
 
 from vfs.cli import main
+from vfs.database.impact_table import INPUT_COLUMNS, OUTPUT_COLUMNS, solve_impact_table
 from vfs.errors import DataError
-from vfs.impact import ImpactConfig, solve_impact
-from vfs.impact_table import INPUT_COLUMNS, OUTPUT_COLUMNS, solve_impact_table
+from vfs.physics.impact import ImpactConfig, solve_impact
 
 
 def table(n: int = 5) -> pd.DataFrame:

@@ -1,4 +1,4 @@
-"""Synthetic accident scenes (scenarios.kinematics): tables, fleet, paths, replay, placement."""
+"""Synthetic accident scenes (vfs.scenarios.kinematics): tables, fleet, paths, replay, placement."""
 
 from __future__ import annotations
 
@@ -11,8 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import scenarios.kinematics as kin
-from scenarios.kinematics import (
+import vfs.scenarios.kinematics as kin
+from vfs.database import Database, validate_database
+from vfs.database.schema import TABLES, empty_table, normalise_table
+from vfs.errors import ParameterError, SimulationError
+from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, overlap
+from vfs.physics.paths import concat_paths, paths_from_trajectories
+from vfs.physics.precrash import PrecrashParams, outline_distance, simulate_precrash
+from vfs.physics.vehicle import validate_vehicle_values
+from vfs.scenarios.kinematics import (
     FLEET,
     SCENARIO_TYPES,
     FleetClass,
@@ -21,14 +28,7 @@ from scenarios.kinematics import (
     generate_scenes,
     sample_fleet,
 )
-from vfs.database import Database, validate_database
-from vfs.database.schema import TABLES, empty_table, normalise_table
-from vfs.errors import ParameterError, SimulationError
-from vfs.geometry import AREA_TOLERANCE, outline_corners, overlap
-from vfs.paths import concat_paths, paths_from_trajectories
-from vfs.precrash import PrecrashParams, outline_distance, simulate_precrash
 from vfs.units import G
-from vfs.vehicle import validate_vehicle_values
 
 ALL_TYPES = {code: 1.0 for code in SCENARIO_TYPES}
 HEAD_ON = (241, 242, 243, 264)

@@ -6,17 +6,17 @@ import numpy as np
 import pytest
 
 from vfs.errors import ParameterError
-from vfs.geometry import outline_corners
-from vfs.paths import concat_paths, pack_paths
-from vfs.precrash import (
+from vfs.physics.geometry import outline_corners
+from vfs.physics.paths import concat_paths, pack_paths
+from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
     outline_distance,
     simulate_precrash,
 )
+from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.units import G
-from vfs.vehicle import VehicleParams, stack_vehicles
 
 CAR = VehicleParams(mass=1500.0, length=4.5, width=1.8, wheelbase=2.7, cg_to_front_axle=1.2,
                     front_overhang=0.9)  # CG 2.1 m behind the front bumper
@@ -82,7 +82,7 @@ def test_replay_reproduces_curved_record_within_1cm():
     assert res.end_state.x[0, 0] == pytest.approx(rec1[1][-1], abs=0.01)
     assert res.end_state.y[0, 0] == pytest.approx(rec1[2][-1], abs=0.01)
     # exact replay at intermediate times: compare with the kinematics look-up
-    from vfs.precrash import _kinematics
+    from vfs.physics.precrash import _kinematics
 
     for tau in (0.0, 1.234, 2.5, 4.99):
         st = _kinematics(paths, np.array([0]), tau, np.zeros((1, 2)), np.zeros((1, 2)))
@@ -206,8 +206,7 @@ def test_parameter_validation():
 
 def test_a_case_does_not_depend_on_the_other_cases_of_its_batch():
     """Each case ends at its own horizon (record + extra time), whatever else is batched."""
-    from scenarios.generator import bundled_database_path
-    from vfs.database import load_database
+    from vfs.database import bundled_database_path, load_database
     from vfs.simulation import CaseBatch, simulate_cases
 
     db = load_database(bundled_database_path(), where="case_id <= 24")
@@ -231,9 +230,8 @@ def test_a_case_does_not_depend_on_the_other_cases_of_its_batch():
 def test_staggered_starts_equal_a_common_start():
     """PrecrashRun with cases (re)started at different steps (the vector environment's
     resets) gives each case exactly the result of a plain run: every case on its own clock."""
-    from scenarios.generator import bundled_database_path
-    from vfs.database import load_database
-    from vfs.precrash import PrecrashRun
+    from vfs.database import bundled_database_path, load_database
+    from vfs.physics.precrash import PrecrashRun
     from vfs.simulation import CaseBatch
 
     db = load_database(bundled_database_path(), where="case_id <= 30")

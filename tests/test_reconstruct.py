@@ -1,4 +1,4 @@
-"""Reconstruction as an inverse problem (vfs.reconstruct, vfs reconstruct)."""
+"""Reconstruction as an inverse problem (vfs.uncertainty.reconstruct, vfs reconstruct)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,11 @@ import pandas as pd
 import pytest
 from conftest import slow_scale
 
-from scenarios.generator import generate_database, write_generated
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
-from vfs.reconstruct import (
+from vfs.scenarios.generator import generate_database, write_generated
+from vfs.uncertainty.core import OUTCOME_NAMES, CaseSet, Distribution, ModelRuns
+from vfs.uncertainty.reconstruct import (
     ObservationSettings,
     ReconstructSettings,
     format_reconstruction,
@@ -22,7 +23,6 @@ from vfs.reconstruct import (
     reconstruct,
     scaled_residuals,
 )
-from vfs.uncertainty import OUTCOME_NAMES, CaseSet, Distribution, ModelRuns
 
 #: Small but complete search settings for the tests.
 FAST = ReconstructSettings(n_prior=3000, n_starts=4, n_local=1500, n_chains=120, n_steps=40,

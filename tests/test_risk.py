@@ -1,4 +1,4 @@
-"""Tests of vfs.risk: contract over every registered curve, hand-computed spot values."""
+"""Tests of vfs.analysis.risk: contract over every registered curve, hand-computed spot values."""
 
 from __future__ import annotations
 
@@ -11,8 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vfs.errors import ParameterError
-from vfs.risk import (
+from vfs.analysis.risk import (
     DEFAULT_CURVES,
     MS_PER_MPH,
     RISK_CURVES,
@@ -24,6 +23,7 @@ from vfs.risk import (
     get_risk_curve,
     register_risk_curve,
 )
+from vfs.errors import ParameterError
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -47,8 +47,11 @@ NHTSA = {
 def restore_registry() -> Iterator[None]:
     saved = dict(RISK_CURVES)
     yield
-    RISK_CURVES.clear()
-    RISK_CURVES.update(saved)
+    for name in RISK_CURVES.names():
+        if name not in saved:
+            RISK_CURVES.remove(name)
+    for name, curve in saved.items():
+        RISK_CURVES.add(name, curve, replace=True)
 
 
 def test_expected_curves_are_registered() -> None:

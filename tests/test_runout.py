@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vfs.errors import ParameterError
-from vfs.geometry import AREA_TOLERANCE, overlap, vehicle_outline
-from vfs.runout import (
+from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
+from vfs.physics.runout import (
     RunoutParams,
     RunoutResult,
     RunoutState,
@@ -26,8 +26,8 @@ from vfs.runout import (
     static_wheel_loads,
     wheel_positions,
 )
+from vfs.physics.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_arrays
 from vfs.units import G
-from vfs.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_arrays
 
 LOCKED = (1.0, 1.0, 1.0, 1.0)
 FREE = (0.0, 0.0, 0.0, 0.0)
@@ -384,7 +384,7 @@ def test_overlap_phases_agree_with_clipping_near_touching():
     Random poses plus nose-to-tail pairs whose gap is a hair either side of zero
     (overlap slivers below and above AREA_TOLERANCE).
     """
-    from vfs.runout import _SecondaryCollisions
+    from vfs.physics.runout import _SecondaryCollisions
 
     rng = np.random.default_rng(21)
     n = 20000

@@ -1,4 +1,5 @@
-"""Sobol indices (vfs.sensitivity, vfs sensitivity), checked against SALib and theory."""
+"""Sobol indices (vfs.uncertainty.sensitivity, vfs sensitivity), checked against SALib
+and theory."""
 
 from __future__ import annotations
 
@@ -12,20 +13,10 @@ from conftest import slow_scale
 from SALib.analyze import sobol as salib_analyze
 from SALib.sample import sobol as salib_sample
 
-from scenarios.generator import generate_database, write_generated
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
-from vfs.sensitivity import (
-    DUMMY,
-    SaltelliDesign,
-    ishigami,
-    ishigami_indices,
-    saltelli_design,
-    sensitivity_analysis,
-    sobol_analyze,
-    sobol_indices,
-)
-from vfs.uncertainty import (
+from vfs.scenarios.generator import generate_database, write_generated
+from vfs.uncertainty.core import (
     INPUT_NAMES,
     CaseSet,
     Distribution,
@@ -34,6 +25,16 @@ from vfs.uncertainty import (
     evaluate,
     resolve_inputs,
     values_from_unit,
+)
+from vfs.uncertainty.sensitivity import (
+    DUMMY,
+    SaltelliDesign,
+    ishigami,
+    ishigami_indices,
+    saltelli_design,
+    sensitivity_analysis,
+    sobol_analyze,
+    sobol_indices,
 )
 
 

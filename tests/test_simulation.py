@@ -5,18 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenarios.examples import example_case_database
-from vfs.bench import synthetic_case_batch
 from vfs.cli import main
-from vfs.paths import PathArrays
-from vfs.precrash import ScheduledBraking
+from vfs.physics.paths import PathArrays
+from vfs.physics.precrash import ScheduledBraking
+from vfs.scenarios.examples import example_case_database
+from vfs.scenarios.random import synthetic_case_batch
 from vfs.simulation import CaseBatch, results_table, simulate_cases
 
 
 def mirrored(batch: CaseBatch) -> CaseBatch:
     """Mirror every case about the x axis: y -> -y, yaw -> -yaw."""
     k = batch.paths.knots.copy()
-    from vfs.paths import KNOT_FIELDS
+    from vfs.physics.paths import KNOT_FIELDS
 
     for name in ("y", "yaw", "heading"):
         k[..., KNOT_FIELDS.index(name)] *= -1.0

@@ -1,4 +1,5 @@
-"""Tests of vfs.stats: hand-computed examples, reference implementations, degenerate cases."""
+"""Tests of vfs.analysis.stats: hand-computed examples, reference implementations,
+degenerate cases."""
 
 from __future__ import annotations
 
@@ -17,8 +18,7 @@ from statsmodels.stats.inter_rater import cohens_kappa
 from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.weightstats import ttost_paired
 
-from vfs.errors import DataError, ParameterError
-from vfs.stats import (
+from vfs.analysis.stats import (
     ALL_GROUP,
     ContingencyComparison,
     PairedComparison,
@@ -29,6 +29,7 @@ from vfs.stats import (
     paired_comparison,
     paired_comparison_table,
 )
+from vfs.errors import DataError, ParameterError
 
 # Every degenerate case must be handled without a RuntimeWarning (or any other).
 pytestmark = pytest.mark.filterwarnings("error")

@@ -9,15 +9,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scenarios.generator import bundled_database_path
 from vfs.cli import main
-from vfs.database import load_database
+from vfs.database import bundled_database_path, load_database
 from vfs.errors import DataError, ParameterError
-from vfs.precrash import BrakeActuatorParams, PrecrashObservation, PrecrashParams, ScheduledBraking
-from vfs.runout import RunoutParams
+from vfs.physics.precrash import (
+    BrakeActuatorParams,
+    PrecrashObservation,
+    PrecrashParams,
+    ScheduledBraking,
+)
+from vfs.physics.runout import RunoutParams
 from vfs.simulation import SimulationParams
-from vfs.study import BASELINE, RunTask, load_study, resolve_system, run_task
-from vfs.study import run_study as _run_study
+from vfs.study.core import BASELINE, RunTask, load_study, resolve_system, run_task
+from vfs.study.core import run_study as _run_study
 
 WHERE = "case_id <= 40"  # 40 cases of the bundled database
 CHUNK = 20  # -> 2 chunks
@@ -27,7 +31,7 @@ FAST = SimulationParams(precrash=PrecrashParams(dt=0.02, extra_time=1.0, contact
 
 
 def run_study(*args, **kwargs):  # noqa: ANN002, ANN003, ANN201
-    """:func:`vfs.study.run_study` with fast parameters and no progress bar by default."""
+    """:func:`vfs.study.core.run_study` with fast parameters and no progress bar by default."""
     kwargs.setdefault("params", FAST)
     kwargs.setdefault("progress", False)
     return _run_study(*args, **kwargs)
@@ -270,9 +274,9 @@ def test_system_lookup_and_arguments(tmp_path) -> None:
 
 
 def test_cli_study_writes_the_study(tmp_path, monkeypatch, capsys) -> None:
-    import adas
+    import vfs.adas
 
-    monkeypatch.setattr(adas, "get_system", REGISTRY.__getitem__, raising=False)
+    monkeypatch.setattr(vfs.adas, "get_system", REGISTRY.__getitem__, raising=False)
     out = tmp_path / "cli"
     code = main(["study", "--db", "default", "--systems", "early", "--out", str(out),
                  "--where", "case_id <= 6", "--engine", "serial", "--chunk-size", "5",
@@ -299,15 +303,15 @@ def test_cli_study_writes_the_study(tmp_path, monkeypatch, capsys) -> None:
 
 def _real_systems_available() -> bool:
     try:
-        from adas import SYSTEM_NAMES, get_system  # noqa: F401
+        from vfs.adas import SYSTEM_NAMES, get_system  # noqa: F401
     except ImportError:
         return False
     return True
 
 
-@pytest.mark.skipif(not _real_systems_available(), reason="adas.get_system not available yet")
+@pytest.mark.skipif(not _real_systems_available(), reason="vfs.adas.get_system not available yet")
 def test_real_adas_systems(tmp_path) -> None:
-    from adas import SYSTEM_NAMES
+    from vfs.adas import SYSTEM_NAMES
 
     names = [n for n in ("three-stage", "ideal") if n in SYSTEM_NAMES]
     result = run_study("default", names, tmp_path / "real", where="case_id <= 6",

@@ -1,4 +1,4 @@
-"""Monte-Carlo uncertainty (vfs.uncertainty, vfs uncertainty).
+"""Monte-Carlo uncertainty (vfs.uncertainty.core, vfs uncertainty).
 
 The coverage check is marked ``slow`` and scales with VFS_SLOW_SCALE; the
 others use small generated databases.
@@ -17,14 +17,14 @@ import pytest
 from conftest import slow_scale
 from scipy import stats
 
-from scenarios.generator import generate_database, write_generated
 from vfs.bench import BENCHMARKS
 from vfs.cli import main as vfs_main
 from vfs.errors import DataError, ParameterError
-from vfs.geometry import contact_geometry, vehicle_outline
-from vfs.impact import solve_impact
-from vfs.runout import RunoutParams, RunoutState, run_out_pair
-from vfs.uncertainty import (
+from vfs.physics.geometry import contact_geometry, vehicle_outline
+from vfs.physics.impact import solve_impact
+from vfs.physics.runout import RunoutParams, RunoutState, run_out_pair
+from vfs.scenarios.generator import generate_database, write_generated
+from vfs.uncertainty.core import (
     FACTOR,
     FAMILIES,
     INPUT_NAMES,

@@ -82,3 +82,7 @@ class DataError(VfsError, ValueError):
 
 class SimulationError(VfsError, RuntimeError):
     """A simulation could not be completed for a case (recorded per case in batch runs)."""
+
+
+class TargetExistsError(VfsError, FileExistsError):
+    """The output path exists and does not look like a folder vfs may replace."""

@@ -10,6 +10,7 @@ one tidy row per case.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -20,7 +21,7 @@ import pandas as pd
 from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
-from vfs.impact import (
+from vfs.physics.impact import (
     IMPACT_TYPE_NAMES,
     ImpactConfig,
     ImpactParams,
@@ -29,16 +30,22 @@ from vfs.impact import (
     solve_impact,
     with_outcome,
 )
-from vfs.paths import PathArrays, concat_paths, paths_from_trajectories
-from vfs.precrash import (
+from vfs.physics.paths import PathArrays, concat_paths, paths_from_trajectories
+from vfs.physics.precrash import (
     BrakeController,
     KinematicState,
     PrecrashParams,
     PrecrashResult,
     simulate_precrash,
 )
-from vfs.runout import PairRunoutResult, RunoutParams, RunoutResult, RunoutState, run_out_pair
-from vfs.vehicle import VehicleArrays
+from vfs.physics.runout import (
+    PairRunoutResult,
+    RunoutParams,
+    RunoutResult,
+    RunoutState,
+    run_out_pair,
+)
+from vfs.physics.vehicle import VehicleArrays
 
 
 @dataclass(frozen=True)
@@ -205,8 +212,25 @@ def _take_rows(state: KinematicState, rows: np.ndarray) -> KinematicState:
     return KinematicState(*(a[rows] for a in state))
 
 
-def _penetration_rule(batch: CaseBatch, effects: tuple[Effect, ...]):  # type: ignore[no-untyped-def]
-    """The penetration-time callback of :func:`simulate_precrash` from the effects' hooks."""
+PenetrationRule = Callable[[np.ndarray, KinematicState], np.ndarray]
+
+
+def penetration_rule(batch: CaseBatch, effects: tuple[Effect, ...]) -> PenetrationRule | None:
+    """The penetration-time callback of :func:`simulate_precrash` from the effects' hooks.
+
+    Parameters
+    ----------
+    batch : CaseBatch
+        The cases (after the ``vehicles`` hooks).
+    effects : tuple of Effect
+        Effects whose ``penetration`` hooks give the penetration time [s].
+
+    Returns
+    -------
+    callable or None
+        ``rule(rows, state) -> t`` [s] (NaN: the default), or None when no
+        effect has a ``penetration`` hook.
+    """
     stage = hooks(effects, "penetration")
     if not stage:
         return None
@@ -222,11 +246,79 @@ def _penetration_rule(batch: CaseBatch, effects: tuple[Effect, ...]):  # type: i
     return rule
 
 
-def _impact_stages(batch: CaseBatch, pre: PrecrashResult, hit: np.ndarray, eps: np.ndarray,
-                   mu: np.ndarray, params: SimulationParams
-                   ) -> tuple[ImpactConfig, ImpactResult, np.ndarray, np.ndarray]:
-    """Impact configuration, solution and run-out inputs of the colliding rows ``hit``,
-    with every effect hook applied at its stage."""
+class ImpactInputs(NamedTuple):
+    """What the impact stage reads of a pre-crash run (a :class:`PrecrashResult` is one).
+
+    Attributes
+    ----------
+    impact_state : KinematicState
+        State of both vehicles at the impact (N, 2) [m, rad, m/s, rad/s].
+    poi : ndarray (N, 2)
+        Geometric point of impact [m].
+    cp_angle : ndarray (N,)
+        Contact-plane tangent [rad].
+    contact_time, impact_time : ndarray (N,)
+        First contact and impact [s].
+    """
+
+    impact_state: KinematicState
+    poi: np.ndarray
+    cp_angle: np.ndarray
+    contact_time: np.ndarray
+    impact_time: np.ndarray
+
+
+def impact_parameters(batch: CaseBatch, params: ImpactParams) -> tuple[np.ndarray, np.ndarray]:
+    """Restitution and contact friction per case: the batch's values, NaN -> ``params``.
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    params : ImpactParams
+        Defaults for the cases without their own values.
+
+    Returns
+    -------
+    restitution, contact_friction : ndarray (N,)
+        [-]
+    """
+    eps = np.where(np.isnan(batch.restitution), params.restitution, batch.restitution)
+    mu = np.where(np.isnan(batch.contact_friction), params.contact_friction,
+                  batch.contact_friction)
+    return eps, mu
+
+
+def impact_stage(batch: CaseBatch, pre: ImpactInputs | PrecrashResult, hit: np.ndarray,
+                 eps: np.ndarray, mu: np.ndarray, params: SimulationParams
+                 ) -> tuple[ImpactConfig, ImpactResult, np.ndarray, np.ndarray]:
+    """Impact configuration, solution and run-out inputs of the colliding rows ``hit``.
+
+    Every effect hook of ``params.effects`` acts at its stage: impact
+    configuration and parameters, contact-phase impulses, the EES energy
+    split and the post-impact wheel brakes.
+
+    Parameters
+    ----------
+    batch : CaseBatch
+        All N cases.
+    pre : ImpactInputs or PrecrashResult
+        Impact state, geometric POI / contact plane and times of the N cases.
+    hit : ndarray of int (M,)
+        Rows that collide.
+    eps, mu : ndarray (N,)
+        Restitution and contact friction before effects [-]
+        (:func:`impact_parameters`).
+    params : SimulationParams
+
+    Returns
+    -------
+    config : ImpactConfig
+        The M impact configurations as solved (after effects).
+    result : ImpactResult
+        Their solution (with the contact-phase impulses and energy split).
+    wheel_brake1, wheel_brake2 : ndarray (M, 4)
+        Brake factors of the wheels FL, FR, RL, RR in the run-out.
+    """
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
     v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
@@ -299,17 +391,15 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         batch = hook(batch)
     pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                             controller=controller, params=params.precrash, rng=rng,
-                            penetration=_penetration_rule(batch, params.effects))
-    eps = np.where(np.isnan(batch.restitution), params.impact.restitution, batch.restitution)
-    mu = np.where(np.isnan(batch.contact_friction), params.impact.contact_friction,
-                  batch.contact_friction)
+                            penetration=penetration_rule(batch, params.effects))
+    eps, mu = impact_parameters(batch, params.impact)
     hit = np.flatnonzero(pre.collided)
     poi = np.full((n, 2), np.nan)
     cp = np.full(n, np.nan)
     brakes = np.full((n, 2, 4), np.nan)
     st = pre.impact_state
     if hit.size:
-        config, part, b1, b2 = _impact_stages(batch, pre, hit, eps, mu, params)
+        config, part, b1, b2 = impact_stage(batch, pre, hit, eps, mu, params)
         eps, mu = eps.copy(), mu.copy()
         eps[hit], mu[hit] = config.restitution, config.contact_friction
         poi[hit, 0], poi[hit, 1], cp[hit] = config.poi_x, config.poi_y, config.cp_angle

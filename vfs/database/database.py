@@ -17,7 +17,7 @@ import pandas as pd
 
 from vfs.database.schema import SCHEMA_VERSION, TABLE_NAMES, normalise_table
 from vfs.errors import DataError, DataProblem
-from vfs.vehicle import DEFAULT_YAW_INERTIA_FORMULA, VehicleArrays, vehicle_arrays
+from vfs.physics.vehicle import DEFAULT_YAW_INERTIA_FORMULA, VehicleArrays, vehicle_arrays
 
 
 def default_meta(name: str = "", created_by: str = "", description: str = "") -> dict[str, object]:
@@ -59,7 +59,7 @@ class Database:
         ``collision``, ``description``).
     participants : pandas.DataFrame
         One row per vehicle (``case_id``, ``participant`` in {1, 2} and the
-        :class:`vfs.vehicle.VehicleParams` fields in SI units).
+        :class:`vfs.physics.vehicle.VehicleParams` fields in SI units).
     trajectories : pandas.DataFrame
         Pre-crash samples (``case_id``, ``participant``, ``t`` [s], ``x``,
         ``y`` [m], ``yaw`` [rad], ``speed`` [m/s], ``accel`` [m/s^2]).
@@ -112,7 +112,7 @@ class Database:
         Parameters
         ----------
         yaw_inertia_formula : str
-            Formula (key of :data:`vfs.vehicle.YAW_INERTIA_FORMULAS`) used where
+            Formula (key of :data:`vfs.physics.vehicle.YAW_INERTIA_FORMULAS`) used where
             ``yaw_inertia`` is NaN (unknown).
 
         Returns

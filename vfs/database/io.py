@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import uuid
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -22,18 +20,15 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from vfs.atomic import write_folder
 from vfs.database.database import Database
 from vfs.database.schema import SCHEMA_VERSION, TABLE_NAMES, TABLES, empty_table
 from vfs.database.validation import validate_database
-from vfs.errors import DataError, DataProblem, VfsError
+from vfs.errors import DataError, DataProblem
 
 META_FILE = "meta.json"
 #: Text read as missing in the numeric columns of CSV files.
 CSV_NA_VALUES: tuple[str, ...] = ("", "NaN", "nan", "NA", "N/A", "null", "NULL")
-
-
-class TargetExistsError(VfsError, FileExistsError):
-    """The output path exists and does not look like a folder this function may replace."""
 
 
 # ----------------------------------------------------------------------------
@@ -84,68 +79,25 @@ def _json_default(value: object) -> object:
 
 
 # ----------------------------------------------------------------------------
-# Atomic folder writes
+# Writing
 # ----------------------------------------------------------------------------
 
 
 def write_folder_atomically(
     path: str | os.PathLike[str], writer: Callable[[Path], None], markers: Iterable[str],
 ) -> Path:
-    """Write a folder through a temporary sibling folder, then swap it into place.
+    """:func:`vfs.atomic.write_folder` for database folders."""
+    return write_folder(path, writer, markers, kind="database")
 
-    Parameters
-    ----------
-    path : path
-        Target folder.  If it exists it must be empty or contain one of
-        ``markers`` (i.e. be a folder of the same kind), else nothing is
-        written.
-    writer : callable
-        ``writer(tmp_folder)`` writes all files into the (empty) temporary folder.
-    markers : iterable of str
-        File names that identify a folder this function may replace.
 
-    Returns
-    -------
-    Path
-        The target folder.
+def check_before_write(db: Database, validate: bool) -> Database:
+    """The normalised database to write; with ``validate``, refuse an invalid one.
 
     Raises
     ------
-    TargetExistsError
-        If ``path`` is a file or a non-empty folder of another kind.
+    DataError
+        Listing every problem when ``validate`` is True and the database is invalid.
     """
-    target = Path(path)
-    if target.exists():
-        if not target.is_dir():
-            raise TargetExistsError(f"{target} exists and is not a folder")
-        if any(target.iterdir()) and not any((target / m).exists() for m in markers):
-            raise TargetExistsError(
-                f"{target} is a non-empty folder that does not look like a database; "
-                "refusing to replace it"
-            )
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = target.parent / f".{target.name}.tmp-{uuid.uuid4().hex}"
-    tmp.mkdir()
-    try:
-        writer(tmp)
-        if target.exists():
-            old = target.parent / f".{target.name}.old-{uuid.uuid4().hex}"
-            os.replace(target, old)
-            try:
-                os.replace(tmp, target)
-            except BaseException:
-                os.replace(old, target)
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return target
-
-
-def _check_before_write(db: Database, validate: bool) -> Database:
     if validate:
         problems = validate_database(db)
         if problems:
@@ -177,7 +129,7 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
     Path
         The database folder.
     """
-    norm = _check_before_write(db, validate)
+    norm = check_before_write(db, validate)
 
     def write(folder: Path) -> None:
         for name, df in norm.tables().items():
@@ -366,7 +318,7 @@ def save_csv_folder(db: Database, path: str | os.PathLike[str], *, validate: boo
     Path
         The folder.
     """
-    norm = _check_before_write(db, validate)
+    norm = check_before_write(db, validate)
 
     def write(folder: Path) -> None:
         for name, df in norm.tables().items():
@@ -436,64 +388,3 @@ def load_csv_folder(path: str | os.PathLike[str], *, validate: bool = True) -> D
             problems.append(DataProblem(name, "", None, None, f"cannot read {file}: {exc}"))
             frames[name] = empty_table(name)
     return _finish_loading(frames, meta, problems, validate)
-
-
-# ----------------------------------------------------------------------------
-# Format detection
-# ----------------------------------------------------------------------------
-
-FORMATS: tuple[str, ...] = ("parquet", "csv", "pcm")
-
-
-def detect_format(path: str | os.PathLike[str]) -> str:
-    """Format of a database folder: ``"parquet"``, ``"csv"`` or ``"pcm"``.
-
-    Raises
-    ------
-    DataError
-        If the folder holds none of them.
-    """
-    folder = Path(path)
-    names = {p.name.lower() for p in folder.iterdir()} if folder.is_dir() else set()
-    if "cases.parquet" in names:
-        return "parquet"
-    if "cases.csv" in names:
-        return "csv"
-    if "participant_data.csv" in names:
-        return "pcm"
-    raise DataError(DataProblem(
-        "meta", "", None, None,
-        f"{folder} is not a database folder (no cases.parquet, cases.csv or "
-        "participant_data.csv)",
-    ))
-
-
-def load_any(
-    path: str | os.PathLike[str], *, fmt: str | None = None, validate: bool = True
-) -> Database:
-    """Load a database in any supported format (detected when ``fmt`` is None).
-
-    Parameters
-    ----------
-    path : path
-        Folder.
-    fmt : {"parquet", "csv", "pcm"}, optional
-        Format; default :func:`detect_format`.
-    validate : bool
-        Validate and raise :class:`DataError` listing every problem.
-
-    Returns
-    -------
-    Database
-    """
-    from vfs.database.pcm import import_pcm  # pcm imports this module
-
-    fmt = detect_format(path) if fmt is None else fmt
-    if fmt == "parquet":
-        return load_database(path, validate=validate)
-    if fmt == "csv":
-        return load_csv_folder(path, validate=validate)
-    if fmt == "pcm":
-        return import_pcm(path, validate=validate)
-    raise DataError(DataProblem("meta", "", None, None,
-                                f"unknown format {fmt!r} (known: {', '.join(FORMATS)})"))

@@ -35,11 +35,11 @@ import numpy as np
 import pandas as pd
 
 from vfs.database.database import Database, default_meta, python_scalar
-from vfs.database.io import _check_before_write, write_folder_atomically
+from vfs.database.io import check_before_write, write_folder_atomically
 from vfs.database.schema import TABLE_NAMES, empty_table, normalise_table
 from vfs.database.validation import check_values, validate_database
 from vfs.errors import DataError, DataProblem, ParameterError
-from vfs.vehicle import VehicleParams
+from vfs.physics.vehicle import VehicleParams
 
 PARTICIPANT_DATA = "participant_data"
 DYNAMICS = "dynamics"
@@ -161,7 +161,7 @@ PCM_COLUMNS: tuple[PcmColumn, ...] = (
     PcmColumn(PARTICIPANT_DATA, "WHEELBASE", "m", "participants.wheelbase", "wheelbase"),
     PcmColumn(PARTICIPANT_DATA, "IZZ", "kg m^2", "participants.yaw_inertia",
               "yaw moment of inertia; values <= 0 count as unknown",
-              "NaN (vfs.vehicle default formula)"),
+              "NaN (vfs.physics.vehicle default formula)"),
     PcmColumn(PARTICIPANT_DATA, "MUE", "-", "cases.road_friction",
               "tyre-road friction of the participant; the case value is the mean of "
               "its two participants; export writes the case value for both",
@@ -413,7 +413,7 @@ def import_pcm(
         n = int(participants["yaw_inertia"].isna().sum())
         log.used["participants.yaw_inertia"] = (
             f"{n} of {len(participants)} rows: IZZ missing or <= 0 -> NaN (default formula "
-            "of vfs.vehicle)")
+            "of vfs.physics.vehicle)")
     overhang_default = d.front_overhang_share * (length - wheelbase)
     missing_overhang = participants["front_overhang"].isna()
     if missing_overhang.any():
@@ -532,7 +532,7 @@ def export_pcm(
     Path
         The folder.
     """
-    norm = _check_before_write(db, validate)
+    norm = check_before_write(db, validate)
     parts = norm.participants.merge(norm.cases[["case_id", "road_friction"]], on="case_id",
                                     how="left")
     codes = {name: code for code, name in PCM_VEHICLE_TYPES.items()}

@@ -9,7 +9,7 @@ from :data:`TABLES`; nothing else lists columns, units or ranges.
 Units are SI (m, s, kg, rad, m/s) except where a column says otherwise (the
 PDOF and velocity-angle-change columns are in degrees, as in accident
 databases).  The vehicle-parameter ranges are those of
-:data:`vfs.vehicle.PARAMETER_RANGES`.
+:data:`vfs.physics.vehicle.PARAMETER_RANGES`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from vfs.vehicle import PARAMETER_RANGES
+from vfs.physics.vehicle import PARAMETER_RANGES
 
 #: The schema version written to and expected in ``meta.json``.
 SCHEMA_VERSION = "1.0"
@@ -195,7 +195,7 @@ class TableSpec:
 
 
 def _vehicle_column(name: str, unit: str, description: str, nullable: bool = False) -> ColumnSpec:
-    lo, hi = PARAMETER_RANGES[name]  # one place for the vehicle ranges: vfs.vehicle
+    lo, hi = PARAMETER_RANGES[name]  # one place for the vehicle ranges: vfs.physics.vehicle
     return ColumnSpec(name, "float", unit, description, nullable=nullable, lo=lo, hi=hi)
 
 
@@ -243,7 +243,7 @@ PARTICIPANTS = TableSpec(
         _vehicle_column("mass", "kg", "mass"),
         _vehicle_column("yaw_inertia", "kg m^2",
                         "yaw moment of inertia about the CG; NaN = unknown (the default "
-                        "formula of vfs.vehicle is used)", nullable=True),
+                        "formula of vfs.physics.vehicle is used)", nullable=True),
         _vehicle_column("length", "m", "overall length of the outline rectangle"),
         _vehicle_column("width", "m", "overall width of the outline rectangle"),
         _vehicle_column("wheelbase", "m", "distance between front and rear axle"),

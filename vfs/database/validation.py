@@ -7,7 +7,7 @@ allowed range.  All column checks are generated from
 participants 1 and 2, trajectories per participant, time axis, collision vs
 reconstruction) are written out below.  Checks are vectorised with pandas;
 the only per-row loop runs over the participants table (two rows per case) to
-reuse :func:`vfs.vehicle.validate_vehicle_values` for the layout.
+reuse :func:`vfs.physics.vehicle.validate_vehicle_values` for the layout.
 
 To keep the report readable and fast on large tables, at most
 :data:`MAX_REPORTED_ROWS` rows are listed per check; one more problem then
@@ -34,7 +34,7 @@ from vfs.database.schema import (
     TableSpec,
 )
 from vfs.errors import DataProblem
-from vfs.vehicle import PARAMETER_RANGES, validate_vehicle_values
+from vfs.physics.vehicle import PARAMETER_RANGES, validate_vehicle_values
 
 #: Largest number of rows reported per check (a summary problem counts the rest).
 MAX_REPORTED_ROWS = 20
@@ -251,7 +251,10 @@ def _check_participants(report: _Report, db: Database) -> None:
 
 
 def _check_vehicle_layout(report: _Report, df: pd.DataFrame) -> None:
-    """Layout consistency by :func:`vfs.vehicle.validate_vehicle_values` (rows in range only)."""
+    """Layout consistency by :func:`vfs.physics.vehicle.validate_vehicle_values`.
+
+    Only rows whose values are in range are checked.
+    """
     fields = list(PARAMETER_RANGES)
     if not _has(df, *fields) or df.empty:
         return
@@ -402,7 +405,7 @@ def validate_database(db: Database) -> list[DataProblem]:
     keys (``case_id``, ``(case_id, participant)``); orphaned rows (``case_id``
     not in ``cases``); every case has participants 1 and 2; every participant
     has a trajectory of at least 2 samples with strictly increasing time and
-    spacing <= 0.1 s; vehicle layout (:func:`vfs.vehicle.validate_vehicle_values`);
+    spacing <= 0.1 s; vehicle layout (:func:`vfs.physics.vehicle.validate_vehicle_values`);
     ``collision=True`` cases have a reconstruction row and ``collision=False``
     cases none (skipped when ``meta["has_reconstruction"]`` is false).
 

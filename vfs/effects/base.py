@@ -44,13 +44,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from importlib import metadata
 from types import MappingProxyType
 from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 
 from vfs.errors import ParameterError
+from vfs.registry import Registry
 
 #: Simulation stages an effect can hook into, in the order they run.
 STAGES: tuple[str, ...] = (
@@ -265,13 +265,32 @@ class Effect:
 # Registry
 # ----------------------------------------------------------------------------
 
-_REGISTRY: dict[str, type[Effect]] = {}
-_ENTRY_POINTS_LOADED = False
+def _check_effect_class(name: str, cls: type[Effect]) -> None:
+    if not (isinstance(cls, type) and issubclass(cls, Effect)):
+        raise ParameterError(f"{cls!r} is not an Effect subclass")
+    if not cls.name or not cls.name.replace("_", "").isalnum():
+        raise ParameterError(f"effect class {cls.__name__} needs a name of letters, digits, _")
+    if name != cls.name:
+        raise ParameterError(f"effect class {cls.__name__} is named {cls.name!r}, not {name!r}")
+    if not cls.stages():
+        raise ParameterError(f"effect {cls.name} overrides no stage hook of {STAGES}")
+
+
+def _same_effect_class(old: type[Effect], new: type[Effect]) -> bool:
+    # the same class, or the same class of a reloaded module
+    return old is new or (old.__module__, old.__qualname__) == (new.__module__,
+                                                                new.__qualname__)
+
+
+#: Effect classes by name: built-in, decorated with :func:`register_effect`, and those of
+#: the ``vfs.effects`` entry-point group (loaded when the registry is first read).
+EFFECTS: Registry[type[Effect]] = Registry("effect", entry_point_group=ENTRY_POINT_GROUP,
+                                           check=_check_effect_class, same=_same_effect_class)
 E = TypeVar("E", bound=type[Effect])
 
 
 def register_effect(cls: E) -> E:
-    """Class decorator: add an :class:`Effect` subclass to the registry.
+    """Class decorator: add an :class:`Effect` subclass to :data:`EFFECTS`.
 
     Raises
     ------
@@ -281,45 +300,18 @@ def register_effect(cls: E) -> E:
     """
     if not (isinstance(cls, type) and issubclass(cls, Effect)):
         raise ParameterError(f"{cls!r} is not an Effect subclass")
-    if not cls.name or not cls.name.replace("_", "").isalnum():
-        raise ParameterError(f"effect class {cls.__name__} needs a name of letters, digits, _")
-    if not cls.stages():
-        raise ParameterError(f"effect {cls.name} overrides no stage hook of {STAGES}")
-    old = _REGISTRY.get(cls.name)
-    if old is not None and old is not cls and (old.__module__, old.__qualname__) != (
-            cls.__module__, cls.__qualname__):
-        raise ParameterError(
-            f"effect name {cls.name!r} is already registered by "
-            f"{old.__module__}.{old.__qualname__}")
-    _REGISTRY[cls.name] = cls
+    EFFECTS.add(cls.name, cls)
     return cls
 
 
 def unregister_effect(name: str) -> None:
     """Remove an effect from the registry (for tests and interactive use)."""
-    _REGISTRY.pop(name, None)
-
-
-def _load_entry_points() -> None:
-    global _ENTRY_POINTS_LOADED
-    if _ENTRY_POINTS_LOADED:
-        return
-    _ENTRY_POINTS_LOADED = True
-    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
-        if ep.name in _REGISTRY:
-            continue
-        try:
-            cls = ep.load()
-        except Exception as exc:  # a broken third-party plugin must not break vfs
-            raise ParameterError(
-                f"effect entry point {ep.name!r} ({ep.value}) failed to load: {exc}") from exc
-        register_effect(cls)
+    EFFECTS.remove(name)
 
 
 def registered_effects() -> dict[str, type[Effect]]:
     """All registered effect classes by name (built-in, decorated, entry points)."""
-    _load_entry_points()
-    return dict(_REGISTRY)
+    return dict(EFFECTS)
 
 
 def get_effect(name: str) -> type[Effect]:
@@ -330,10 +322,7 @@ def get_effect(name: str) -> type[Effect]:
     ParameterError
         Naming the known effects if ``name`` is unknown.
     """
-    effects = registered_effects()
-    if name not in effects:
-        raise ParameterError(f"unknown effect {name!r}; known: {', '.join(sorted(effects))}")
-    return effects[name]
+    return EFFECTS.get(name)
 
 
 def parse_effect(spec: str) -> Effect:

@@ -12,7 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
-from vfs.geometry import (
+from vfs.physics.geometry import (
     Overlap,
     contact_faces,
     overlap,
@@ -20,8 +20,8 @@ from vfs.geometry import (
     to_vehicle_frame,
     vehicle_outline,
 )
-from vfs.precrash import KinematicState
-from vfs.vehicle import VehicleArrays
+from vfs.physics.precrash import KinematicState
+from vfs.physics.vehicle import VehicleArrays
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,7 +63,7 @@ class _PairContext:
     @cached_property
     def swept_overlap(self) -> np.ndarray:
         """Overlap ratio along the relative velocity (n,) [-]
-        (:func:`vfs.geometry.swept_overlap`)."""
+        (:func:`vfs.physics.geometry.swept_overlap`)."""
         return swept_overlap(self.outline1, self.outline2, self.relative_velocity)
 
 
@@ -109,7 +109,7 @@ class ImpactContext(_PairContext):
     @cached_property
     def faces(self) -> np.ndarray:
         """Face of each outline nearest the overlap centroid (n, 2), codes of
-        :func:`vfs.geometry.contact_faces` (front, rear, left, right)."""
+        :func:`vfs.physics.geometry.contact_faces` (front, rear, left, right)."""
         s = self.state
         c = self.overlap.centroid
         f1 = contact_faces(c, self.vehicle1, s.x[:, 0], s.y[:, 0], s.yaw[:, 0])

@@ -15,15 +15,15 @@ import numpy as np
 
 from vfs.effects.base import Effect, EffectParameter, VelocityChange, register_effect
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.geometry import FACE_FRONT, FACE_LEFT, FACE_REAR, FACE_RIGHT, to_vehicle_frame
-from vfs.impact import (
+from vfs.physics.geometry import FACE_FRONT, FACE_LEFT, FACE_REAR, FACE_RIGHT, to_vehicle_frame
+from vfs.physics.impact import (
     ImpactConfig,
     ImpactResult,
     contact_frame,
     poi_relative_velocity,
 )
+from vfs.physics.vehicle import VehicleArrays
 from vfs.units import G
-from vfs.vehicle import VehicleArrays
 
 #: Closing speed [m/s] below which the restitution law is held constant.
 _MIN_CLOSING_SPEED = 2.0
@@ -141,7 +141,7 @@ class PenetrationDepth(Effect):
     Instead of a fixed time (30 ms, seed 001) the outlines penetrate to a
     depth d = d_0 (v_c / 20 m/s)^a (1 + c (1 - overlap)), i.e. for the time
     d / v_c, clipped to [5, 150] ms; v_c = |v1 - v2| at first contact,
-    overlap = :func:`vfs.geometry.swept_overlap` at first contact.  Seed 001
+    overlap = :func:`vfs.physics.geometry.swept_overlap` at first contact.  Seed 001
     (outlook): "it would be necessary to find a correlation between the
     closing speed, the overlap and the penetration depth".  With d_0 = 0.6 m,
     a = 1, c = 0 it is the fixed 30 ms.

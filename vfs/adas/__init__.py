@@ -1,0 +1,43 @@
+"""Generic driver-assistance systems for the virtual forward simulation.
+
+Autonomous emergency braking (AEB) controllers implementing
+:class:`vfs.physics.precrash.BrakeController`, their sensors, threat assessment and
+driver reaction, and a registry of named systems::
+
+    from vfs.adas import get_system
+    from vfs.simulation import SimulationParams, simulate_cases
+    system = get_system("three-stage")
+    controller = system.controller(batch, equipped=[True, False])
+    params = SimulationParams(precrash=system.precrash_params(PrecrashParams()))
+    results = simulate_cases(batch, controller, params, rng=np.random.default_rng(1))
+    events = controller.events()
+
+See docs/aeb.md for the models, formulas and sources.
+"""
+
+from vfs.adas.controller import EVENT_KEYS, STAGES, AEBController, actuator_delay
+from vfs.adas.params import AEBParams, DriverParams, SensorParams
+from vfs.adas.systems import (
+    SYSTEM_NAMES,
+    SYSTEMS,
+    AEBSystem,
+    get_system,
+    register_system,
+    system_names,
+)
+
+__all__ = [
+    "EVENT_KEYS",
+    "STAGES",
+    "SYSTEMS",
+    "SYSTEM_NAMES",
+    "AEBController",
+    "AEBParams",
+    "AEBSystem",
+    "DriverParams",
+    "SensorParams",
+    "actuator_delay",
+    "get_system",
+    "register_system",
+    "system_names",
+]

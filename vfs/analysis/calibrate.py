@@ -1,0 +1,1178 @@
+"""Calibrate effect parameters against the reconstructions, with cross-validation.
+
+The building blocks of ``vfs diagnose`` and ``vfs calibrate``:
+
+* **Outputs** (:data:`OUTPUT_GROUPS`): the reconstruction outcomes compared
+  with the model (delta-v, EES, energy loss, post-impact speed, change of
+  velocity angle, PDOF, rest position and yaw, run-out distance, impact
+  type), their residuals ``model - reconstruction`` and one scale per output
+  (the RMS of the recorded ``<column>_sd`` where the database has them,
+  else the standard deviation of the recorded values) so that outputs of
+  different units are never mixed: every error is an RMSE of *standardised*
+  residuals.
+* **Many model variants in one simulation** (:class:`VariantSimulator`):
+  the cases are stacked once per variant and one effect dispatches every
+  hook to the variant a row belongs to, so that a grid of parameter values
+  costs one vectorised :func:`vfs.simulation.simulate_cases` call;
+  results are cached by parameter vector.
+* **Fitting** (:func:`fit_folds`): bounded coordinate search per parameter: a
+  coarse grid over the bounds evaluated on *all* cases once (folds only
+  change which cases enter the objective), zoom rounds halving the spacing
+  around each fold's optimum, and a parabolic polish; all folds are fitted
+  in the same simulation calls.
+* **Cross-validation** (:func:`cross_validate`): k-fold by case (seeded), each
+  fold's parameters fitted on the other folds, the held-out residuals scored.
+* **Calibration** (:func:`calibrate`) on all cases and the model
+  configuration file (:func:`write_model_config`, :func:`read_model_config`)
+  that ``vfs compare --model`` reads.
+
+All quantities are SI inside (angles of the reconstruction table in its
+units: PDOF and change of velocity angle in degrees, yaw in rad).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Callable, Generator, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.effects import STAGES, Effect, VelocityChange, effects_from_dicts, get_effect, hooks
+from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
+
+# ----------------------------------------------------------------------------
+# Outputs
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class OutputGroup:
+    """One compared output (a group of reconstruction columns).
+
+    Attributes
+    ----------
+    name : str
+        Output name (the vocabulary of :attr:`vfs.effects.Effect.outputs`).
+    columns : tuple of str
+        Names of its residual columns (one per vehicle or coordinate).
+    unit : str
+        Unit of the residuals (SI or the reconstruction's degrees).
+    kind : {"linear", "angle_deg", "angle_rad", "indicator"}
+        How a residual is formed (angles wrapped to +-180 deg / +-pi).
+    sd_columns : tuple of str
+        Reconstruction ``_sd`` columns whose RMS gives the scale.
+    report_unit : str
+        Unit shown in reports.
+    report_factor : float
+        Residual [unit] x factor = residual [report_unit].
+    description : str
+    """
+
+    name: str
+    columns: tuple[str, ...]
+    unit: str
+    kind: str
+    sd_columns: tuple[str, ...]
+    report_unit: str
+    report_factor: float
+    description: str
+
+
+def _g(name: str, columns: Sequence[str], unit: str, kind: str, sd: Sequence[str],
+       report_unit: str, factor: float, description: str) -> OutputGroup:
+    return OutputGroup(name, tuple(columns), unit, kind, tuple(sd), report_unit, factor,
+                       description)
+
+
+#: The outputs the diagnosis can compare, by name (docs/diagnosis.md).
+OUTPUT_GROUPS: dict[str, OutputGroup] = {g.name: g for g in (
+    _g("delta_v", ["delta_v1", "delta_v2"], "m/s", "linear", ["delta_v1_sd", "delta_v2_sd"],
+       "km/h", 3.6, "magnitude of the CG velocity change"),
+    _g("ees", ["ees1", "ees2"], "m/s", "linear", ["ees1_sd", "ees2_sd"], "km/h", 3.6,
+       "energy equivalent speed"),
+    _g("energy_loss", ["energy_loss"], "J", "linear", ["energy_loss_sd"], "kJ", 1e-3,
+       "kinetic energy lost in the impact"),
+    _g("post_speed", ["post_speed1", "post_speed2"], "m/s", "linear",
+       ["vx1_post_sd", "vy1_post_sd", "vx2_post_sd", "vy2_post_sd"], "km/h", 3.6,
+       "CG speed right after the impact"),
+    _g("velocity_angle_change", ["velocity_angle_change1", "velocity_angle_change2"], "deg",
+       "linear", ["velocity_angle_change1_sd", "velocity_angle_change2_sd"], "deg", 1.0,
+       "angle between the CG velocities before and after the impact"),
+    _g("pdof", ["pdof1", "pdof2"], "deg", "angle_deg", ["pdof1_sd", "pdof2_sd"], "deg", 1.0,
+       "principal direction of force"),
+    _g("rest_position", ["rest_x1", "rest_y1", "rest_x2", "rest_y2"], "m", "linear",
+       ["rest_x1_sd", "rest_y1_sd", "rest_x2_sd", "rest_y2_sd"], "m", 1.0,
+       "CG position at rest (x and y of both vehicles)"),
+    _g("rest_yaw", ["rest_yaw1", "rest_yaw2"], "rad", "angle_rad",
+       ["rest_yaw1_sd", "rest_yaw2_sd"], "deg", 180.0 / math.pi, "yaw angle at rest"),
+    _g("runout_distance", ["runout_distance1", "runout_distance2"], "m", "linear",
+       ["rest_x1_sd", "rest_y1_sd", "rest_x2_sd", "rest_y2_sd"], "m", 1.0,
+       "straight-line distance from the impact position to the rest position"),
+    _g("impact_type", ["sliding"], "-", "indicator", [], "-", 1.0,
+       "impact type (1 = sliding, 0 = full); residual in {-1, 0, 1}"),
+)}
+
+
+def _outcome_values(df: pd.DataFrame, source: str) -> dict[str, np.ndarray]:
+    """Output columns from a reconstruction table (``source="reconstruction"``) or a
+    :func:`vfs.simulation.results_table` (``"model"``), in the reconstruction's units."""
+    out: dict[str, np.ndarray] = {}
+
+    def col(name: str) -> np.ndarray:
+        if name in df.columns:
+            return pd.to_numeric(df[name], errors="coerce").to_numpy(float)
+        return np.full(len(df), np.nan)
+
+    model = source == "model"
+    for i in (1, 2):
+        out[f"delta_v{i}"] = col(f"delta_v{i}")
+        out[f"ees{i}"] = col(f"ees{i}")
+        out[f"post_speed{i}"] = np.hypot(col(f"vx{i}_post"), col(f"vy{i}_post"))
+        vac = col(f"velocity_angle_change{i}")
+        pdof = col(f"pdof{i}")
+        out[f"velocity_angle_change{i}"] = np.degrees(vac) if model else vac
+        out[f"pdof{i}"] = np.degrees(pdof) if model else pdof
+        for c in ("rest_x", "rest_y", "rest_yaw"):
+            out[f"{c}{i}"] = col(f"{c}{i}")
+        out[f"runout_distance{i}"] = np.hypot(col(f"rest_x{i}") - col(f"x{i}"),
+                                              col(f"rest_y{i}") - col(f"y{i}"))
+    out["energy_loss"] = col("energy_loss")
+    if "impact_type" in df.columns:
+        kind = df["impact_type"].astype(str).to_numpy()
+        out["sliding"] = np.where(kind == "sliding", 1.0,
+                                  np.where(kind == "full", 0.0, np.nan))
+    else:
+        out["sliding"] = np.full(len(df), np.nan)
+    return out
+
+
+def _residual(kind: str, model: np.ndarray, rec: np.ndarray) -> np.ndarray:
+    d = model - rec
+    if kind == "angle_deg":
+        return (d + 180.0) % 360.0 - 180.0
+    if kind == "angle_rad":
+        return (d + math.pi) % (2.0 * math.pi) - math.pi
+    return d
+
+
+def parse_outputs(spec: str | Iterable[str] | None) -> tuple[str, ...] | None:
+    """Output names from ``"delta_v,ees"`` or a list; None = all available."""
+    if spec is None:
+        return None
+    names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec)]
+    names = [s for s in names if s and s != "all"]
+    if not names:
+        return None
+    unknown = [s for s in names if s not in OUTPUT_GROUPS]
+    if unknown:
+        raise ParameterError(f"unknown output(s) {unknown}; known: {', '.join(OUTPUT_GROUPS)}")
+    return tuple(dict.fromkeys(names))
+
+
+# ----------------------------------------------------------------------------
+# Data
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationData:
+    """The colliding cases of a database with their reconstruction, ready to compare.
+
+    Build with :meth:`from_database`.  Ground-truth files of synthetic
+    databases are never read.
+
+    Attributes
+    ----------
+    db : Database
+    case_ids : ndarray (n,)
+        Cases with a reconstruction (database order).
+    batch : CaseBatch
+        Their simulation batch (restitution and contact friction of the
+        reconstruction).
+    reconstruction : pandas.DataFrame
+        Reconstruction rows aligned with ``case_ids``.
+    groups : tuple of OutputGroup
+        Compared outputs.
+    columns : tuple of str
+        Residual columns of all groups, in group order.
+    column_group : ndarray of int
+        Group index of each column.
+    observed : ndarray (n, n_columns)
+        Recorded values.
+    scales : ndarray (n_groups,)
+        Scale of each group [its unit].
+    scale_source : tuple of str
+        ``"sd"`` or ``"spread"`` per group.
+    """
+
+    db: Any
+    case_ids: np.ndarray
+    batch: CaseBatch
+    reconstruction: pd.DataFrame
+    groups: tuple[OutputGroup, ...]
+    columns: tuple[str, ...]
+    column_group: np.ndarray
+    observed: np.ndarray
+    scales: np.ndarray
+    scale_source: tuple[str, ...]
+
+    @property
+    def n(self) -> int:
+        """Number of cases."""
+        return int(self.case_ids.shape[0])
+
+    @property
+    def group_names(self) -> tuple[str, ...]:
+        """Names of the compared outputs."""
+        return tuple(g.name for g in self.groups)
+
+    @classmethod
+    def from_database(cls, db: Any, outputs: Iterable[str] | str | None = None,
+                      case_ids: Iterable[Any] | None = None) -> CalibrationData:
+        """Prepare the cases of a database that have a reconstruction.
+
+        Parameters
+        ----------
+        db : Database
+        outputs : list of str or "a,b", optional
+            Output names of :data:`OUTPUT_GROUPS` (default: every output the
+            reconstruction table has values for).
+        case_ids : iterable, optional
+            Restrict to these cases.
+
+        Raises
+        ------
+        DataError
+            If the database has no reconstruction rows or a requested output
+            has no recorded values.
+        """
+        rec = db.reconstruction
+        if rec is None or rec.empty:
+            raise DataError(DataProblem("reconstruction", "", None, None,
+                                        "the database has no reconstruction rows to compare"))
+        rec = rec.drop_duplicates("case_id")
+        ids = np.asarray([c for c in db.case_ids if c in set(rec["case_id"])])
+        if case_ids is not None:
+            wanted = set(case_ids)
+            ids = np.asarray([c for c in ids if c in wanted])
+        if ids.size == 0:
+            raise DataError(DataProblem("reconstruction", "case_id", None, None,
+                                        "no case with a reconstruction selected"))
+        rec = rec.set_index("case_id").loc[ids].reset_index()
+        values = _outcome_values(rec, "reconstruction")
+        requested = parse_outputs(outputs)
+        names = requested or tuple(OUTPUT_GROUPS)
+        groups: list[OutputGroup] = []
+        for name in names:
+            g = OUTPUT_GROUPS[name]
+            have = np.isfinite(np.stack([values[c] for c in g.columns], axis=1)).any(axis=1)
+            if have.sum() >= 2:
+                groups.append(g)
+            elif requested:
+                raise DataError(DataProblem("reconstruction", g.columns[0], None, None,
+                                            f"output {name!r} has no recorded values"))
+        if not groups:
+            raise DataError(DataProblem("reconstruction", "", None, None,
+                                        "no output with recorded values"))
+        columns = tuple(c for g in groups for c in g.columns)
+        column_group = np.array([k for k, g in enumerate(groups) for _ in g.columns])
+        observed = np.stack([values[c] for c in columns], axis=1)
+        scales, sources = [], []
+        for k, g in enumerate(groups):
+            scale, src = _group_scale(g, rec, observed[:, column_group == k])
+            scales.append(scale)
+            sources.append(src)
+        batch = CaseBatch.from_database(db, ids)
+        return cls(db, ids, batch, rec, tuple(groups), columns, column_group, observed,
+                   np.asarray(scales, float), tuple(sources))
+
+    # ------------------------------------------------------------ residuals
+    def residuals(self, table: pd.DataFrame) -> np.ndarray:
+        """Residuals model - reconstruction (n, n_columns) from a results table of the
+        cases in :attr:`case_ids` order."""
+        values = _outcome_values(table, "model")
+        out = np.empty_like(self.observed)
+        for j, c in enumerate(self.columns):
+            kind = self.groups[self.column_group[j]].kind
+            out[:, j] = _residual(kind, values[c], self.observed[:, j])
+        return out
+
+    def case_errors(self, residuals: np.ndarray) -> np.ndarray:
+        """Per-case mean squared standardised residual of each output (n, n_groups);
+        NaN where an output has no value for a case."""
+        z2 = (residuals / self.scales[self.column_group]) ** 2
+        out = np.full((residuals.shape[0], len(self.groups)), np.nan)
+        for k in range(len(self.groups)):
+            block = z2[:, self.column_group == k]
+            ok = np.isfinite(block)
+            cnt = ok.sum(axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out[:, k] = np.where(cnt > 0, np.where(ok, block, 0.0).sum(axis=1) / cnt,
+                                     np.nan)
+        return out
+
+    def fingerprint(self) -> str:
+        """Short hash of the compared cases, outputs and scales (ledger comparability)."""
+        import hashlib
+
+        h = hashlib.sha256()
+        h.update(np.asarray(self.case_ids).astype(str).tobytes())
+        h.update(np.nan_to_num(self.observed).round(9).tobytes())
+        h.update(",".join(self.columns).encode())
+        h.update(self.scales.round(12).tobytes())
+        return h.hexdigest()[:16]
+
+
+def _group_scale(group: OutputGroup, rec: pd.DataFrame, observed: np.ndarray
+                 ) -> tuple[float, str]:
+    """RMS of the recorded standard deviations, else the spread of the recorded values."""
+    if group.sd_columns and all(c in rec.columns for c in group.sd_columns):
+        sd = np.concatenate([pd.to_numeric(rec[c], errors="coerce").to_numpy(float)
+                             for c in group.sd_columns])
+        sd = sd[np.isfinite(sd)]
+        if sd.size and np.all(sd >= 0) and np.sqrt(np.mean(sd ** 2)) > 0:
+            return float(np.sqrt(np.mean(sd ** 2))), "sd"
+    v = observed[np.isfinite(observed)]
+    spread = float(np.std(v)) if v.size > 1 else 0.0
+    if not spread > 0:
+        return 1.0, "unit"
+    return spread, "spread"
+
+
+def group_mse(errors: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+    """Mean of the per-case errors of each output over ``rows`` (all by default)."""
+    e = errors if rows is None else errors[rows]
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(e)
+        cnt = ok.sum(axis=0)
+        return np.where(cnt > 0, np.where(ok, e, 0.0).sum(axis=0) / np.maximum(cnt, 1), np.nan)
+
+
+def overall_mse(errors: np.ndarray, rows: np.ndarray | None = None,
+                weights: np.ndarray | None = None) -> float:
+    """Mean over outputs (optionally weighted) of the per-output mean squared error."""
+    g = group_mse(errors, rows)
+    ok = np.isfinite(g)
+    w = np.ones_like(g) if weights is None else np.asarray(weights, float)
+    w = np.where(ok, w, 0.0)
+    if w.sum() <= 0:
+        return float("nan")
+    return float(np.sum(np.where(ok, g, 0.0) * w) / w.sum())
+
+
+# ----------------------------------------------------------------------------
+# Many model variants in one simulation
+# ----------------------------------------------------------------------------
+
+Model = tuple[Effect, ...]
+
+
+def _merge(old: Any, new: Any, sel: np.ndarray) -> Any:
+    """Rows ``sel`` from ``new``, the others from ``old`` (arrays, NamedTuples)."""
+    if old is new:
+        return old
+    if isinstance(old, tuple) and hasattr(old, "_fields"):
+        return type(old)(*(_merge(a, b, sel) for a, b in zip(old, new, strict=True)))
+    if isinstance(old, np.ndarray):
+        m = sel.shape[0]
+        if old.shape[:1] == (m,):
+            s = sel
+        elif old.shape[:1] == (2 * m,):
+            s = np.concatenate([sel, sel])
+        else:
+            raise ParameterError(f"cannot merge an effect's output of shape {old.shape}")
+        return np.where(s.reshape(s.shape + (1,) * (old.ndim - 1)), new, old)
+    if old is None and new is None:
+        return None
+    raise ParameterError(f"cannot merge an effect's output of type {type(old).__name__}")
+
+
+class _StackedVariants(Effect):
+    """Dispatches every hook to the model variant a row belongs to (row // n)."""
+
+    name = "stacked_variants"
+    summary = "internal: several model variants in one simulation"
+
+    def _setup(self, models: Sequence[Model], n: int, penetration_time: float) -> None:
+        object.__setattr__(self, "_models", tuple(models))
+        object.__setattr__(self, "_n", int(n))
+        object.__setattr__(self, "_t_pen", float(penetration_time))
+
+    def _active(self, stage: str) -> list[tuple[int, list[Callable[..., Any]]]]:
+        out = []
+        for g, model in enumerate(self._models):  # type: ignore[attr-defined]
+            h = hooks(model, stage)
+            if h:
+                out.append((g, h))
+        return out
+
+    def _replica(self, rows: np.ndarray) -> np.ndarray:
+        return np.asarray(rows) // self._n  # type: ignore[attr-defined]
+
+
+def _s_vehicles(self: _StackedVariants, batch: CaseBatch) -> CaseBatch:
+    rep = self._replica(np.arange(batch.size))
+    out = batch
+    for g, hs in self._active("vehicles"):
+        b = batch
+        for h in hs:
+            b = h(b)
+        out = _merge(out, b, rep == g)
+    return out
+
+
+def _s_penetration(self: _StackedVariants, ctx: Any, t: np.ndarray) -> np.ndarray:
+    rep = self._replica(ctx.rows)
+    out = np.where(np.isnan(t), self._t_pen, t)  # type: ignore[attr-defined]
+    for g, hs in self._active("penetration"):
+        tt = np.array(t, float, copy=True)
+        for h in hs:
+            tt = np.asarray(h(ctx, tt), float)
+        sel = rep == g
+        out[sel] = tt[sel]
+    return out
+
+
+def _s_config(stage: str) -> Callable[..., Any]:
+    def hook(self: _StackedVariants, ctx: Any, config: Any) -> Any:
+        rep = self._replica(ctx.rows)
+        out = config
+        for g, hs in self._active(stage):
+            c = config
+            for h in hs:
+                c = h(ctx, c)
+            out = _merge(out, c, rep == g)
+        return out
+
+    hook.__name__ = stage
+    return hook
+
+
+def _s_contact_impulse(self: _StackedVariants, ctx: Any, config: Any,
+                       result: Any) -> VelocityChange:
+    rep = self._replica(ctx.rows)
+    out = VelocityChange.zeros(config.size)
+    for g, hs in self._active("contact_impulse"):
+        ch = VelocityChange.zeros(config.size)
+        for h in hs:
+            ch = ch + h(ctx, config, result)
+        out = _merge(out, ch, rep == g)
+    return out
+
+
+def _s_pair(stage: str) -> Callable[..., Any]:
+    """Stacked hook of a stage that maps a pair of arrays (energy_split, post_impact)."""
+
+    def hook(self: _StackedVariants, ctx: Any, config: Any, result: Any, v1: np.ndarray,
+             v2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rep = self._replica(ctx.rows)
+        o1, o2 = np.array(v1, float, copy=True), np.array(v2, float, copy=True)
+        for g, hs in self._active(stage):
+            a, b = v1, v2
+            for h in hs:
+                a, b = h(ctx, config, result, a, b)
+            sel = rep == g
+            o1[sel], o2[sel] = np.asarray(a)[sel], np.asarray(b)[sel]
+        return o1, o2
+
+    return hook
+
+
+_STAGE_IMPL: dict[str, Callable[..., Any]] = {
+    "vehicles": _s_vehicles,
+    "penetration": _s_penetration,
+    "impact_configuration": _s_config("impact_configuration"),
+    "impact_parameters": _s_config("impact_parameters"),
+    "contact_impulse": _s_contact_impulse,
+    "energy_split": _s_pair("energy_split"),
+    "post_impact": _s_pair("post_impact"),
+}
+_STACKED_CLASSES: dict[tuple[str, ...], type[_StackedVariants]] = {}
+
+
+def stacked_effect(models: Sequence[Model], n: int,
+                   penetration_time: float = 0.030) -> Effect | None:
+    """One effect running ``len(models)`` variants on a batch stacked as many times.
+
+    Row ``r`` of the stacked batch belongs to variant ``r // n``; each hook of
+    the returned effect applies that variant's hooks (in its order) and keeps
+    its rows.  Hooks must be row-wise (the output of a row depends only on
+    that row), as every vectorised effect is.  None if no variant has effects.
+    """
+    stages = tuple(s for s in STAGES if any(hooks(m, s) for m in models))
+    if not stages:
+        return None
+    cls = _STACKED_CLASSES.get(stages)
+    if cls is None:
+        cls = type("_StackedVariants_" + "_".join(stages), (_StackedVariants,),
+                   {s: _STAGE_IMPL[s] for s in stages})
+        _STACKED_CLASSES[stages] = cls
+    eff = cls()
+    eff._setup(models, n, penetration_time)
+    return eff
+
+
+def _model_key(model: Model) -> tuple[Any, ...]:
+    return tuple((e.name, tuple(round(float(v), 10) for v in e.vector())) for e in model)
+
+
+class VariantSimulator:
+    """Simulate model variants of a :class:`CalibrationData`, with a cache.
+
+    Parameters
+    ----------
+    data : CalibrationData
+    params : SimulationParams, optional
+        Base parameters (their effects are prepended to every variant).
+    max_cases : int
+        Cases per :func:`simulate_cases` call (variants x n); larger calls
+        amortise the Python overhead better but need more memory.
+
+    Attributes
+    ----------
+    n_variants : int
+        Variants simulated so far (cache misses).
+    n_case_runs : int
+        Case simulations so far (variants x cases).
+    seconds : float
+        Time spent simulating.
+    """
+
+    def __init__(self, data: CalibrationData, params: SimulationParams | None = None,
+                 max_cases: int = 6000) -> None:
+        self.data = data
+        self.params = params or SimulationParams()
+        self.max_cases = max(int(max_cases), data.n)
+        self._cache: dict[tuple[Any, ...], np.ndarray] = {}
+        self.n_variants = 0
+        self.n_case_runs = 0
+        self.n_calls = 0
+        self.seconds = 0.0
+
+    def residuals(self, models: Sequence[Model]) -> list[np.ndarray]:
+        """Residual arrays (n, n_columns) of each model (cached)."""
+        keys = [_model_key(m) for m in models]
+        todo: dict[tuple[Any, ...], Model] = {}
+        for k, m in zip(keys, models, strict=True):
+            if k not in self._cache and k not in todo:
+                todo[k] = tuple(m)
+        items = list(todo.items())
+        per_call = max(1, self.max_cases // self.data.n)
+        for start in range(0, len(items), per_call):
+            chunk = items[start:start + per_call]
+            for (k, _), r in zip(chunk, self._simulate([m for _, m in chunk]), strict=True):
+                self._cache[k] = r
+        return [self._cache[k] for k in keys]
+
+    def _simulate(self, models: Sequence[Model]) -> list[np.ndarray]:
+        t0 = time.perf_counter()
+        data = self.data
+        n, g = data.n, len(models)
+        base = tuple(self.params.effects)
+        full = [base + tuple(m) for m in models]
+        batch = data.batch if g == 1 else data.batch.take(np.tile(np.arange(n), g))
+        if g == 1:
+            effects: tuple[Effect, ...] = full[0]
+        else:
+            st = stacked_effect(full, n, self.params.precrash.penetration_time)
+            effects = () if st is None else (st,)
+        params = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
+                                  runout=self.params.runout, effects=effects)
+        res = simulate_cases(batch, params=params)
+        table = results_table(batch, res)
+        out = [data.residuals(table.iloc[i * n:(i + 1) * n].reset_index(drop=True))
+               for i in range(g)]
+        self.n_variants += g
+        self.n_case_runs += g * n
+        self.n_calls += 1
+        self.seconds += time.perf_counter() - t0
+        return out
+
+    def stats(self) -> dict[str, float]:
+        """Simulation counters: variants, case runs, calls, seconds."""
+        return {"variants": self.n_variants, "case_runs": self.n_case_runs,
+                "calls": self.n_calls, "seconds": round(self.seconds, 3)}
+
+
+# ----------------------------------------------------------------------------
+# Parameter spaces and fitting
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FitSpace:
+    """The parameters to fit: effects (their start values) and which parameters are free.
+
+    Attributes
+    ----------
+    effects : tuple of Effect
+        Start instances (their non-free parameters stay fixed).
+    free : tuple of (int, int)
+        (effect index, parameter index) of each free parameter, in fit order.
+    """
+
+    effects: tuple[Effect, ...]
+    free: tuple[tuple[int, int], ...]
+
+    @classmethod
+    def of(cls, effects: Iterable[Effect | type[Effect] | str],
+           parameters: str = "primary") -> FitSpace:
+        """Space of effects (instances, classes or names); ``parameters`` "primary"
+        (the first parameter of each effect) or "all"."""
+        if parameters not in ("primary", "all"):
+            raise ParameterError(f"parameters={parameters!r}; use 'primary' or 'all'")
+        inst: list[Effect] = []
+        for e in effects:
+            if isinstance(e, str):
+                e = get_effect(e)
+            inst.append(e() if isinstance(e, type) else e)
+        free = []
+        for i, e in enumerate(inst):
+            n_par = len(type(e).parameters)
+            free += [(i, j) for j in range(n_par if parameters == "all" else min(n_par, 1))]
+        return cls(tuple(inst), tuple(free))
+
+    def start(self) -> np.ndarray:
+        """Start values of the free parameters."""
+        return np.array([self.effects[i].vector()[j] for i, j in self.free], float)
+
+    def bounds(self) -> list[tuple[float, float]]:
+        """Bounds of the free parameters."""
+        return [type(self.effects[i]).bounds()[j] for i, j in self.free]
+
+    def specials(self, k: int) -> list[float]:
+        """Default and neutral value of free parameter k (grid points worth having)."""
+        i, j = self.free[k]
+        p = type(self.effects[i]).parameters[j]
+        return [v for v in (p.default, p.neutral) if v is not None]
+
+    def names(self) -> list[str]:
+        """``effect.parameter`` of the free parameters."""
+        return [f"{self.effects[i].name}.{type(self.effects[i]).parameters[j].name}"
+                for i, j in self.free]
+
+    def model(self, x: Sequence[float]) -> Model:
+        """The effects with the free parameters set to ``x`` (clipped to the bounds);
+        no effect at all (the default model) if ``x`` holds NaN ("switched off")."""
+        if np.isnan(np.asarray(x, float)).any():
+            return ()
+        vecs = [e.vector() for e in self.effects]
+        for (i, j), v in zip(self.free, x, strict=True):
+            vecs[i][j] = v
+        return tuple(type(e).from_vector(v) for e, v in zip(self.effects, vecs, strict=True))
+
+
+@dataclass
+class FitResult:
+    """Fitted parameters of each fold.
+
+    Attributes
+    ----------
+    x : ndarray (n_folds, n_free)
+        Fitted free parameters per fold (training rows of that fold).
+    train_mse : ndarray (n_folds,)
+        Objective (overall mean squared standardised residual) on the
+        training rows at ``x``.
+    """
+
+    x: np.ndarray
+    train_mse: np.ndarray
+    variants: int = 0
+
+
+def _snap(v: float, lo: float, hi: float) -> float:
+    span = hi - lo
+    return float(np.clip(round(float(v), 12) if span == 0 else
+                         lo + round((float(v) - lo) / span, 9) * span, lo, hi))
+
+
+FitGenerator = Generator[list[Model], list[np.ndarray], FitResult]
+
+
+def fit_steps(data: CalibrationData, space: FitSpace, train: Sequence[np.ndarray],
+              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              polish: bool = True, weights: np.ndarray | None = None) -> FitGenerator:
+    """The search of :func:`fit_folds` as a generator.
+
+    It yields the list of models it needs simulated next and receives their
+    residual arrays (``gen.send(residuals)``); its return value
+    (``StopIteration.value``) is the :class:`FitResult`.  :func:`run_fits`
+    drives several of them so that their requests share simulation calls.
+    """
+    if grid_points < 3:
+        raise ParameterError("grid_points must be >= 3")
+    n_free = len(space.free)
+    folds = len(train)
+    x = np.tile(space.start(), (folds, 1))
+    err_cache: dict[tuple[float, ...], np.ndarray] = {}
+    count = 0
+
+    def objective(err: np.ndarray, f: int) -> float:
+        v = overall_mse(err, train[f], weights)
+        return v if math.isfinite(v) else math.inf
+
+    if n_free == 0:
+        res0 = yield [space.model([])]
+        e = data.case_errors(res0[0])
+        return FitResult(x, np.array([objective(e, f) for f in range(folds)]), 1)
+    passes = (1 if n_free == 1 else 2) if passes is None else passes
+    bounds = space.bounds()
+    best = np.full(folds, math.inf)
+    for _ in range(passes):
+        for k in range(n_free):
+            lo, hi = bounds[k]
+            if hi <= lo:
+                continue
+            h = (hi - lo) / (grid_points - 1)
+            values = [_snap(v, lo, hi) for v in np.linspace(lo, hi, grid_points)]
+            values += [_snap(v, lo, hi) for v in space.specials(k)]
+            tried: list[dict[float, float]] = [{} for _ in range(folds)]
+            for step in range(zoom_rounds + 2):
+                if step == 0:  # coarse grid
+                    cands = [sorted(set(values + [_snap(x[f, k], lo, hi)]))
+                             for f in range(folds)]
+                elif step <= zoom_rounds:  # zoom: half the spacing around each optimum
+                    h /= 2.0
+                    cands = []
+                    for f in range(folds):
+                        b = min(tried[f], key=tried[f].__getitem__)
+                        cands.append([_snap(b - h, lo, hi), _snap(b + h, lo, hi)])
+                elif polish:  # parabola through the best point and its neighbours
+                    cands = [_parabola_step(tried[f], lo, hi) for f in range(folds)]
+                else:
+                    break
+                vecs, owners = [], []
+                for f in range(folds):
+                    for v in cands[f]:
+                        if v in tried[f]:
+                            continue
+                        xv = x[f].copy()
+                        xv[k] = v
+                        vecs.append(xv)
+                        owners.append((f, v))
+                keys = [tuple(np.round(v, 10)) for v in vecs]
+                missing = {kk: v for kk, v in zip(keys, vecs, strict=True)
+                           if kk not in err_cache}
+                if missing:
+                    count += len(missing)
+                    res = yield [space.model(v) for v in missing.values()]
+                    for kk, r in zip(missing, res, strict=True):
+                        err_cache[kk] = data.case_errors(r)
+                for (f, v), kk in zip(owners, keys, strict=True):
+                    tried[f][v] = objective(err_cache[kk], f)
+            for f in range(folds):
+                b = min(tried[f], key=tried[f].__getitem__)
+                x[f, k] = b
+                best[f] = tried[f][b]
+    return FitResult(x, best, count)
+
+
+def _parabola_step(tried: Mapping[float, float], lo: float, hi: float) -> list[float]:
+    """Vertex of the parabola through the best point and its neighbours (if a minimum)."""
+    pts = sorted(tried.items())
+    xs = np.array([p[0] for p in pts])
+    ys = np.array([p[1] for p in pts])
+    i = int(np.argmin(ys))
+    if not (0 < i < len(xs) - 1 and np.all(np.isfinite(ys[i - 1:i + 2]))):
+        return []
+    x0, x1, x2 = xs[i - 1:i + 2]
+    y0, y1, y2 = ys[i - 1:i + 2]
+    den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+    b = (x2 ** 2 * (y0 - y1) + x1 ** 2 * (y2 - y0) + x0 ** 2 * (y1 - y2)) / den
+    if not a > 0:
+        return []
+    v = -b / (2 * a)
+    return [_snap(v, lo, hi)] if x0 < v < x2 else []
+
+
+def run_fits(sim: VariantSimulator, gens: Sequence[FitGenerator]) -> list[FitResult]:
+    """Drive fit generators round by round; one round's requests share simulation calls."""
+    results: list[FitResult | None] = [None] * len(gens)
+    reqs: dict[int, list[Model]] = {}
+    for i, g in enumerate(gens):
+        try:
+            reqs[i] = g.send(None)  # type: ignore[arg-type]
+        except StopIteration as stop:
+            results[i] = stop.value
+    while reqs:
+        res = sim.residuals([m for models in reqs.values() for m in models])
+        nxt: dict[int, list[Model]] = {}
+        pos = 0
+        for i, models in reqs.items():
+            part = res[pos:pos + len(models)]
+            pos += len(models)
+            try:
+                nxt[i] = gens[i].send(part)
+            except StopIteration as stop:
+                results[i] = stop.value
+        reqs = nxt
+    return [r for r in results if r is not None]
+
+
+def fit_folds(sim: VariantSimulator, space: FitSpace, train: Sequence[np.ndarray],
+              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              polish: bool = True, weights: np.ndarray | None = None) -> FitResult:
+    """Fit the free parameters of ``space`` for each set of training rows.
+
+    Coordinate search: for each free parameter in turn, a grid of
+    ``grid_points`` values over its bounds (plus its default and neutral
+    value), then ``zoom_rounds`` rounds testing the points half the previous
+    spacing either side of each fold's best value, then a parabolic step
+    through the best point and its neighbours.  Every round simulates the new
+    points of all folds on all cases in one call (cached), so folds share
+    work.  Objective: :func:`overall_mse` on the fold's training rows.
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    space : FitSpace
+    train : sequence of int arrays
+        Training rows of each fold (e.g. ``[np.arange(n)]`` for one fit on all
+        cases).
+    grid_points : int
+        Coarse grid size (>= 3).
+    zoom_rounds : int
+        Refinement rounds (each halves the spacing).
+    passes : int, optional
+        Sweeps over the parameters (default 1 for one free parameter, 2
+        otherwise).
+    polish : bool
+        Parabolic step after the zoom rounds.
+    weights : ndarray, optional
+        Weight of each output in the objective (default equal).
+    """
+    gen = fit_steps(sim.data, space, train, grid_points, zoom_rounds, passes, polish, weights)
+    return run_fits(sim, [gen])[0]
+
+
+# ----------------------------------------------------------------------------
+# Cross-validation
+# ----------------------------------------------------------------------------
+
+
+def kfold_indices(n: int, folds: int, seed: int = 0) -> list[np.ndarray]:
+    """Held-out rows of each fold: a seeded permutation of the n cases cut in ``folds``."""
+    if not 2 <= folds <= n:
+        raise ParameterError(f"folds={folds} must be in [2, n_cases={n}]")
+    perm = np.random.default_rng(seed).permutation(n)
+    return [np.sort(p) for p in np.array_split(perm, folds)]
+
+
+@dataclass
+class CVResult:
+    """Cross-validated errors of one model (fitted per fold).
+
+    Attributes
+    ----------
+    label : str
+        Model description (effect names joined with ``+``; ``default``).
+    space : FitSpace
+    fold_x : ndarray (n_folds, n_free)
+        Fitted free parameters per fold.
+    fit_x : ndarray (n_free,)
+        Parameters fitted on all cases (reported; the CV numbers do not use them).
+    residuals : ndarray (n, n_columns)
+        Held-out residuals (each case predicted by its fold's fit).
+    errors : ndarray (n, n_groups)
+        Held-out per-case standardised errors.
+    variants : int
+        Model variants the parameter search asked for.
+    """
+
+    label: str
+    space: FitSpace
+    fold_x: np.ndarray
+    fit_x: np.ndarray
+    residuals: np.ndarray
+    errors: np.ndarray
+    variants: int = 0
+
+    def rmse(self) -> np.ndarray:
+        """CV RMSE of standardised residuals per output."""
+        return np.sqrt(group_mse(self.errors))
+
+    def overall_rmse(self, weights: np.ndarray | None = None) -> float:
+        """CV RMSE over all outputs (root of the mean of the per-output MSE)."""
+        return math.sqrt(overall_mse(self.errors, None, weights))
+
+    def fitted_model(self) -> Model:
+        """The effects with the parameters fitted on all cases."""
+        return self.space.model(self.fit_x)
+
+    def fitted_parameters(self) -> list[dict[str, Any]]:
+        """``Effect.to_dict()`` of the effects fitted on all cases."""
+        return [e.to_dict() for e in self.fitted_model()]
+
+
+def cross_validate_many(sim: VariantSimulator, spaces: Sequence[FitSpace],
+                        folds: Sequence[np.ndarray], labels: Sequence[str | None] | None = None,
+                        fit_all: bool = True, allow_off: bool = False,
+                        **fit_options: Any) -> list[CVResult]:
+    """:func:`cross_validate` of several models; their searches share simulation calls."""
+    n = sim.data.n
+    all_rows = np.arange(n)
+    train = [np.setdiff1d(all_rows, h) for h in folds]
+    if fit_all:
+        train = train + [all_rows]
+    gens = [fit_steps(sim.data, sp, train, **fit_options) for sp in spaces]
+    fits = run_fits(sim, gens)
+    w = fit_options.get("weights")
+    e0 = sim.data.case_errors(sim.residuals([()])[0]) if allow_off else None
+    out = []
+    labels = list(labels) if labels is not None else [None] * len(spaces)
+    for space, fit, label in zip(spaces, fits, labels, strict=True):
+        if e0 is not None and space.free:
+            for f, t in enumerate(train):
+                if not overall_mse(e0, t, w) > fit.train_mse[f]:
+                    fit.x[f] = np.nan
+        k = len(folds)
+        fold_x = fit.x[:k]
+        fit_x = fit.x[k] if fit_all else fold_x[0]
+        res = sim.residuals([space.model(x) for x in fold_x])
+        residuals = np.full_like(sim.data.observed, np.nan)
+        for h, r in zip(folds, res, strict=True):
+            residuals[h] = r[h]
+        errors = sim.data.case_errors(residuals)
+        name = label or ("+".join(e.name for e in space.effects) or "default")
+        out.append(CVResult(name, space, fold_x, fit_x, residuals, errors, fit.variants))
+    return out
+
+
+def cross_validate(sim: VariantSimulator, space: FitSpace, folds: Sequence[np.ndarray],
+                   label: str | None = None, fit_all: bool = True, allow_off: bool = False,
+                   **fit_options: Any) -> CVResult:
+    """K-fold cross-validation of a model whose free parameters are fitted per fold.
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    space : FitSpace
+        The model (no free parameters: the model is only evaluated).
+    folds : sequence of int arrays
+        Held-out rows of each fold (:func:`kfold_indices`).
+    label : str, optional
+    fit_all : bool
+        Also fit on all cases (in the same simulation calls) for the report.
+    allow_off : bool
+        Candidate mode: the model class is "the effects, or none of them";
+        a fold whose training error is not lower with the fitted effects than
+        with the default model predicts with the default model (its
+        parameters are NaN).  This keeps a candidate whose parameter line
+        does not pass through the default model (non-neutral secondary
+        parameters) from being penalised for it.
+    **fit_options
+        Passed to :func:`fit_folds`.
+    """
+    return cross_validate_many(sim, [space], folds, [label], fit_all, allow_off,
+                               **fit_options)[0]
+
+
+def rmse_reduction(errors: np.ndarray, base: np.ndarray, group: int | None = None,
+                   weights: np.ndarray | None = None) -> float:
+    """1 - RMSE(errors) / RMSE(base) of one output (``group``) or overall."""
+    if group is None:
+        a, b = overall_mse(errors, None, weights), overall_mse(base, None, weights)
+    else:
+        a, b = group_mse(errors)[group], group_mse(base)[group]
+    if not (b > 0):
+        return float("nan")
+    return 1.0 - math.sqrt(a / b)
+
+
+def _batched_reduction(group: int | None, weights: np.ndarray | None
+                       ) -> Callable[..., np.ndarray | float]:
+    """Statistic for :func:`vfs.analysis.stats.bootstrap_ci` (batched over samples)."""
+
+    def stat(e: np.ndarray, b: np.ndarray, axis: int = 0) -> np.ndarray | float:
+        def mse(x: np.ndarray) -> np.ndarray:
+            ok = np.isfinite(x)
+            g = np.where(ok, x, 0.0).sum(axis=axis) / ok.sum(axis=axis)  # (..., n_groups)
+            if group is not None:
+                return g[..., group]
+            w = np.ones(g.shape[-1]) if weights is None else np.asarray(weights, float)
+            ww = np.where(np.isfinite(g), w, 0.0)
+            return (np.where(np.isfinite(g), g, 0.0) * ww).sum(axis=-1) / ww.sum(axis=-1)
+
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return 1.0 - np.sqrt(mse(e) / mse(b))
+
+    return stat
+
+
+def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
+                 group: int | None = None, confidence: float = 0.95, n_boot: int = 2000,
+                 weights: np.ndarray | None = None) -> tuple[float, float, float]:
+    """RMSE reduction with a percentile bootstrap CI over cases (paired).
+
+    Returns (estimate, low, high); the cases are resampled jointly for the
+    model and the base (:func:`vfs.analysis.stats.bootstrap_ci`).
+    """
+    from vfs.analysis.stats import bootstrap_ci
+
+    if not math.isfinite(float(_batched_reduction(group, weights)(errors, base))):
+        return float("nan"), float("nan"), float("nan")
+    if group is not None:
+        ok = np.isfinite(errors[:, group]) & np.isfinite(base[:, group])
+        errors, base = errors[ok], base[ok]
+        if errors.shape[0] < 2:
+            return float("nan"), float("nan"), float("nan")
+    est, lo, hi = bootstrap_ci(_batched_reduction(group, weights), errors, base,
+                               n_boot=n_boot, confidence=confidence, rng=rng)
+    return est, lo, hi
+
+
+# ----------------------------------------------------------------------------
+# Calibration and model configuration files
+# ----------------------------------------------------------------------------
+
+
+@dataclass
+class Calibration:
+    """Result of :func:`calibrate`.
+
+    Attributes
+    ----------
+    effects : tuple of Effect
+        Effects with the parameters fitted on all cases.
+    steps : list of CVResult
+        Cross-validated models: default, then each added effect (cumulative;
+        the last one is the requested combination); empty if CV was off.
+    rmse : dict
+        Per output: RMSE of the fitted model on all cases (in-sample).
+    train_mse : float
+        Objective at the fit.
+    stats : dict
+        Simulation counters and time.
+    """
+
+    effects: tuple[Effect, ...]
+    steps: list[CVResult]
+    rmse: dict[str, float]
+    train_mse: float
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+def calibrate(data: CalibrationData, effects: Sequence[Effect | type[Effect] | str],
+              parameters: str = "primary", folds: int = 5, seed: int = 0,
+              cumulative: bool = True, sim: VariantSimulator | None = None,
+              **fit_options: Any) -> Calibration:
+    """Fit the parameters of ``effects`` jointly on all cases; cross-validate.
+
+    Parameters
+    ----------
+    data : CalibrationData
+    effects : sequence of Effect, class or name
+        Start values are the instances' values (defaults for classes/names).
+    parameters : {"primary", "all"}
+        Which parameters are fitted.
+    folds : int
+        k of the k-fold CV (0: no CV).
+    seed : int
+        Seed of the fold assignment.
+    cumulative : bool
+        Cross-validate every prefix (default, +A, +A+B, ...) for the ledger,
+        else only the default and the full combination.
+    sim : VariantSimulator, optional
+        Reuse a simulator (and its cache).
+    **fit_options
+        Passed to :func:`fit_folds`.
+    """
+    t0 = time.perf_counter()
+    sim = sim or VariantSimulator(data)
+    space = FitSpace.of(effects, parameters)
+    if not space.effects:
+        raise ParameterError("calibrate needs at least one effect")
+    steps: list[CVResult] = []
+    if folds:
+        held = kfold_indices(data.n, folds, seed)
+        steps.append(cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False))
+        prefixes = (range(1, len(space.effects) + 1) if cumulative
+                    else [len(space.effects)])
+        subs = [FitSpace.of(space.effects[:m], parameters) for m in prefixes]
+        steps += cross_validate_many(sim, subs, held, fit_all=True, **fit_options)
+        x_all = steps[-1].fit_x
+    else:
+        x_all = fit_folds(sim, space, [np.arange(data.n)], **fit_options).x[0]
+    model = space.model(x_all)
+    errors = data.case_errors(sim.residuals([model])[0])
+    rmse = dict(zip(data.group_names, np.sqrt(group_mse(errors)).tolist(), strict=True))
+    stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 3)}
+    return Calibration(model, steps, rmse, overall_mse(errors), stats)
+
+
+#: Format tag of model configuration files.
+MODEL_CONFIG_FORMAT = "vfs-model/1"
+
+
+def write_model_config(path: str | os.PathLike[str], effects: Iterable[Effect],
+                       created_by: str = "vfs calibrate",
+                       fit: Mapping[str, Any] | None = None) -> Path:
+    """Write a model configuration file ``{"effects": [...], "created_by", "fit"}``.
+
+    ``effects`` is the list of ``{"name", "parameters"}`` records that
+    ``vfs compare --model`` and :func:`read_model_config` read; ``fit`` holds
+    how they were obtained (database, outputs, errors, format tag, date).
+    Written atomically.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    doc = {
+        "effects": [e.to_dict() for e in effects],
+        "created_by": created_by,
+        "fit": {"format": MODEL_CONFIG_FORMAT,
+                "created": datetime.now(UTC).isoformat(timespec="seconds"), **dict(fit or {})},
+    }
+    tmp = target.with_name(f".{target.name}.tmp")
+    tmp.write_text(json.dumps(doc, indent=2, default=_json_default) + "\n", encoding="utf-8")
+    os.replace(tmp, target)
+    return target
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
+    """The effects of a model configuration file (:func:`write_model_config`).
+
+    Raises
+    ------
+    DataError
+        If the file is not valid JSON or has no ``effects`` list.
+    ParameterError
+        If an effect is unknown or a parameter out of range.
+    """
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise DataError(DataProblem(p.name, "", None, None,
+                                    f"cannot read the model configuration: {exc}")) from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("effects"), list):
+        raise DataError(DataProblem(p.name, "effects", None, None,
+                                    'expected {"effects": [{"name", "parameters"}, ...]}'))
+    return effects_from_dicts(doc["effects"])
+
+
+__all__ = [
+    "MODEL_CONFIG_FORMAT", "OUTPUT_GROUPS", "CVResult", "Calibration", "CalibrationData",
+    "FitResult", "FitSpace", "OutputGroup", "VariantSimulator", "calibrate",
+    "cross_validate", "cross_validate_many", "fit_folds", "fit_steps", "group_mse",
+    "kfold_indices", "run_fits",
+    "overall_mse", "parse_outputs", "read_model_config", "reduction_ci", "rmse_reduction",
+    "stacked_effect", "write_model_config",
+]

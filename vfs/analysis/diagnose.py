@@ -1,0 +1,1062 @@
+"""Model diagnosis: where the model fails and which effect is missing.
+
+:func:`diagnose` compares the default model with the reconstructions of a
+database (never with a ground-truth file):
+
+1. **Where it fails.**  Residuals ``model - reconstruction`` of every output
+   (:data:`vfs.analysis.calibrate.OUTPUT_GROUPS`), stratified by impact type, accident
+   type, overlap (:func:`vfs.physics.geometry.swept_overlap` at the reconstruction's
+   impact configuration), closing speed, mass ratio and impact angle
+   (:func:`stratified_residuals`); associations of each signed residual with
+   each case feature (Spearman's rank correlation for numeric features,
+   Kruskal-Wallis for categorical ones, Benjamini-Hochberg or Holm over all
+   tests, :func:`residual_associations`); the worst cases.
+2. **Which effect is missing.**  Every candidate effect (registered effects
+   by default) has its parameters fitted on the training folds and is scored
+   on the held-out fold (k-fold cross-validation by case, seeded;
+   :func:`vfs.analysis.calibrate.cross_validate`); the reduction of the CV RMSE of the
+   standardised residuals, overall, over the effect's own outputs and per
+   output, gets a bootstrap CI over cases; the candidates are ranked by the
+   overall reduction.  A candidate *helps significantly* if the lower bound
+   of its CI (simultaneous over the candidates, Bonferroni) is above zero
+   and the reduction reaches ``min_reduction``.  Residual structure left
+   after the best effect (significant associations of its held-out
+   residuals) is reported with the strata it points to.
+
+:func:`write_report` writes the ranked table (CSV), a JSON summary, and
+Markdown and HTML reports with figures.  Reports show km/h and degrees; all
+computations are SI (angles of the reconstruction table in its units).
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.calibrate import (
+    OUTPUT_GROUPS,
+    CalibrationData,
+    CVResult,
+    FitSpace,
+    VariantSimulator,
+    cross_validate,
+    cross_validate_many,
+    group_mse,
+    kfold_indices,
+    reduction_ci,
+    rmse_reduction,
+)
+from vfs.effects import get_effect, registered_effects
+from vfs.errors import ParameterError
+from vfs.physics.geometry import swept_overlap, vehicle_outline
+from vfs.simulation import SimulationParams
+
+#: Numeric case features (name -> (unit for reports, factor SI -> report unit)).
+NUMERIC_FEATURES: dict[str, tuple[str, float]] = {
+    "closing_speed": ("km/h", 3.6),
+    "overlap": ("%", 100.0),
+    "mass_ratio": ("-", 1.0),
+    "impact_angle": ("deg", 1.0),
+    "impact_speed1": ("km/h", 3.6),
+    "impact_speed2": ("km/h", 3.6),
+    "road_friction": ("-", 1.0),
+    "restitution": ("-", 1.0),
+    "contact_friction": ("-", 1.0),
+}
+#: Categorical case features.
+CATEGORICAL_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "road_surface")
+
+#: Bins of the stratified residual table (feature -> (edges in report units, labels)).
+STRATA_BINS: dict[str, tuple[tuple[float, ...], tuple[str, ...]]] = {
+    "overlap": ((0, 25, 50, 75, 100.0001), ("0-25 %", "25-50 %", "50-75 %", "75-100 %")),
+    "closing_speed": ((0, 30, 50, 70, 90, math.inf),
+                      ("< 30 km/h", "30-50 km/h", "50-70 km/h", "70-90 km/h", ">= 90 km/h")),
+    "mass_ratio": ((0, 0.8, 1.25, math.inf), ("m1/m2 < 0.8", "0.8-1.25", "m1/m2 >= 1.25")),
+    "impact_angle": ((0, 30, 60, 120, 150, 180.0001),
+                     ("0-30 deg", "30-60 deg", "60-120 deg", "120-150 deg", "150-180 deg")),
+}
+#: Stratifying features, in report order.
+STRATA_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "overlap", "closing_speed",
+                                    "mass_ratio", "impact_angle")
+
+
+# ----------------------------------------------------------------------------
+# Where the model fails
+# ----------------------------------------------------------------------------
+
+
+def case_features(data: CalibrationData) -> pd.DataFrame:
+    """Features of each case from the reconstruction and the case data (SI units).
+
+    Columns: case_id, impact_type (the reconstruction's), accident_type,
+    road_surface, closing_speed [m/s] (|v1 - v2| at impact), overlap [-]
+    (:func:`vfs.physics.geometry.swept_overlap` of the outlines at the recorded
+    impact configuration along v1 - v2), mass_ratio m1 / m2 [-],
+    impact_angle [deg] (angle between the headings, 0 = same direction,
+    180 = head-on), impact_speed1/2 [m/s], road_friction, restitution,
+    contact_friction (recorded).
+    """
+    rec = data.reconstruction
+    b = data.batch
+
+    def col(name: str) -> np.ndarray:
+        return pd.to_numeric(rec[name], errors="coerce").to_numpy(float)
+
+    x1, y1, yaw1, x2, y2, yaw2 = (col(c) for c in ("x1", "y1", "yaw1", "x2", "y2", "yaw2"))
+    vx1, vy1, vx2, vy2 = (col(c) for c in ("vx1", "vy1", "vx2", "vy2"))
+    o1 = vehicle_outline(b.vehicle1, x1, y1, yaw1)
+    o2 = vehicle_outline(b.vehicle2, x2, y2, yaw2)
+    rel = np.stack([vx1 - vx2, vy1 - vy2], axis=1)
+    cases = data.db.cases.drop_duplicates("case_id").set_index("case_id").reindex(data.case_ids)
+    out = pd.DataFrame({
+        "case_id": data.case_ids,
+        "impact_type": rec["impact_type"].astype(str).to_numpy(),
+        "accident_type": cases["accident_type"].astype(str).to_numpy()
+        if "accident_type" in cases.columns else "unknown",
+        "road_surface": cases["road_surface"].astype(str).to_numpy()
+        if "road_surface" in cases.columns else "unknown",
+        "closing_speed": np.hypot(rel[:, 0], rel[:, 1]),
+        "overlap": swept_overlap(o1, o2, rel),
+        "mass_ratio": b.vehicle1.mass / b.vehicle2.mass,
+        "impact_angle": np.degrees(np.abs((yaw2 - yaw1 + np.pi) % (2 * np.pi) - np.pi)),
+        "impact_speed1": np.hypot(vx1, vy1),
+        "impact_speed2": np.hypot(vx2, vy2),
+        "road_friction": b.road_friction,
+        "restitution": col("restitution"),
+        "contact_friction": col("contact_friction"),
+    })
+    return out
+
+
+def _strata_labels(features: pd.DataFrame, feature: str) -> pd.Series:
+    if feature in CATEGORICAL_FEATURES:
+        return features[feature].astype(str)
+    edges, labels = STRATA_BINS[feature]
+    factor = NUMERIC_FEATURES[feature][1]
+    values = features[feature].to_numpy(float) * factor
+    cut = pd.Series(pd.cut(values, bins=list(edges), labels=list(labels), right=False))
+    return pd.Series(cut.astype(object).fillna("unknown").to_numpy(), index=features.index)
+
+
+def stratified_residuals(data: CalibrationData, residuals: np.ndarray,
+                         features: pd.DataFrame,
+                         strata: Sequence[str] = STRATA_FEATURES) -> pd.DataFrame:
+    """Residual statistics per stratum of each stratifying feature (long table).
+
+    Columns: feature, stratum, output, column, n, bias (mean residual) and
+    rmse in the output's report unit, rmse_std (RMSE of the standardised
+    residuals of the output).
+    """
+    rows: list[dict[str, Any]] = []
+    errors = data.case_errors(residuals)
+    for feature in strata:
+        labels = _strata_labels(features, feature)
+        for stratum in sorted(labels.unique(), key=str):
+            sel = (labels == stratum).to_numpy()
+            for k, g in enumerate(data.groups):
+                rmse_std = math.sqrt(group_mse(errors, np.flatnonzero(sel))[k]) \
+                    if np.isfinite(errors[sel, k]).any() else float("nan")
+                for j in np.flatnonzero(data.column_group == k):
+                    r = residuals[sel, j] * g.report_factor
+                    r = r[np.isfinite(r)]
+                    rows.append({
+                        "feature": feature, "stratum": stratum, "output": g.name,
+                        "column": data.columns[j], "n": int(r.size),
+                        "bias": float(r.mean()) if r.size else float("nan"),
+                        "rmse": float(np.sqrt(np.mean(r ** 2))) if r.size else float("nan"),
+                        "unit": g.report_unit, "rmse_std": rmse_std,
+                    })
+    return pd.DataFrame(rows)
+
+
+def residual_variables(data: CalibrationData, residuals: np.ndarray) -> pd.DataFrame:
+    """Signed residual columns used for the feature associations.
+
+    Every residual column except the rest-position coordinates (their sign
+    depends on the orientation of the scene; the run-out distance carries
+    their signed information).
+    """
+    keep = [j for j, c in enumerate(data.columns)
+            if data.groups[data.column_group[j]].name != "rest_position"]
+    return pd.DataFrame({data.columns[j]: residuals[:, j] for j in keep})
+
+
+def residual_associations(variables: pd.DataFrame, features: pd.DataFrame,
+                          correction: str = "bh", alpha: float = 0.05,
+                          min_cases: int = 10) -> pd.DataFrame:
+    """Association of each residual with each case feature, with multiplicity control.
+
+    Numeric features: Spearman's rank correlation (statistic = rho);
+    categorical features: Kruskal-Wallis H test over the categories with at
+    least 5 cases (statistic = epsilon^2 = H / (n - 1)).  The p-values of all
+    tests are adjusted together (``correction`` "bh": Benjamini-Hochberg,
+    false discovery rate; "holm": Holm-Bonferroni, family-wise error).
+
+    Returns
+    -------
+    pandas.DataFrame
+        residual, feature, test, n, statistic, p, p_adj, significant
+        (p_adj < alpha), sorted by p.
+    """
+    from scipy import stats as sps
+
+    from vfs.analysis.stats import benjamini_hochberg, holm_bonferroni
+
+    if correction not in ("bh", "holm"):
+        raise ParameterError(f"correction={correction!r}; use 'bh' or 'holm'")
+    rows: list[dict[str, Any]] = []
+    for rname in variables.columns:
+        r = variables[rname].to_numpy(float)
+        for feat in list(NUMERIC_FEATURES) + list(CATEGORICAL_FEATURES):
+            if feat not in features.columns:
+                continue
+            if feat in NUMERIC_FEATURES:
+                f = features[feat].to_numpy(float)
+                ok = np.isfinite(r) & np.isfinite(f)
+                if ok.sum() < min_cases or np.ptp(f[ok]) == 0 or np.ptp(r[ok]) == 0:
+                    continue
+                rho, p = sps.spearmanr(r[ok], f[ok])
+                rows.append({"residual": rname, "feature": feat, "test": "spearman",
+                             "n": int(ok.sum()), "statistic": float(rho), "p": float(p)})
+            else:
+                cat = features[feat].astype(str).to_numpy()
+                ok = np.isfinite(r)
+                groups = [r[ok & (cat == c)] for c in np.unique(cat[ok])]
+                groups = [g for g in groups if g.size >= 5]
+                if len(groups) < 2 or np.ptp(np.concatenate(groups)) == 0:
+                    continue
+                h, p = sps.kruskal(*groups)
+                n = int(sum(g.size for g in groups))
+                rows.append({"residual": rname, "feature": feat, "test": "kruskal",
+                             "n": n, "statistic": float(h / max(n - 1, 1)), "p": float(p)})
+    out = pd.DataFrame(rows, columns=["residual", "feature", "test", "n", "statistic", "p"])
+    if out.empty:
+        out["p_adj"] = []
+        out["significant"] = []
+        return out
+    p = out["p"].to_numpy(float)
+    p = np.where(np.isfinite(p), p, np.nan)
+    out["p_adj"] = benjamini_hochberg(p) if correction == "bh" else holm_bonferroni(p)
+    out["significant"] = out["p_adj"] < alpha
+    return out.sort_values(["p", "residual"], kind="stable").reset_index(drop=True)
+
+
+def worst_cases(data: CalibrationData, residuals: np.ndarray, features: pd.DataFrame,
+                count: int = 6) -> pd.DataFrame:
+    """The cases with the largest mean standardised squared residual over the outputs."""
+    e = data.case_errors(residuals)
+    with np.errstate(invalid="ignore"):
+        score = np.nanmean(e, axis=1)
+    order = np.argsort(-np.nan_to_num(score, nan=-1.0), kind="stable")[:count]
+    rows = []
+    for i in order:
+        k = int(np.nanargmax(np.nan_to_num(e[i], nan=-1.0)))
+        rows.append({"index": int(i), "case_id": data.case_ids[i],
+                     "accident_type": features["accident_type"].iloc[i],
+                     "impact_type": features["impact_type"].iloc[i],
+                     "rms_std_error": float(math.sqrt(score[i])),
+                     "worst_output": data.groups[k].name,
+                     "worst_output_rms_std": float(math.sqrt(e[i, k]))})
+    return pd.DataFrame(rows)
+
+
+# ----------------------------------------------------------------------------
+# Which effect is missing
+# ----------------------------------------------------------------------------
+
+
+@dataclass
+class Reduction:
+    """CV RMSE reduction 1 - RMSE_model / RMSE_default with a bootstrap CI."""
+
+    estimate: float
+    low: float
+    high: float
+
+    def as_dict(self) -> dict[str, float]:
+        """JSON-ready."""
+        return {"estimate": self.estimate, "low": self.low, "high": self.high}
+
+
+@dataclass
+class CandidateResult:
+    """Cross-validated result of one candidate effect.
+
+    Attributes
+    ----------
+    name : str
+    cv : CVResult
+    overall : Reduction
+        Over all compared outputs.
+    affected : Reduction
+        Over the outputs the effect declares (:attr:`Effect.outputs`) that
+        are compared (all outputs if it declares none).
+    per_output : dict of Reduction
+    given_best : Reduction or None
+        Stepwise (ranks 2...): overall reduction when added to the model with
+        the rank-1 effect, against that model; None for rank 1 or when no
+        effect helps.
+    significant : bool
+        Rank 1: helps alone; ranks 2...: helps on top of rank 1 (if rank 1
+        helps), else alone.
+    rank : int
+    variants : int
+        Model variants its search asked for (shared simulation calls; the
+        time is reported for all candidates together).
+    """
+
+    name: str
+    cv: CVResult
+    overall: Reduction
+    affected: Reduction
+    per_output: dict[str, Reduction]
+    affected_outputs: tuple[str, ...]
+    significant: bool = False
+    rank: int = 0
+    variants: int = 0
+    given_best: Reduction | None = None
+
+    def fitted(self) -> list[dict[str, Any]]:
+        """Parameters fitted on all cases (empty if the default model fits better)."""
+        return self.cv.fitted_parameters()
+
+
+@dataclass
+class Diagnosis:
+    """Everything :func:`diagnose` found (see :func:`write_report`)."""
+
+    data: CalibrationData
+    features: pd.DataFrame
+    default: CVResult
+    candidates: list[CandidateResult]
+    strata: pd.DataFrame
+    associations: pd.DataFrame
+    remaining: pd.DataFrame
+    remaining_model: str
+    worst: pd.DataFrame
+    verdict: list[str]
+    settings: dict[str, Any]
+    stats: dict[str, Any] = field(default_factory=dict)
+    database: str = ""
+
+    @property
+    def ranking(self) -> list[str]:
+        """Candidate names, best first."""
+        return [c.name for c in self.candidates]
+
+    @property
+    def best(self) -> CandidateResult | None:
+        """The best candidate if it helps significantly, else None."""
+        return self.candidates[0] if self.candidates and self.candidates[0].significant \
+            else None
+
+    def ranked_table(self) -> pd.DataFrame:
+        """One row per candidate, best first: reductions with CIs, fitted parameters."""
+        rows = []
+        for c in self.candidates:
+            row: dict[str, Any] = {
+                "rank": c.rank, "effect": c.name, "significant": c.significant,
+                "reduction": c.overall.estimate, "ci_low": c.overall.low,
+                "ci_high": c.overall.high, "reduction_affected": c.affected.estimate,
+                "affected_ci_low": c.affected.low, "affected_ci_high": c.affected.high,
+                "cv_rmse": c.cv.overall_rmse(),
+                "reduction_given_best": c.given_best.estimate if c.given_best else np.nan,
+                "given_best_ci_low": c.given_best.low if c.given_best else np.nan,
+                "given_best_ci_high": c.given_best.high if c.given_best else np.nan,
+                "fitted": _format_params(c.fitted()),
+                "variants": c.variants,
+            }
+            for g, r in c.per_output.items():
+                row[f"reduction_{g}"] = r.estimate
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+
+def _format_params(effects: list[dict[str, Any]]) -> str:
+    if not effects:
+        return "off (default model)"
+    return "; ".join(f"{e['name']}: " + ", ".join(f"{k}={v:.4g}"
+                                                   for k, v in e["parameters"].items())
+                     for e in effects)
+
+
+def resolve_candidates(effects: str | Iterable[str] | None) -> list[str]:
+    """Candidate effect names: "all"/None = every registered effect."""
+    if effects is None or (isinstance(effects, str) and effects.strip() in ("", "all")):
+        return sorted(registered_effects())
+    names = [s.strip() for s in (effects.split(",") if isinstance(effects, str) else effects)]
+    names = [s for s in names if s]
+    for s in names:
+        get_effect(s)
+    return list(dict.fromkeys(names))
+
+
+def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
+             effects: str | Iterable[str] | None = "all", folds: int = 5, seed: int = 0,
+             parameters: str = "primary", grid_points: int = 9, zoom_rounds: int = 3,
+             confidence: float = 0.95, n_boot: int = 2000, correction: str = "bh",
+             alpha: float = 0.05, min_reduction: float = 0.01, worst: int = 6,
+             params: SimulationParams | None = None, database: str = "",
+             stepwise: bool = True,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Diagnose the default model against the reconstructions of ``db``.
+
+    Parameters
+    ----------
+    db : Database
+        Analysed blind: only its tables (never a ground-truth file).
+    outputs : str or list, optional
+        Compared outputs (names of :data:`vfs.analysis.calibrate.OUTPUT_GROUPS`;
+        default all available).
+    effects : "all" or names
+        Candidate effects (default every registered effect).
+    folds, seed : int
+        k-fold cross-validation by case; seed of the fold assignment and the
+        bootstrap.
+    parameters : {"primary", "all"}
+        Fit only each effect's primary parameter (others at their defaults)
+        or all its parameters (coordinate search, slower).
+    grid_points, zoom_rounds : int
+        Coarse grid and refinement rounds of :func:`vfs.analysis.calibrate.fit_folds`.
+    confidence : float
+        Simultaneous level of the CIs of the overall reductions (Bonferroni
+        over the candidates); per-output CIs are pointwise at this level.
+    n_boot : int
+        Bootstrap samples.
+    correction : {"bh", "holm"}
+        Multiplicity control of the residual-feature associations.
+    alpha : float
+        Level of the association tests.
+    min_reduction : float
+        Smallest overall reduction that counts as "helps" (besides the CI).
+    worst : int
+        Number of worst cases listed (and sketched by :func:`write_report`).
+    params : SimulationParams, optional
+        Base model (default: the default model).
+    database : str
+        Name or path for the reports.
+    stepwise : bool
+        If the best candidate helps, cross-validate every other candidate
+        added to the model with the best one (fitted on all cases) and rank
+        them by that conditional reduction: a weaker effect masked by a
+        dominant one is found second.
+    progress : callable, optional
+        Called with one line per finished step.
+    """
+    t0 = time.perf_counter()
+    say = progress or (lambda _msg: None)
+    data = CalibrationData.from_database(db, outputs)
+    names = resolve_candidates(effects)
+    sim = VariantSimulator(data, params)
+    held = kfold_indices(data.n, folds, seed)
+    rng = np.random.default_rng(seed)
+    features = case_features(data)
+    base = cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False)
+    say(f"default model: CV RMSE {base.overall_rmse():.3f} (standardised) over "
+        f"{data.n} cases, {len(data.groups)} outputs")
+    strata = stratified_residuals(data, base.residuals, features)
+    assoc = residual_associations(residual_variables(data, base.residuals), features,
+                                  correction, alpha)
+    level = 1.0 - (1.0 - confidence) / max(len(names), 1)
+    cands: list[CandidateResult] = []
+    fit_opts = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
+    classes = [get_effect(name) for name in names]
+    t1, v1 = time.perf_counter(), sim.n_variants
+    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters) for cls in classes], held,
+                              names, allow_off=True, **fit_opts) if classes else []
+    fit_seconds = time.perf_counter() - t1
+    say(f"fitted {len(classes)} candidates: {sim.n_variants - v1} model variants in "
+        f"{fit_seconds:.1f} s")
+    for name, cls, cv in zip(names, classes, cvs, strict=True):
+        affected = tuple(o for o in cls.outputs if o in data.group_names) or data.group_names
+        w = np.array([1.0 if g in affected else 0.0 for g in data.group_names])
+        est, lo, hi = reduction_ci(cv.errors, base.errors, rng, confidence=level,
+                                   n_boot=n_boot)
+        a_est, a_lo, a_hi = reduction_ci(cv.errors, base.errors, rng, confidence=confidence,
+                                         n_boot=n_boot, weights=w)
+        per = {}
+        for k, g in enumerate(data.group_names):
+            per[g] = Reduction(*reduction_ci(cv.errors, base.errors, rng, group=k,
+                                             confidence=confidence, n_boot=n_boot))
+        c = CandidateResult(name, cv, Reduction(est, lo, hi), Reduction(a_est, a_lo, a_hi),
+                            per, affected,
+                            significant=bool(lo > 0 and est >= min_reduction),
+                            variants=cv.variants)
+        cands.append(c)
+        say(f"candidate {name}: CV RMSE reduction {100 * est:.1f} % "
+            f"[{100 * lo:.1f}, {100 * hi:.1f}] ({c.variants} variants)")
+    cands.sort(key=lambda c: (-np.nan_to_num(c.overall.estimate, nan=-np.inf), c.name))
+    best = cands[0] if cands and cands[0].significant else None
+    best_model = best.cv.fitted_model() if best is not None else ()
+    if stepwise and best_model and len(cands) > 1:
+        rest = cands[1:]
+        p0 = params or SimulationParams()
+        sim2 = VariantSimulator(data, SimulationParams(
+            precrash=p0.precrash, impact=p0.impact, runout=p0.runout,
+            effects=tuple(p0.effects) + tuple(best_model)))
+        base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
+        cvs2 = cross_validate_many(
+            sim2, [FitSpace.of([get_effect(c.name)], parameters) for c in rest], held,
+            [f"{best.name}+{c.name}" for c in rest], allow_off=True, **fit_opts)
+        for c, cv2 in zip(rest, cvs2, strict=True):
+            c.given_best = Reduction(*reduction_ci(cv2.errors, base2.errors, rng,
+                                                   confidence=level, n_boot=n_boot))
+            c.significant = bool(c.given_best.low > 0
+                                 and c.given_best.estimate >= min_reduction)
+        rest.sort(key=lambda c: (-np.nan_to_num(c.given_best.estimate, nan=-np.inf)
+                                 if c.given_best else np.inf, c.name))
+        cands = [cands[0], *rest]
+        say(f"stepwise: {len(rest)} candidates added to {best.name} "
+            f"({sim2.n_variants} variants, {sim2.seconds:.1f} s)")
+        sim.n_variants += sim2.n_variants
+        sim.n_case_runs += sim2.n_case_runs
+        sim.n_calls += sim2.n_calls
+        sim.seconds += sim2.seconds
+    for i, c in enumerate(cands, 1):
+        c.rank = i
+    after = best.cv if best is not None else base
+    remaining = residual_associations(residual_variables(data, after.residuals), features,
+                                      correction, alpha)
+    worst_df = worst_cases(data, base.residuals, features, worst)
+    settings = {"outputs": list(data.group_names), "folds": folds, "seed": seed,
+                "parameters": parameters, "grid_points": grid_points,
+                "zoom_rounds": zoom_rounds, "confidence": confidence,
+                "simultaneous_confidence": level, "n_boot": n_boot,
+                "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
+                "candidates": names,
+                "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
+                "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
+    diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,
+                     after.label, worst_df, [], settings, database=database)
+    diag.verdict = _verdict(diag)
+    diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
+                  "n_cases": data.n}
+    return diag
+
+
+def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.ndarray
+                 ) -> str:
+    """The stratum of ``feature`` with the largest mean |bias| of ``residual``."""
+    data = diag.data
+    if residual not in data.columns:
+        return ""
+    j = data.columns.index(residual)
+    g = data.groups[data.column_group[j]]
+    if feature in STRATA_BINS or feature in CATEGORICAL_FEATURES:
+        labels = _strata_labels(diag.features, feature)
+    else:
+        values = diag.features[feature].to_numpy(float)
+        q = np.nanquantile(values, [0, 1 / 3, 2 / 3, 1])
+        unit, factor = NUMERIC_FEATURES[feature]
+        names = ["low", "middle", "high"]
+        idx = np.clip(np.searchsorted(q[1:-1], values, side="right"), 0, 2)
+        labels = pd.Series([f"{names[i]} third ({q[i] * factor:.3g}-{q[i + 1] * factor:.3g}"
+                            f" {unit})" for i in idx])
+    best, best_bias, best_n = "", 0.0, 0
+    for s in labels.unique():
+        sel = (labels == s).to_numpy() & np.isfinite(residuals[:, j])
+        if sel.sum() < 5:
+            continue
+        b = float(residuals[sel, j].mean() * g.report_factor)
+        if abs(b) > abs(best_bias):
+            best, best_bias, best_n = str(s), b, int(sel.sum())
+    if not best:
+        return ""
+    return f"largest bias in {feature} {best}: {best_bias:+.3g} {g.report_unit} (n = {best_n})"
+
+
+def _verdict(diag: Diagnosis) -> list[str]:
+    out: list[str] = []
+    sig = [c for c in diag.candidates if c.significant]
+    if not diag.candidates:
+        return ["No candidate effect was tested."]
+    if not sig:
+        top = diag.candidates[0]
+        out.append(
+            "No candidate effect helps significantly: every simultaneous "
+            f"{100 * diag.settings['confidence']:.0f} % CI of the cross-validated RMSE "
+            "reduction includes 0 or the reduction is below "
+            f"{100 * diag.settings['min_reduction']:.0f} % (best: {top.name}, "
+            f"{100 * top.overall.estimate:.1f} % [{100 * top.overall.low:.1f}, "
+            f"{100 * top.overall.high:.1f}])."
+        )
+    else:
+        b = sig[0]
+        out.append(
+            f"Most likely missing effect: {b.name} (rank 1). Added to the model it lowers "
+            f"the cross-validated RMSE by {100 * b.overall.estimate:.1f} % "
+            f"[{100 * b.overall.low:.1f}, {100 * b.overall.high:.1f}] over all outputs and by "
+            f"{100 * b.affected.estimate:.1f} % [{100 * b.affected.low:.1f}, "
+            f"{100 * b.affected.high:.1f}] over its own outputs "
+            f"({', '.join(b.affected_outputs)}); fitted on all cases: "
+            f"{_format_params(b.fitted())}."
+        )
+        if len(sig) > 1:
+            out.append(f"Added to the model with {b.name}, these effects lower the "
+                       "cross-validated RMSE further (significantly; calibrate them together "
+                       f"with vfs calibrate --effects {b.name},...): "
+                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} %)"
+                                   for c in sig[1:] if c.given_best) + ".")
+    rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
+        diag.remaining
+    after = diag.remaining_model
+    res = (diag.candidates[0].cv.residuals if diag.best is not None
+           else diag.default.residuals)
+    if len(rem):
+        items = []
+        for _, r in rem.head(5).iterrows():
+            hint = _strata_hint(diag, r["residual"], r["feature"], res)
+            stat = "rho" if r["test"] == "spearman" else "eps^2"
+            items.append(f"{r['residual']} ~ {r['feature']} ({stat} = {r['statistic']:+.2f}, "
+                         f"p_adj = {r['p_adj']:.2g}{'; ' + hint if hint else ''})")
+        who = "the default model" if after == "default" else f"adding {after}"
+        out.append(f"Residual structure remains after {who} that no tested candidate "
+                   f"explains alone: {len(rem)} significant residual-feature association(s), "
+                   "strongest: " + "; ".join(items) + ".")
+    else:
+        who = "the default model" if after == "default" else after
+        out.append(f"No significant residual-feature association remains with {who} "
+                   f"({diag.settings['correction'].upper()} at alpha = "
+                   f"{diag.settings['alpha']:g}).")
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Reports
+# ----------------------------------------------------------------------------
+
+
+def summary_dict(diag: Diagnosis) -> dict[str, Any]:
+    """JSON-ready summary: ranking, fitted parameters, reductions with CIs per output."""
+    d = diag.data
+    return {
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+        "created_by": "vfs diagnose",
+        "database": diag.database,
+        "n_cases": d.n,
+        "settings": diag.settings,
+        "default": {"cv_rmse": dict(zip(d.group_names, diag.default.rmse().tolist(),
+                                        strict=True)),
+                    "cv_rmse_overall": diag.default.overall_rmse()},
+        "ranking": diag.ranking,
+        "significant": [c.name for c in diag.candidates if c.significant],
+        "candidates": [
+            {
+                "rank": c.rank, "name": c.name, "significant": c.significant,
+                "fitted": c.fitted(),
+                "fold_parameters": c.cv.fold_x.tolist(),
+                "parameters_fitted": c.cv.space.names(),
+                "reduction": c.overall.as_dict(),
+                "reduction_affected": {**c.affected.as_dict(),
+                                       "outputs": list(c.affected_outputs)},
+                "reduction_given_best": c.given_best.as_dict() if c.given_best else None,
+                "reduction_per_output": {g: r.as_dict() for g, r in c.per_output.items()},
+                "cv_rmse": dict(zip(d.group_names, c.cv.rmse().tolist(), strict=True)),
+                "cv_rmse_overall": c.cv.overall_rmse(),
+                "variants": c.variants,
+            }
+            for c in diag.candidates
+        ],
+        "verdict": diag.verdict,
+        "remaining_structure": {
+            "model": diag.remaining_model,
+            "significant": diag.remaining[diag.remaining["significant"]].head(50)
+            .to_dict(orient="records") if len(diag.remaining) else [],
+        },
+        "worst_cases": diag.worst.to_dict(orient="records"),
+        "stats": diag.stats,
+    }
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
+
+
+def _clean(obj: Any) -> Any:
+    """NaN/inf -> None for strict JSON."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, float | np.floating):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer | np.bool_):
+        return obj.item()
+    return obj
+
+
+def write_json(obj: Any, path: str | Path) -> Path:
+    """Write JSON atomically (NaN as null)."""
+    import os
+
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(f".{p.name}.tmp")
+    tmp.write_text(json.dumps(_clean(obj), indent=2, default=_json_default) + "\n",
+                   encoding="utf-8")
+    os.replace(tmp, p)
+    return p
+
+
+class _Doc:
+    """A report built once and rendered as Markdown and HTML."""
+
+    def __init__(self, title: str) -> None:
+        self.title = title
+        self.blocks: list[tuple[str, Any]] = []
+
+    def h(self, text: str, level: int = 2) -> None:
+        self.blocks.append(("h", (level, text)))
+
+    def p(self, text: str) -> None:
+        self.blocks.append(("p", text))
+
+    def items(self, lines: Sequence[str]) -> None:
+        self.blocks.append(("ul", list(lines)))
+
+    def table(self, df: pd.DataFrame, floatfmt: str = "{:.3g}") -> None:
+        self.blocks.append(("table", (df, floatfmt)))
+
+    def image(self, path: str, alt: str) -> None:
+        self.blocks.append(("img", (path, alt)))
+
+    @staticmethod
+    def _cell(v: Any, fmt: str) -> str:
+        if isinstance(v, bool | np.bool_):
+            return "yes" if v else "no"
+        if isinstance(v, float | np.floating):
+            return "" if not math.isfinite(v) else fmt.format(v)
+        return str(v)
+
+    def markdown(self) -> str:
+        out = [f"# {self.title}", ""]
+        for kind, val in self.blocks:
+            if kind == "h":
+                out += ["#" * val[0] + " " + val[1], ""]
+            elif kind == "p":
+                out += [val, ""]
+            elif kind == "ul":
+                out += [f"- {v}" for v in val] + [""]
+            elif kind == "table":
+                df, fmt = val
+                cols = [str(c) for c in df.columns]
+                out.append("| " + " | ".join(cols) + " |")
+                out.append("|" + "|".join("---" for _ in cols) + "|")
+                for row in df.itertuples(index=False):
+                    out.append("| " + " | ".join(self._cell(v, fmt).replace("|", "/")
+                                                 for v in row) + " |")
+                out.append("")
+            elif kind == "img":
+                out += [f"![{val[1]}]({val[0]})", ""]
+        return "\n".join(out)
+
+    def html(self) -> str:
+        e = html.escape
+        out = ["<!DOCTYPE html>", "<html><head><meta charset='utf-8'>",
+               f"<title>{e(self.title)}</title>",
+               "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}"
+               "table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0 1em;}"
+               "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;}"
+               "th{background:#eee;}img{max-width:100%;}</style></head><body>",
+               f"<h1>{e(self.title)}</h1>"]
+        for kind, val in self.blocks:
+            if kind == "h":
+                out.append(f"<h{val[0]}>{e(val[1])}</h{val[0]}>")
+            elif kind == "p":
+                out.append(f"<p>{e(val)}</p>")
+            elif kind == "ul":
+                out.append("<ul>" + "".join(f"<li>{e(v)}</li>" for v in val) + "</ul>")
+            elif kind == "table":
+                df, fmt = val
+                head = "".join(f"<th>{e(str(c))}</th>" for c in df.columns)
+                body = "".join("<tr>" + "".join(f"<td>{e(self._cell(v, fmt))}</td>"
+                                                for v in row) + "</tr>"
+                               for row in df.itertuples(index=False))
+                out.append(f"<table><tr>{head}</tr>{body}</table>")
+            elif kind == "img":
+                out.append(f"<p><img src='{e(val[0])}' alt='{e(val[1])}'></p>")
+        out.append("</body></html>")
+        return "\n".join(out)
+
+
+def _pct(x: float) -> str:
+    return "" if not math.isfinite(x) else f"{100 * x:.1f}"
+
+
+def write_report(diag: Diagnosis, out: str | Path, json_path: str | Path | None = None,
+                 plots: bool = True, params: SimulationParams | None = None
+                 ) -> dict[str, Path]:
+    """Write the diagnosis into the folder ``out``.
+
+    Files: ``ranking.csv`` (ranked candidates), ``residuals_by_stratum.csv``,
+    ``associations.csv`` (default model), ``associations_after_best.csv``,
+    ``worst_cases.csv``, ``summary.json`` (and ``json_path`` if given),
+    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).
+    Returns the paths by name.
+    """
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths: dict[str, Path] = {}
+    ranked = diag.ranked_table()
+    paths["ranking"] = folder / "ranking.csv"
+    ranked.to_csv(paths["ranking"], index=False)
+    paths["strata"] = folder / "residuals_by_stratum.csv"
+    diag.strata.to_csv(paths["strata"], index=False)
+    paths["associations"] = folder / "associations.csv"
+    diag.associations.to_csv(paths["associations"], index=False)
+    paths["remaining"] = folder / "associations_after_best.csv"
+    diag.remaining.to_csv(paths["remaining"], index=False)
+    paths["worst"] = folder / "worst_cases.csv"
+    diag.worst.to_csv(paths["worst"], index=False)
+    summary = summary_dict(diag)
+    paths["summary"] = write_json(summary, folder / "summary.json")
+    if json_path is not None:
+        paths["json"] = write_json(summary, json_path)
+    figures: dict[str, str] = {}
+    if plots:
+        figures = diagnosis_figures(diag, folder / "figures", params=params)
+    doc = _build_doc(diag, figures)
+    paths["markdown"] = folder / "report.md"
+    paths["markdown"].write_text(doc.markdown() + "\n", encoding="utf-8")
+    paths["html"] = folder / "report.html"
+    paths["html"].write_text(doc.html() + "\n", encoding="utf-8")
+    return paths
+
+
+def diagnosis_figures(diag: Diagnosis, folder: str | Path,
+                      params: SimulationParams | None = None) -> dict[str, str]:
+    """Write the report figures (PNG) into ``folder``; paths relative to its parent.
+
+    ranking (overall reduction with CIs), heatmap (reduction per output),
+    strata (standardised residuals of the default model by impact type),
+    case_* (top views of the worst cases with the recorded rest positions).
+    """
+    from vfs.report.figures import _pyplot
+
+    plt = _pyplot()
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    rel = out.name
+    figs: dict[str, str] = {}
+    d = diag.data
+    cands = diag.candidates
+    if cands:
+        fig, ax = plt.subplots(figsize=(7, 0.45 * len(cands) + 1.5))
+        y = np.arange(len(cands))[::-1]
+        est = np.array([100 * c.overall.estimate for c in cands])
+        lo = np.array([100 * c.overall.low for c in cands])
+        hi = np.array([100 * c.overall.high for c in cands])
+        colors = ["#2ca02c" if c.significant else "#999999" for c in cands]
+        ax.barh(y, est, color=colors)
+        ax.errorbar(est, y, xerr=[np.maximum(est - lo, 0), np.maximum(hi - est, 0)], fmt="none",
+                    ecolor="k", capsize=3, lw=1)
+        ax.set_yticks(y, [c.name for c in cands])
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_xlabel("cross-validated RMSE reduction [%] (green: helps significantly)")
+        ax.set_title("Which effect is missing", fontsize=10)
+        fig.tight_layout()
+        fig.savefig(out / "ranking.png", dpi=110)
+        plt.close(fig)
+        figs["ranking"] = f"{rel}/ranking.png"
+
+        mat = np.array([[100 * c.per_output[g].estimate for g in d.group_names] for c in cands])
+        fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(d.group_names),
+                                        0.45 * len(cands) + 2.0))
+        lim = max(10.0, float(np.nanmax(np.abs(np.clip(mat, -100, 100)))) if mat.size else 10.0)
+        im = ax.imshow(np.clip(mat, -lim, lim), cmap="RdYlGn", vmin=-lim, vmax=lim,
+                       aspect="auto")
+        ax.set_xticks(range(len(d.group_names)), d.group_names, rotation=45, ha="right",
+                      fontsize=8)
+        ax.set_yticks(range(len(cands)), [c.name for c in cands], fontsize=8)
+        for i in range(mat.shape[0]):
+            for j in range(mat.shape[1]):
+                if math.isfinite(mat[i, j]):
+                    ax.text(j, i, f"{mat[i, j]:.0f}", ha="center", va="center", fontsize=7)
+        fig.colorbar(im, ax=ax, label="CV RMSE reduction [%]")
+        ax.set_title("Reduction per output", fontsize=10)
+        fig.tight_layout()
+        fig.savefig(out / "heatmap.png", dpi=110)
+        plt.close(fig)
+        figs["heatmap"] = f"{rel}/heatmap.png"
+
+    kinds = diag.features["impact_type"].astype(str).to_numpy()
+    z = diag.default.residuals / d.scales[d.column_group]
+    fig, ax = plt.subplots(figsize=(1.0 + 0.9 * len(d.groups), 4))
+    levels = sorted(set(kinds))
+    width = 0.8 / max(len(levels), 1)
+    for li, lev in enumerate(levels):
+        data_ = []
+        for k in range(len(d.groups)):
+            v = z[kinds == lev][:, d.column_group == k].ravel()
+            data_.append(v[np.isfinite(v)])
+        pos = np.arange(len(d.groups)) + (li - (len(levels) - 1) / 2) * width
+        bp = ax.boxplot([v if v.size else [np.nan] for v in data_], positions=pos,
+                        widths=width * 0.9, showfliers=False, patch_artist=True)
+        for patch in bp["boxes"]:
+            patch.set_facecolor(("#1f77b4", "#ff7f0e", "#2ca02c")[li % 3])
+            patch.set_alpha(0.6)
+        ax.plot([], [], "s", color=("#1f77b4", "#ff7f0e", "#2ca02c")[li % 3], label=lev)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(range(len(d.groups)), d.group_names, rotation=45, ha="right", fontsize=8)
+    ax.set_ylabel("standardised residual (model - reconstruction)")
+    ax.set_title("Default model residuals by impact type (reconstruction)", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "strata.png", dpi=110)
+    plt.close(fig)
+    figs["strata"] = f"{rel}/strata.png"
+
+    if len(diag.worst):
+        from vfs.report.figures import plot_case_topview
+        from vfs.simulation import simulate_cases
+
+        idx = diag.worst["index"].to_numpy(int)
+        batch = d.batch.take(idx)
+        res = simulate_cases(batch, params=params or SimulationParams())
+        rec = d.reconstruction
+        for k, i in enumerate(idx):
+            row = diag.worst.iloc[k]
+            fig = plot_case_topview(
+                batch, res, k,
+                title=(f"case {d.case_ids[i]} ({row['accident_type']}, "
+                       f"{row['impact_type']} in the reconstruction): worst output "
+                       f"{row['worst_output']}"))
+            ax = fig.axes[0]
+            for j, color in ((1, "#1f77b4"), (2, "#d62728")):
+                ax.plot(rec[f"rest_x{j}"].iloc[i], rec[f"rest_y{j}"].iloc[i], "X",
+                        color=color, ms=11, mec="k",
+                        label=f"vehicle {j} at rest (reconstruction)")
+            if {"poi_x", "poi_y"} <= set(rec.columns):
+                ax.plot(rec["poi_x"].iloc[i], rec["poi_y"].iloc[i], "P", color="orange",
+                        ms=10, mec="k", label="POI (reconstruction)")
+            handles, labels = ax.get_legend_handles_labels()
+            uniq = dict(zip(labels, handles, strict=True))
+            ax.legend(uniq.values(), uniq.keys(), fontsize=6, loc="best")
+            name = f"case_{k + 1}_{d.case_ids[i]}.png"
+            fig.savefig(out / name, dpi=100)
+            plt.close(fig)
+            figs[f"case_{k + 1:02d}"] = f"{rel}/{name}"
+    return figs
+
+
+def _build_doc(diag: Diagnosis, figures: dict[str, str]) -> _Doc:
+    d = diag.data
+    doc = _Doc("Model diagnosis")
+    s = diag.settings
+    doc.p(f"Database: {diag.database or '(in memory)'}; {d.n} cases with a reconstruction; "
+          f"{s['folds']}-fold cross-validation by case (seed {s['seed']}); outputs: "
+          f"{', '.join(d.group_names)}. Errors are RMSEs of standardised residuals "
+          "(model - reconstruction) / scale; the scale of an output is the RMS of its "
+          "recorded standard deviations (`_sd` columns) or else the standard deviation of its "
+          "recorded values. Ground-truth files are never read.")
+    doc.h("Verdict")
+    doc.items(diag.verdict)
+    doc.h("Which effect is missing: candidates ranked by the cross-validated RMSE reduction")
+    rt = diag.ranked_table()
+    show = pd.DataFrame({
+        "rank": rt["rank"], "effect": rt["effect"],
+        "helps": rt["significant"],
+        "reduction [%]": [_pct(v) for v in rt["reduction"]],
+        f"{100 * s['simultaneous_confidence']:.2f} % CI [%]": [
+            f"{_pct(lo)} .. {_pct(hi)}" for lo, hi in zip(rt["ci_low"], rt["ci_high"],
+                                                          strict=True)],
+        "own outputs [%]": [_pct(v) for v in rt["reduction_affected"]],
+        "added to rank 1 [%]": [_pct(v) for v in rt["reduction_given_best"]],
+        "CV RMSE": rt["cv_rmse"], "fitted on all cases": rt["fitted"],
+        "variants": rt["variants"],
+    }) if len(rt) else pd.DataFrame()
+    if len(show):
+        doc.table(show)
+    doc.p(f"Default model: CV RMSE {diag.default.overall_rmse():.3g} (standardised, all "
+          f"outputs). Simultaneous CIs: Bonferroni over {len(diag.candidates)} candidates; "
+          "a candidate helps if the CI lies above 0 and the reduction reaches "
+          f"{100 * s['min_reduction']:.0f} %. Ranks 2 and below are ordered by the reduction "
+          "they add to the model with the rank-1 effect (stepwise) when that one helps; "
+          "'helps' then means 'helps on top of rank 1'.")
+    if diag.candidates:
+        per = pd.DataFrame({"output": list(d.group_names),
+                            "default CV RMSE": diag.default.rmse()})
+        for c in diag.candidates[:min(4, len(diag.candidates))]:
+            per[f"{c.name} [%]"] = [
+                f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})"
+                for r in c.per_output.values()]
+        doc.h("Reduction per output (best candidates; pointwise CIs)", 3)
+        doc.table(per)
+    for key, alt in (("ranking", "candidate ranking"), ("heatmap", "reduction per output"),
+                     ("profiles", "objective along each candidate's parameter")):
+        if key in figures:
+            doc.image(figures[key], alt)
+    doc.h("Where the model fails")
+    dm = pd.DataFrame({"output": list(d.group_names),
+                       "CV RMSE (standardised)": diag.default.rmse(),
+                       "scale": d.scales,
+                       "scale from": list(d.scale_source),
+                       "unit": [g.unit for g in d.groups]})
+    doc.table(dm)
+    if "strata" in figures:
+        doc.image(figures["strata"], "standardised residuals by impact type")
+    st = diag.strata
+    if len(st):
+        piv = (st.drop_duplicates(["feature", "stratum", "output"])
+               .pivot_table(index=["feature", "stratum"], columns="output", values="rmse_std",
+                            sort=False))
+        n = st.drop_duplicates(["feature", "stratum"]).set_index(["feature", "stratum"])["n"]
+        piv.insert(0, "n", n.reindex(piv.index).to_numpy())
+        piv = piv.reset_index()
+        doc.h("Standardised RMSE by stratum (default model)", 3)
+        doc.table(piv)
+    doc.h("Residual-feature associations (default model)", 3)
+    a = diag.associations
+    sig = a[a["significant"]] if len(a) else a
+    doc.p(f"{len(sig)} of {len(a)} tests significant ({s['correction'].upper()}, "
+          f"alpha = {s['alpha']:g}); Spearman's rho for numeric features, Kruskal-Wallis "
+          "epsilon^2 for categorical ones.")
+    if len(sig):
+        doc.table(sig.head(25)[["residual", "feature", "test", "n", "statistic", "p_adj"]])
+    doc.h(f"Residual structure after {diag.remaining_model}", 3)
+    r = diag.remaining
+    rs = r[r["significant"]] if len(r) else r
+    if len(rs):
+        doc.table(rs.head(25)[["residual", "feature", "test", "n", "statistic", "p_adj"]])
+    else:
+        doc.p("No significant association.")
+    doc.h("Worst cases (default model)", 3)
+    if len(diag.worst):
+        doc.table(diag.worst.drop(columns=["index"]))
+    for key in sorted(k for k in figures if k.startswith("case_")):
+        doc.image(figures[key], key)
+    doc.h("Cost")
+    st2 = diag.stats
+    doc.p(f"{st2.get('variants', 0)} model variants simulated ({st2.get('case_runs', 0)} case "
+          f"runs in {st2.get('calls', 0)} calls, {st2.get('seconds', 0):.1f} s); total "
+          f"{st2.get('total_seconds', 0):.1f} s.")
+    return doc
+
+
+def output_names() -> list[str]:
+    """Names of the outputs that can be compared."""
+    return list(OUTPUT_GROUPS)
+
+
+__all__ = [
+    "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
+    "Diagnosis", "Reduction", "case_features", "diagnose", "diagnosis_figures",
+    "output_names",
+    "residual_associations", "residual_variables", "resolve_candidates",
+    "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases", "write_json",
+    "write_report",
+]

@@ -1,0 +1,950 @@
+"""Effectiveness of AEB systems from a study's runs: crashes avoided, speeds, injury risk.
+
+Input: the runs table of a study (:mod:`vfs.study.core`, ``runs.parquet``), one row
+per (case, system) with ``system = "baseline"`` for the runs without a
+system.  Every system is compared with the baseline *case by case* (paired),
+overall and per accident type, with the cases weighted by their ``weight``
+(frequency weights: a case of weight 2 counts like two identical cases).
+
+Definitions (``docs/study.md`` has them with formulas).  For case i with
+weight w_i, baseline crash indicator b_i and treatment crash indicator c_i:
+
+* avoided share ``A = sum w b (1 - c) / sum w b`` (baseline crashes the
+  system avoids); new crashes ``sum w (1 - b) c``; net crash reduction
+  ``sum w (b - c) / sum w b``;
+* case impact speed ``v`` = the larger impact speed of the two vehicles
+  [m/s]; case delta-v ``dv`` = the larger delta-v of the two vehicles.
+  Two averages: *per baseline crash* (a case without a crash counts 0 km/h,
+  so avoided crashes count as 0 and new crashes are included):
+  ``sum w (v_b b - v_t c) / sum w b``; and *crashes not avoided* (cases
+  that crash in both runs): ``sum w b c (v_b - v_t) / sum w b c``;
+* injury risk: every vehicle holds one occupant (the driver) whose risk is
+  ``P(delta-v)`` of the curve (0 without a crash); a case's expected
+  number of injured drivers is the *sum* over its two vehicles; expected
+  injured drivers avoided = ``sum w (R_b - R_t)``.
+
+Confidence intervals: percentile bootstrap over cases (cases resampled with
+replacement within the group, each keeping its weight; all figures of a
+(system, group) from the same resamples), drawn from
+``numpy.random.default_rng([seed, system index, group index])``.  Cases with
+an error in any run of the study are excluded from every comparison and
+counted in the report.
+
+:func:`effectiveness` computes everything; :func:`write_effectiveness_report`
+writes ``report.md``, ``report.html``, ``metrics.csv`` and PNG figures into
+``STUDY/report/`` (matplotlib, imported only there).
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.risk import RiskCurve, default_risk_curve, get_risk_curve
+from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.units import KMH_PER_MS
+
+BASELINE = "baseline"  # same as vfs.study.core.BASELINE (not imported: keep this module light)
+
+#: Injury levels of the report and their curves unless replaced
+#: (:data:`vfs.analysis.risk.DEFAULT_CURVES`).
+DEFAULT_RISK_LEVELS: tuple[str, ...] = ("MAIS3+", "fatal")
+
+#: Label of the group of all cases.
+ALL = "all"
+
+#: Impact-type categories of the crosstab: no crash, the two impact types, and a
+#: contact whose impulse was zero (the vehicles were already separating).
+TYPE_ORDER: tuple[str, ...] = ("none", "full", "sliding", "separating")
+
+#: Columns the runs table must have.
+REQUIRED_COLUMNS: tuple[str, ...] = ("case_id", "system", "collided", "impact_type",
+                                     "impact_speed1", "impact_speed2", "delta_v1", "delta_v2")
+
+#: Upper bound of resampled elements (replicates x cases) held at once.
+_MAX_RESAMPLED = 1 << 22
+
+
+# ----------------------------------------------------------------------------
+# Inputs
+# ----------------------------------------------------------------------------
+
+
+def risk_curves_for(names: Iterable[str] | None = None) -> dict[str, RiskCurve]:
+    """Risk curves by injury level: the defaults of :data:`DEFAULT_RISK_LEVELS`,
+    each replaced by a named curve of the same level (other levels are added).
+
+    Raises
+    ------
+    ParameterError
+        Unknown curve, or two curves given for one injury level.
+    """
+    curves = {level: default_risk_curve(level) for level in DEFAULT_RISK_LEVELS}
+    given: dict[str, str] = {}
+    for name in names or ():
+        curve = get_risk_curve(name)
+        if curve.injury_level in given:
+            raise ParameterError(f"two risk curves for {curve.injury_level}: "
+                                 f"{given[curve.injury_level]} and {name}")
+        given[curve.injury_level] = name
+        curves[curve.injury_level] = curve
+    return curves
+
+
+def _check_runs(runs: pd.DataFrame) -> pd.DataFrame:
+    missing = [c for c in REQUIRED_COLUMNS if c not in runs.columns]
+    if missing:
+        raise DataError(DataProblem("runs", ", ".join(missing), None, None,
+                                    "column(s) missing in the runs table"))
+    out = runs.copy()
+    if "error" not in out.columns:
+        out["error"] = ""
+    out["error"] = out["error"].fillna("").astype(str)
+    if "weight" not in out.columns:
+        out["weight"] = 1.0
+    w = pd.to_numeric(out["weight"], errors="coerce").to_numpy(float)
+    w = np.where(np.isnan(w), 1.0, w)
+    if np.any(~np.isfinite(w)) or np.any(w < 0):
+        raise DataError(DataProblem("runs", "weight", None, None,
+                                    "weights must be finite and >= 0"))
+    out["weight"] = w
+    if "accident_type" not in out.columns:
+        out["accident_type"] = "unknown"
+    out["accident_type"] = out["accident_type"].astype(object).where(
+        out["accident_type"].notna(), "unknown")
+    if not (out["system"] == BASELINE).any():
+        raise DataError(DataProblem("runs", "system", None, None,
+                                    f"no {BASELINE!r} rows: nothing to compare with"))
+    dup = out.duplicated(["case_id", "system"])
+    if dup.any():
+        row = int(np.flatnonzero(dup.to_numpy())[0])
+        raise DataError(DataProblem("runs", "system", row, out["case_id"].iloc[row],
+                                    "(case, system) appears twice"))
+    return out
+
+
+@dataclass(frozen=True)
+class PairedRuns:
+    """Baseline and treatment outcomes of one system, aligned by case.
+
+    Attributes
+    ----------
+    system : str
+    case_id, accident_type, weight : ndarray (n,)
+    crash_base, crash_treat : ndarray of bool (n,)
+        Collision in the baseline / treatment run.
+    speed_base, speed_treat : ndarray (n,)
+        Case impact speed: the larger of the two vehicles' [m/s]; 0 without a crash.
+    delta_v_base, delta_v_treat : ndarray (n, 2)
+        Delta-v of vehicles 1 and 2 [m/s]; 0 without a crash.
+    type_base, type_treat : ndarray of str (n,)
+        Impact type (:data:`TYPE_ORDER`).
+    """
+
+    system: str
+    case_id: np.ndarray
+    accident_type: np.ndarray
+    weight: np.ndarray
+    crash_base: np.ndarray
+    crash_treat: np.ndarray
+    speed_base: np.ndarray
+    speed_treat: np.ndarray
+    delta_v_base: np.ndarray
+    delta_v_treat: np.ndarray
+    type_base: np.ndarray
+    type_treat: np.ndarray
+
+    def take(self, mask: np.ndarray) -> PairedRuns:
+        """Subset of the cases."""
+        return PairedRuns(self.system, *(getattr(self, f)[mask]
+                                         for f in self.__dataclass_fields__ if f != "system"))
+
+    @property
+    def size(self) -> int:
+        """Number of cases."""
+        return int(self.case_id.shape[0])
+
+
+def _outcomes(rows: pd.DataFrame) -> dict[str, np.ndarray]:
+    crash = rows["collided"].astype("boolean").fillna(False).to_numpy(bool)
+    speed = np.fmax(rows["impact_speed1"].to_numpy(float), rows["impact_speed2"].to_numpy(float))
+    dv = np.stack([rows["delta_v1"].to_numpy(float), rows["delta_v2"].to_numpy(float)], axis=1)
+    kind = rows["impact_type"].astype(object).where(rows["impact_type"].notna(), "none")
+    kind = np.where(kind.to_numpy() == "none", "separating", kind.to_numpy()).astype(object)
+    return {
+        "crash": crash,
+        "speed": np.where(crash, np.nan_to_num(speed), 0.0),
+        "dv": np.where(crash[:, None], np.nan_to_num(dv), 0.0),
+        "type": np.where(crash, kind, "none"),
+    }
+
+
+def paired_runs(runs: pd.DataFrame) -> tuple[list[PairedRuns], pd.DataFrame]:
+    """Pair every system's runs with the baseline.
+
+    Cases with an error in any of their runs are dropped from all systems
+    (so every system is compared on the same cases).
+
+    Returns
+    -------
+    pairs : list of PairedRuns
+        One per system, in the order of first appearance in ``runs``.
+    excluded : pandas.DataFrame
+        The failed runs: case_id, system, error.
+    """
+    runs = _check_runs(runs)
+    failed = runs["error"] != ""
+    bad_cases = set(runs.loc[failed, "case_id"].tolist())
+    excluded = runs.loc[failed, ["case_id", "system", "error"]].reset_index(drop=True)
+    ok = runs[~runs["case_id"].isin(bad_cases)]
+    base = ok[ok["system"] == BASELINE].set_index("case_id")
+    b = _outcomes(base)
+    systems = [s for s in pd.unique(runs["system"]) if s != BASELINE]
+    pairs = []
+    for name in systems:
+        t = ok[ok["system"] == name].set_index("case_id").reindex(base.index)
+        if t["system"].isna().any():
+            missing = base.index[t["system"].isna().to_numpy()][0]
+            raise DataError(DataProblem("runs", "system", None, missing,
+                                        f"no run of system {name!r} for this case"))
+        o = _outcomes(t)
+        pairs.append(PairedRuns(
+            system=str(name), case_id=base.index.to_numpy(),
+            accident_type=base["accident_type"].to_numpy(object),
+            weight=base["weight"].to_numpy(float), crash_base=b["crash"], crash_treat=o["crash"],
+            speed_base=b["speed"], speed_treat=o["speed"], delta_v_base=b["dv"],
+            delta_v_treat=o["dv"], type_base=b["type"], type_treat=o["type"]))
+    return pairs, excluded
+
+
+# ----------------------------------------------------------------------------
+# Bootstrap of ratios of weighted sums
+# ----------------------------------------------------------------------------
+
+
+def bootstrap_sums(values: np.ndarray, n_boot: int, rng: np.random.Generator) -> np.ndarray:
+    """Column sums of ``values`` (n, K) over ``n_boot`` resamples of the rows.
+
+    Each resample draws n row indices uniformly with replacement; its sums
+    are ``counts @ values`` with the (resample x row) count matrix, built in
+    blocks of at most 2^22 elements.
+
+    Returns
+    -------
+    ndarray (n_boot, K)
+    """
+    n, k = values.shape
+    out = np.empty((n_boot, k))
+    block = max(1, _MAX_RESAMPLED // max(n, 1))
+    for start in range(0, n_boot, block):
+        size = min(block, n_boot - start)
+        idx = rng.integers(0, n, size=(size, n))
+        flat = (np.arange(size)[:, None] * n + idx).ravel()
+        counts = np.bincount(flat, minlength=size * n).reshape(size, n)
+        out[start:start + size] = counts @ values
+    return out
+
+
+class _Sums:
+    """Weighted sums of named columns and their bootstrap replicates."""
+
+    def __init__(self, weight: np.ndarray) -> None:
+        self.weight = weight
+        self.names: list[str] = []
+        self.columns: list[np.ndarray] = []
+
+    def add(self, name: str, values: np.ndarray) -> None:
+        self.names.append(name)
+        self.columns.append(self.weight * np.asarray(values, float))
+
+    def run(self, n_boot: int, rng: np.random.Generator) -> None:
+        matrix = np.stack(self.columns, axis=1)
+        self.estimate = dict(zip(self.names, matrix.sum(axis=0), strict=True))
+        boot = bootstrap_sums(matrix, n_boot, rng)
+        self.boot = {name: boot[:, i] for i, name in enumerate(self.names)}
+
+
+def _ratio(num: float | np.ndarray, den: float | np.ndarray) -> Any:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.divide(num, den)
+
+
+def _interval(boot: np.ndarray, confidence: float) -> tuple[float, float]:
+    finite = boot[np.isfinite(boot)]
+    if finite.size == 0:
+        return math.nan, math.nan
+    # empirical quantiles (no interpolation): interval ends are resampled values
+    lo, hi = np.quantile(finite, [0.5 * (1 - confidence), 0.5 * (1 + confidence)],
+                         method="inverted_cdf")
+    return float(lo), float(hi)
+
+
+#: (metric, unit, numerator, denominator or None for a total, description)
+def _metric_specs(levels: Sequence[str]) -> list[tuple[str, str, str, str | None, str]]:
+    specs: list[tuple[str, str, str, str | None, str]] = [
+        ("crashes_baseline", "cases", "b", None, "baseline crashes (weighted)"),
+        ("crashes_treatment", "cases", "c", None, "treatment crashes (weighted)"),
+        ("crashes_avoided", "cases", "b_not_c", None, "baseline crashes avoided"),
+        ("crashes_new", "cases", "c_not_b", None, "crashes only with the system"),
+        ("avoided_share", "-", "b_not_c", "b", "share of baseline crashes avoided"),
+        ("crash_reduction", "-", "b_minus_c", "b", "net crash reduction (avoided - new)"),
+    ]
+    for q, label in (("speed", "impact speed"), ("dv", "delta-v")):
+        specs += [
+            (f"{q}_baseline", "m/s", f"{q}_b", "b", f"mean {label} of baseline crashes"),
+            (f"{q}_treatment_all", "m/s", f"{q}_t", "b",
+             f"mean treatment {label} per baseline crash (no crash = 0)"),
+            (f"{q}_reduction_all", "m/s", f"{q}_diff", "b",
+             f"mean {label} reduction per baseline crash (no crash = 0)"),
+            (f"{q}_reduction_all_rel", "-", f"{q}_diff", f"{q}_b",
+             f"relative {label} reduction (no crash = 0)"),
+            (f"{q}_baseline_nav", "m/s", f"{q}_b_nav", "nav",
+             f"mean baseline {label} of crashes not avoided"),
+            (f"{q}_treatment_nav", "m/s", f"{q}_t_nav", "nav",
+             f"mean treatment {label} of crashes not avoided"),
+            (f"{q}_reduction_nav", "m/s", f"{q}_diff_nav", "nav",
+             f"mean {label} reduction of crashes not avoided"),
+            (f"{q}_reduction_nav_rel", "-", f"{q}_diff_nav", f"{q}_b_nav",
+             f"relative {label} reduction of crashes not avoided"),
+        ]
+    for level in levels:
+        specs += [
+            (f"risk_{level}_baseline", "drivers", f"r_{level}_b", None,
+             f"expected {level} injured drivers, baseline"),
+            (f"risk_{level}_treatment", "drivers", f"r_{level}_t", None,
+             f"expected {level} injured drivers with the system"),
+            (f"risk_{level}_avoided", "drivers", f"r_{level}_diff", None,
+             f"expected {level} injured drivers avoided"),
+            (f"risk_{level}_reduction", "-", f"r_{level}_diff", f"r_{level}_b",
+             f"relative reduction of expected {level} injured drivers"),
+        ]
+    return specs
+
+
+def _risk(curve: RiskCurve, delta_v: np.ndarray, crash: np.ndarray) -> np.ndarray:
+    """Expected injured drivers per case: sum over the two vehicles of P(delta-v), 0 without
+    a crash (the curves give a small risk even at delta-v 0)."""
+    p = np.nan_to_num(curve.probability(np.abs(delta_v)), nan=0.0)
+    return np.where(crash, p.sum(axis=1), 0.0)
+
+
+def _group_sums(pair: PairedRuns, curves: dict[str, RiskCurve]) -> _Sums:
+    b = pair.crash_base.astype(float)
+    c = pair.crash_treat.astype(float)
+    nav = b * c
+    sums = _Sums(pair.weight)
+    for name, values in (("b", b), ("c", c), ("b_not_c", b * (1 - c)),
+                         ("c_not_b", (1 - b) * c), ("b_minus_c", b - c), ("nav", nav)):
+        sums.add(name, values)
+    quantities = {"speed": (pair.speed_base, pair.speed_treat),
+                  "dv": (pair.delta_v_base.max(axis=1), pair.delta_v_treat.max(axis=1))}
+    for q, (vb, vt) in quantities.items():
+        sums.add(f"{q}_b", vb)
+        sums.add(f"{q}_t", vt)
+        sums.add(f"{q}_diff", vb - vt)
+        sums.add(f"{q}_b_nav", nav * vb)
+        sums.add(f"{q}_t_nav", nav * vt)
+        sums.add(f"{q}_diff_nav", nav * (vb - vt))
+    for level, curve in curves.items():
+        rb = _risk(curve, pair.delta_v_base, pair.crash_base)
+        rt = _risk(curve, pair.delta_v_treat, pair.crash_treat)
+        sums.add(f"r_{level}_b", rb)
+        sums.add(f"r_{level}_t", rt)
+        sums.add(f"r_{level}_diff", rb - rt)
+    return sums
+
+
+def _cdf_columns(sums: _Sums, pair: PairedRuns, grid: np.ndarray) -> None:
+    """Cumulative share of baseline crashes with impact speed <= grid [m/s] (no crash = 0)."""
+    b = pair.crash_base.astype(float)
+    for g, x in enumerate(grid):
+        sums.add(f"cdf_b_{g}", b * (pair.speed_base <= x))
+        sums.add(f"cdf_t_{g}", b * (pair.speed_treat <= x))
+
+
+# ----------------------------------------------------------------------------
+# The analysis
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Effectiveness:
+    """All figures of an effectiveness analysis.
+
+    Attributes
+    ----------
+    metrics : pandas.DataFrame
+        Long table: system, group (``"all"`` or an accident type), metric,
+        unit (SI: m/s, or ``-`` for fractions, ``cases``, ``drivers``),
+        description, estimate, low, high, n_cases (cases in the group),
+        weight (their total weight).
+    crosstabs : dict of str to pandas.DataFrame
+        Per system, weighted counts of baseline impact type (rows) x
+        treatment impact type (columns), :data:`TYPE_ORDER`, all cases.
+    cdf : pandas.DataFrame
+        Impact-speed distributions over the baseline crashes (no crash =
+        0 m/s): columns system (baseline first), speed [m/s], share, low, high.
+    pairs : list of PairedRuns
+        The paired outcomes (valid cases).
+    excluded : pandas.DataFrame
+        Failed runs (case_id, system, error); their cases are excluded.
+    curves : dict of str to RiskCurve
+        Risk curve per injury level.
+    n_boot, confidence, seed
+        Bootstrap settings.
+    """
+
+    metrics: pd.DataFrame
+    crosstabs: dict[str, pd.DataFrame]
+    cdf: pd.DataFrame
+    pairs: list[PairedRuns]
+    excluded: pd.DataFrame
+    curves: dict[str, RiskCurve]
+    n_boot: int
+    confidence: float
+    seed: int
+
+    def value(self, system: str, metric: str, group: object = ALL) -> float:
+        """Point estimate of one metric."""
+        m = self.metrics
+        row = m[(m["system"] == system) & (m["metric"] == metric) & (m["group"] == group)]
+        if row.empty:
+            raise ParameterError(f"no metric {metric!r} for system {system!r}, group {group!r}")
+        return float(row["estimate"].iloc[0])
+
+
+def effectiveness(runs: pd.DataFrame, *, risk_curves: Iterable[str] | None = None,
+                  n_boot: int = 2000, confidence: float = 0.95, seed: int = 0) -> Effectiveness:
+    """Compare every system of a runs table with the baseline.
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame
+        Runs table (:mod:`vfs.study.core`); needs :data:`REQUIRED_COLUMNS`, and
+        uses ``weight`` (default 1), ``accident_type`` and ``error`` if present.
+    risk_curves : iterable of str, optional
+        Curve names replacing the default curve of their injury level
+        (:func:`risk_curves_for`).
+    n_boot : int
+        Bootstrap resamples (default 2000).
+    confidence : float
+        Level of the intervals (default 0.95).
+    seed : int
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    Effectiveness
+
+    Raises
+    ------
+    DataError
+        Missing columns, no baseline, duplicate rows, no valid case.
+    ParameterError
+        Bad n_boot, confidence or curve names.
+    """
+    if isinstance(n_boot, bool) or int(n_boot) != n_boot or n_boot < 1:
+        raise ParameterError(f"n_boot={n_boot!r} must be a positive integer")
+    if not 0.0 < confidence < 1.0:
+        raise ParameterError(f"confidence={confidence!r} must be in (0, 1)")
+    curves = risk_curves_for(risk_curves)
+    pairs, excluded = paired_runs(runs)
+    if not pairs or pairs[0].size == 0:
+        raise DataError(DataProblem("runs", "", None, None,
+                                    "no case with successful baseline and system runs"))
+    specs = _metric_specs(list(curves))
+    types = sorted(set(pairs[0].accident_type.tolist()), key=str)
+    groups: list[object] = [ALL, *types]
+    top = max(float(p.speed_base.max()) for p in pairs)
+    grid = np.arange(0.0, math.ceil(top * KMH_PER_MS / 5.0) * 5.0 + 1.0, 1.0) / KMH_PER_MS
+    rows = []
+    cdf_rows = []
+    for si, pair in enumerate(pairs, start=1):
+        for gi, group in enumerate(groups):
+            part = pair if group == ALL else pair.take(pair.accident_type == group)
+            if part.size == 0:
+                continue
+            sums = _group_sums(part, curves)
+            if group == ALL:
+                _cdf_columns(sums, part, grid)
+            sums.run(int(n_boot), np.random.default_rng([int(seed), si, gi]))
+            for metric, unit, num, den, text in specs:
+                est = sums.estimate[num] if den is None else _ratio(sums.estimate[num],
+                                                                    sums.estimate[den])
+                boot = sums.boot[num] if den is None else _ratio(sums.boot[num], sums.boot[den])
+                lo, hi = _interval(boot, confidence)
+                rows.append((pair.system, group, metric, unit, text, float(est), lo, hi,
+                             part.size, float(part.weight.sum())))
+            if group == ALL:
+                for which, label in (("b", BASELINE), ("t", pair.system)):
+                    if which == "b" and si > 1:
+                        continue
+                    for g, x in enumerate(grid):
+                        share = _ratio(sums.boot[f"cdf_{which}_{g}"], sums.boot["b"])
+                        lo, hi = _interval(share, confidence)
+                        cdf_rows.append((label, x, float(_ratio(
+                            sums.estimate[f"cdf_{which}_{g}"], sums.estimate["b"])), lo, hi))
+    metrics = pd.DataFrame(rows, columns=["system", "group", "metric", "unit", "description",
+                                          "estimate", "low", "high", "n_cases", "weight"])
+    cdf = pd.DataFrame(cdf_rows, columns=["system", "speed", "share", "low", "high"])
+    crosstabs = {p.system: impact_type_crosstab(p) for p in pairs}
+    return Effectiveness(metrics, crosstabs, cdf, pairs, excluded, curves, int(n_boot),
+                         float(confidence), int(seed))
+
+
+def impact_type_crosstab(pair: PairedRuns) -> pd.DataFrame:
+    """Weighted counts: baseline impact type (rows) x treatment impact type (columns)."""
+    present = set(pair.type_base.tolist()) | set(pair.type_treat.tolist())
+    order = [t for t in TYPE_ORDER if t in present or t != "separating"]
+    table = pd.crosstab(pd.Categorical(pair.type_base, categories=order),
+                        pd.Categorical(pair.type_treat, categories=order),
+                        values=pair.weight, aggfunc="sum", dropna=False).fillna(0.0)
+    table.index.name = "baseline"
+    table.columns.name = pair.system
+    return table.reindex(index=order, columns=order, fill_value=0.0)
+
+
+# ----------------------------------------------------------------------------
+# Report
+# ----------------------------------------------------------------------------
+
+Block = tuple[str, Any]
+
+
+def _fmt(value: float, unit: str, digits: int = 1) -> str:
+    if not np.isfinite(value):
+        return "-"
+    if unit == "-":
+        return f"{100 * value:.{digits}f} %"
+    if unit == "m/s":
+        return f"{value * KMH_PER_MS:.{digits}f}"
+    if unit == "drivers":
+        return f"{value:.2f}"
+    if abs(value - round(value)) < 1e-6 * max(1.0, abs(value)):
+        return f"{value:.0f}"
+    return f"{value:.{digits}f}"
+
+
+def _fmt_ci(row: pd.Series) -> str:
+    unit = row["unit"]
+    if not np.isfinite(row["low"]):
+        return _fmt(row["estimate"], unit)
+    return (f"{_fmt(row['estimate'], unit)} [{_fmt(row['low'], unit)}, "
+            f"{_fmt(row['high'], unit)}]")
+
+
+def _metric_table(eff: Effectiveness, metrics: Sequence[str], group: object = ALL,
+                  labels: Sequence[str] | None = None) -> pd.DataFrame:
+    m = eff.metrics[eff.metrics["group"] == group].set_index(["metric", "system"])
+    systems = [p.system for p in eff.pairs]
+    data = {}
+    for name, label in zip(metrics, labels or metrics, strict=True):
+        data[label] = [_fmt_ci(m.loc[(name, s)]) if (name, s) in m.index else "-"
+                       for s in systems]
+    return pd.DataFrame(data, index=pd.Index(systems, name="system")).reset_index()
+
+
+def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[str, str]
+                   ) -> list[Block]:
+    pct = int(round(100 * eff.confidence))
+    n_valid = eff.pairs[0].size
+    n_bad = int(eff.excluded["case_id"].nunique())
+    systems = manifest.get("systems") or [{"name": p.system, "description": ""}
+                                          for p in eff.pairs]
+    blocks: list[Block] = [
+        ("h1", f"AEB effectiveness: {manifest.get('name') or manifest.get('path', 'study')}"),
+        ("p", f"Database `{manifest.get('db', '?')}` ({manifest.get('n_cases', '?')} cases"
+              + (f", selection `{manifest['where']}`" if manifest.get("where") else "")
+              + f"); equipped vehicles: {manifest.get('equip', '?')}; study seed "
+              f"{manifest.get('seed', '?')}. {n_valid} cases compared (total weight "
+              f"{eff.pairs[0].weight.sum():g}); {n_bad} case(s) excluded because a run failed."),
+        ("ul", [f"`{s['name']}`: {s.get('description', '')}" for s in systems]),
+        ("p", f"Every system is compared case by case with the baseline (the recorded "
+              f"behaviour), weighted by the cases' `weight` (frequency weights). Brackets: "
+              f"{pct} % percentile bootstrap confidence intervals over cases ({eff.n_boot} "
+              f"resamples, seed {eff.seed}). Speeds in km/h. Definitions and formulas: "
+              f"docs/study.md."),
+        ("h2", "Crashes avoided"),
+        ("table", _metric_table(
+            eff, ["crashes_baseline", "crashes_treatment", "crashes_avoided", "crashes_new",
+                  "avoided_share", "crash_reduction"],
+            labels=["baseline crashes", "crashes with system", "avoided", "new crashes",
+                    "avoided share", "net crash reduction"])),
+        ("p", "Avoided share = weighted baseline crashes without a crash in the treatment run "
+              "/ weighted baseline crashes. Net crash reduction also subtracts crashes that "
+              "happen only with the system."),
+        ("h3", "Per accident type (avoided share)"),
+        ("table", _per_type_table(eff, "avoided_share")),
+        ("img", (figures.get("avoided_by_type"), "Avoided share per accident type")),
+        ("h3", "Per accident type and system"),
+        ("p", "Reductions per baseline crash (a run without a crash counts 0); risk: relative "
+              "reduction of the expected injured drivers."),
+    ]
+    group_metrics = ["avoided_share", "speed_reduction_all", "dv_reduction_all",
+                     *[f"risk_{level}_reduction" for level in eff.curves]]
+    group_labels = ["avoided share", "impact-speed reduction [km/h]", "delta-v reduction [km/h]",
+                    *[f"{level} reduction" for level in eff.curves]]
+    for pair in eff.pairs:
+        blocks += [("p", f"`{pair.system}`:"),
+                   ("table", _group_table(eff, pair.system, group_metrics, group_labels))]
+    blocks += [
+        ("h2", "Impact speed"),
+        ("p", "Case impact speed = the larger impact speed of the two vehicles. 'Per baseline "
+              "crash': mean over the baseline crashes, a run without a crash counts 0 km/h "
+              "(avoided crashes count 0; crashes new with the system add their speed). 'Not "
+              "avoided': only cases that crash in both runs."),
+        ("table", _metric_table(
+            eff, ["speed_baseline", "speed_treatment_all", "speed_reduction_all",
+                  "speed_reduction_all_rel", "speed_treatment_nav", "speed_reduction_nav",
+                  "speed_reduction_nav_rel"],
+            labels=["baseline [km/h]", "with system, per baseline crash [km/h]",
+                    "reduction per baseline crash [km/h]", "relative",
+                    "with system, not avoided [km/h]", "reduction, not avoided [km/h]",
+                    "relative, not avoided"])),
+        ("img", (figures.get("impact_speed_cdf"),
+                 "Cumulative distribution of the impact speed over the baseline crashes "
+                 f"(avoided = 0 km/h), {pct} % bootstrap bands")),
+        ("h2", "Delta-v"),
+        ("p", "Case delta-v = the larger delta-v of the two vehicles; same two averages."),
+        ("table", _metric_table(
+            eff, ["dv_baseline", "dv_treatment_all", "dv_reduction_all", "dv_reduction_all_rel",
+                  "dv_reduction_nav", "dv_reduction_nav_rel"],
+            labels=["baseline [km/h]", "with system, per baseline crash [km/h]",
+                    "reduction per baseline crash [km/h]", "relative",
+                    "reduction, not avoided [km/h]", "relative, not avoided"])),
+        ("img", (figures.get("delta_v_scatter"),
+                 "Delta-v per case, baseline vs. with the system (0 = avoided)")),
+        ("h2", "Impact type"),
+        ("p", "Weighted cases by impact type, baseline (rows) x with the system (columns); "
+              "`none` = no crash, `separating` = contact without an impact impulse."),
+    ]
+    for system, table in eff.crosstabs.items():
+        blocks.append(("h3", system))
+        shown = table.copy()
+        shown.index = [f"baseline {i}" for i in shown.index]
+        blocks.append(("table", shown.map(lambda v: f"{v:g}").reset_index(
+            names="baseline \\ " + system)))
+    curve_lines = [f"{level}: `{c.name}`: {c.description}. Source: {c.source}."
+                   for level, c in eff.curves.items()]
+    risk_metrics, risk_labels = [], []
+    for level in eff.curves:
+        risk_metrics += [f"risk_{level}_baseline", f"risk_{level}_treatment",
+                         f"risk_{level}_avoided", f"risk_{level}_reduction"]
+        risk_labels += [f"{level} baseline", f"{level} with system", f"{level} avoided",
+                        f"{level} reduction"]
+    blocks += [
+        ("h2", "Injury risk"),
+        ("p", "Every vehicle holds one occupant (the driver); the driver's risk is the "
+              "curve's probability at the vehicle's delta-v (0 without a crash); a case's "
+              "expected number of injured drivers is the sum over its two vehicles. Figures "
+              "are weighted sums over the cases (expected injured drivers)."),
+        ("ul", curve_lines),
+        ("table", _metric_table(eff, risk_metrics, labels=risk_labels)),
+        ("img", (figures.get("injury_risk"),
+                 f"Expected injured drivers per system with {pct} % bootstrap intervals")),
+        ("h2", "Excluded cases"),
+    ]
+    if eff.excluded.empty:
+        blocks.append(("p", "No run failed."))
+    else:
+        blocks.append(("p", f"{n_bad} case(s) with a failed run are excluded from every "
+                            "comparison:"))
+        shown = eff.excluded.head(50).copy()
+        blocks.append(("table", shown))
+        if len(eff.excluded) > 50:
+            blocks.append(("p", f"... and {len(eff.excluded) - 50} more failed runs."))
+    return blocks
+
+
+def _group_table(eff: Effectiveness, system: str, metrics: Sequence[str],
+                 labels: Sequence[str]) -> pd.DataFrame:
+    """Rows: all cases and each accident type; columns: metrics of one system."""
+    m = eff.metrics[eff.metrics["system"] == system]
+    groups = list(pd.unique(m["group"]))
+    by = m.set_index(["group", "metric"])
+    rows = []
+    for group in groups:
+        cells = [str(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
+        cells += [_fmt_ci(by.loc[(group, name)]) for name in metrics]
+        rows.append(cells)
+    return pd.DataFrame(rows, columns=["accident type", "cases", *labels])
+
+
+def _per_type_table(eff: Effectiveness, metric: str) -> pd.DataFrame:
+    m = eff.metrics[(eff.metrics["metric"] == metric) & (eff.metrics["group"] != ALL)]
+    if m.empty:
+        return pd.DataFrame()
+    cells = m.assign(cell=m.apply(_fmt_ci, axis=1))
+    table = cells.pivot(index="group", columns="system", values="cell")
+    table = table[[p.system for p in eff.pairs if p.system in table.columns]]
+    n = m.drop_duplicates("group").set_index("group")["n_cases"]
+    table.insert(0, "cases", n.reindex(table.index).astype(int).astype(str))
+    return table.reset_index(names="accident type")
+
+
+def _md_cell(value: object) -> str:
+    return str(value).replace("|", "\\|").replace("\n", " ")
+
+
+def render_markdown(blocks: Sequence[Block]) -> str:
+    """Blocks (h1/h2/h3/p/ul/table/img) as Markdown."""
+    out: list[str] = []
+    for kind, content in blocks:
+        if kind in ("h1", "h2", "h3"):
+            out.append("#" * int(kind[1]) + " " + content)
+        elif kind == "p":
+            out.append(content)
+        elif kind == "ul":
+            out.append("\n".join(f"- {item}" for item in content))
+        elif kind == "table":
+            if content.empty:
+                continue
+            cols = [str(c) for c in content.columns]
+            lines = ["| " + " | ".join(_md_cell(c) for c in cols) + " |",
+                     "|" + "|".join("---" for _ in cols) + "|"]
+            lines += ["| " + " | ".join(_md_cell(v) for v in row) + " |"
+                      for row in content.itertuples(index=False)]
+            out.append("\n".join(lines))
+        elif kind == "img":
+            file, caption = content
+            if file:
+                out.append(f"![{caption}]({file})\n\n*{caption}*")
+    return "\n\n".join(out) + "\n"
+
+
+def _inline_html(text: str) -> str:
+    parts = html.escape(str(text)).split("`")
+    return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
+
+
+def render_html(blocks: Sequence[Block], title: str) -> str:
+    """Blocks as a standalone HTML page (figures referenced by relative path)."""
+    body: list[str] = []
+    for kind, content in blocks:
+        if kind in ("h1", "h2", "h3"):
+            body.append(f"<{kind}>{_inline_html(content)}</{kind}>")
+        elif kind == "p":
+            body.append(f"<p>{_inline_html(content)}</p>")
+        elif kind == "ul":
+            body.append("<ul>" + "".join(f"<li>{_inline_html(i)}</li>" for i in content)
+                        + "</ul>")
+        elif kind == "table":
+            if content.empty:
+                continue
+            head = "".join(f"<th>{_inline_html(c)}</th>" for c in content.columns)
+            rows = "".join("<tr>" + "".join(f"<td>{_inline_html(v)}</td>" for v in row)
+                           + "</tr>" for row in content.itertuples(index=False))
+            body.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>")
+        elif kind == "img":
+            file, caption = content
+            if file:
+                body.append(f'<figure><img src="{html.escape(file)}" alt="{html.escape(caption)}">'
+                            f"<figcaption>{_inline_html(caption)}</figcaption></figure>")
+    style = ("body{font-family:sans-serif;max-width:70em;margin:2em auto;padding:0 1em}"
+             "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;"
+             "padding:.25em .6em;text-align:right}th{background:#f3f3f3}"
+             "img{max-width:100%}figcaption{font-style:italic;color:#555}")
+    return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{html.escape(title)}</title><style>{style}</style></head>\n<body>\n"
+            + "\n".join(body) + "\n</body></html>\n")
+
+
+# ----------------------------------------------------------------------------
+# Figures (matplotlib imported here only)
+# ----------------------------------------------------------------------------
+
+
+def _figure(width: float, height: float, ncols: int = 1) -> tuple[Any, Any]:
+    from matplotlib.figure import Figure  # no pyplot: no global backend state
+
+    fig = Figure(figsize=(width, height), layout="constrained")
+    axes = fig.subplots(1, ncols, squeeze=False)[0]
+    return fig, axes
+
+
+_COLORS = ("#444444", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+
+
+def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
+    """Write the PNG figures; return {key: file name}."""
+    files: dict[str, str] = {}
+    systems = [p.system for p in eff.pairs]
+    pct = int(round(100 * eff.confidence))
+
+    # impact-speed CDF with bands
+    fig, (ax,) = _figure(7.0, 4.5)
+    for i, name in enumerate([BASELINE, *systems]):
+        d = eff.cdf[eff.cdf["system"] == name]
+        x = d["speed"].to_numpy() * KMH_PER_MS
+        color = _COLORS[i % len(_COLORS)]
+        ax.step(x, d["share"], where="post", color=color, label=name)
+        ax.fill_between(x, d["low"], d["high"], step="post", color=color, alpha=0.2, lw=0)
+    ax.set_xlabel("impact speed (faster vehicle) [km/h]; avoided = 0")
+    ax.set_ylabel("cumulative share of baseline crashes")
+    ax.set_ylim(0, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    files["impact_speed_cdf"] = "impact_speed_cdf.png"
+    fig.savefig(folder / files["impact_speed_cdf"], dpi=110)
+
+    # delta-v scatter per system
+    fig, axes = _figure(4.2 * len(systems), 4.2, ncols=len(systems))
+    for ax, pair, color in zip(axes, eff.pairs, _COLORS[1:] * 5, strict=False):
+        crash = pair.crash_base | pair.crash_treat
+        xb = pair.delta_v_base.max(axis=1)[crash] * KMH_PER_MS
+        yt = pair.delta_v_treat.max(axis=1)[crash] * KMH_PER_MS
+        size = 12.0 * pair.weight[crash] / max(float(pair.weight[crash].mean()), 1e-12) \
+            if crash.any() else 12.0
+        ax.scatter(xb, yt, s=size, color=color, alpha=0.5, lw=0)
+        top = max(float(np.max(xb, initial=0)), float(np.max(yt, initial=0)), 1.0) * 1.05
+        ax.plot([0, top], [0, top], "k--", lw=0.8)
+        ax.set_xlim(0, top)
+        ax.set_ylim(0, top)
+        ax.set_aspect("equal")
+        row = eff.metrics[(eff.metrics["system"] == pair.system) & (eff.metrics["group"] == ALL)
+                          & (eff.metrics["metric"] == "dv_reduction_all")].iloc[0]
+        ax.set_title(f"{pair.system}\nmean reduction {_fmt_ci(row)} km/h", fontsize=9)
+        ax.set_xlabel("baseline delta-v (max of both) [km/h]")
+        ax.set_ylabel("delta-v with system [km/h]; 0 = avoided")
+        ax.grid(alpha=0.3)
+    files["delta_v_scatter"] = "delta_v_scatter.png"
+    fig.savefig(folder / files["delta_v_scatter"], dpi=110)
+
+    # injury risk bars
+    levels = list(eff.curves)
+    fig, axes = _figure(3.6 * len(levels) + 1.0, 4.0, ncols=len(levels))
+    m = eff.metrics[eff.metrics["group"] == ALL].set_index(["metric", "system"])
+    for ax, level in zip(axes, levels, strict=True):
+        labels, est, lo, hi = [BASELINE], [], [], []
+        base = m.loc[(f"risk_{level}_baseline", systems[0])]
+        est.append(base["estimate"])
+        lo.append(base["low"])
+        hi.append(base["high"])
+        for s in systems:
+            r = m.loc[(f"risk_{level}_treatment", s)]
+            labels.append(s)
+            est.append(r["estimate"])
+            lo.append(r["low"])
+            hi.append(r["high"])
+        est_a = np.asarray(est)
+        err = np.vstack([est_a - np.asarray(lo), np.asarray(hi) - est_a])
+        ax.bar(labels, est_a, yerr=np.nan_to_num(err), capsize=4,
+               color=[_COLORS[i % len(_COLORS)] for i in range(len(labels))], alpha=0.8)
+        ax.set_title(f"{level} ({eff.curves[level].name})", fontsize=9)
+        ax.set_ylabel(f"expected {level} injured drivers")
+        ax.tick_params(axis="x", rotation=30)
+        ax.grid(alpha=0.3, axis="y")
+    fig.suptitle(f"Injury risk, {pct} % bootstrap intervals", fontsize=10)
+    files["injury_risk"] = "injury_risk.png"
+    fig.savefig(folder / files["injury_risk"], dpi=110)
+
+    # avoided share per accident type
+    sub = eff.metrics[eff.metrics["metric"] == "avoided_share"]
+    groups = list(pd.unique(sub["group"]))
+    fig, (ax,) = _figure(min(12.0, max(6.0, 0.45 * len(groups) * max(len(systems), 1) + 2)),
+                         4.0)
+    width = 0.8 / max(len(systems), 1)
+    for i, s in enumerate(systems):
+        d = sub[sub["system"] == s].set_index("group").reindex(groups)
+        x = np.arange(len(groups)) + (i - (len(systems) - 1) / 2) * width
+        est_v = d["estimate"].to_numpy(float) * 100
+        err = np.vstack([est_v - d["low"].to_numpy(float) * 100,
+                         d["high"].to_numpy(float) * 100 - est_v])
+        ax.bar(x, est_v, width, yerr=np.nan_to_num(np.clip(err, 0, None)), capsize=3,
+               color=_COLORS[(i + 1) % len(_COLORS)], label=s, alpha=0.85)
+    ax.set_xticks(np.arange(len(groups)), [str(g) for g in groups])
+    ax.set_xlabel("accident type")
+    ax.set_ylabel(f"baseline crashes avoided [%] ({pct} % CI)")
+    ax.set_ylim(0, 105)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend()
+    files["avoided_by_type"] = "avoided_by_type.png"
+    fig.savefig(folder / files["avoided_by_type"], dpi=110)
+    return files
+
+
+def write_effectiveness_report(study: str | os.PathLike[str], *,
+                               risk_curves: Iterable[str] | None = None, n_boot: int = 2000,
+                               seed: int = 0, confidence: float = 0.95,
+                               out: str | os.PathLike[str] | None = None) -> Path:
+    """Analyse a finished study and write its report.
+
+    Parameters
+    ----------
+    study : path
+        Study folder (``study.json`` and ``runs.parquet``).
+    risk_curves : iterable of str, optional
+        Curves replacing the defaults of their injury level.
+    n_boot, seed, confidence
+        Bootstrap settings.
+    out : path, optional
+        Report folder; default ``STUDY/report``.
+
+    Returns
+    -------
+    Path
+        ``report.md`` (next to ``report.html``, ``metrics.csv``,
+        ``crosstabs.csv`` and the PNG figures).
+
+    Raises
+    ------
+    DataError
+        Not a study folder, or the study is not complete.
+    """
+    from vfs.study.core import RUNS_FILE, load_study
+
+    result = load_study(study)
+    if result.table is None:
+        raise DataError(DataProblem("study", "", None, None,
+                                    f"{study}: the study is not complete (status "
+                                    f"{result.manifest.get('status')!r}); finish it with "
+                                    f"vfs study ... --resume (no {RUNS_FILE} yet)"))
+    eff = effectiveness(result.table, risk_curves=risk_curves, n_boot=n_boot,
+                        confidence=confidence, seed=seed)
+    folder = Path(out) if out is not None else result.path / "report"
+    folder.mkdir(parents=True, exist_ok=True)
+    figures = write_figures(eff, folder)
+    manifest = {**result.manifest, "name": result.path.name}
+    blocks = _report_blocks(eff, manifest, figures)
+    _write_text(folder / "report.md", render_markdown(blocks))
+    _write_text(folder / "report.html",
+                render_html(blocks, f"AEB effectiveness: {result.path.name}"))
+    _write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
+    cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()
+             for b in table.index for t in table.columns]
+    _write_text(folder / "crosstabs.csv", pd.DataFrame(
+        cross, columns=["system", "baseline_type", "treatment_type", "weight"]).to_csv(index=False))
+    return folder / "report.md"
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+__all__ = [
+    "ALL",
+    "DEFAULT_RISK_LEVELS",
+    "REQUIRED_COLUMNS",
+    "TYPE_ORDER",
+    "Effectiveness",
+    "PairedRuns",
+    "bootstrap_sums",
+    "effectiveness",
+    "impact_type_crosstab",
+    "paired_runs",
+    "render_html",
+    "render_markdown",
+    "risk_curves_for",
+    "write_effectiveness_report",
+    "write_figures",
+]

@@ -1,0 +1,89 @@
+"""What several commands share: database and selection options, plugins, messages."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from vfs.errors import ParameterError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from vfs.database import Database
+
+#: Help text of ``--db``.
+DB_HELP = "database folder (Parquet, CSV or PCM) or 'default' for the bundled one"
+#: Help text of ``--where``.
+WHERE_HELP = "SQL predicate on the cases table, e.g. \"accident_type IN (241, 242)\""
+
+
+def add_db_options(p: argparse.ArgumentParser, *, required: bool = True,
+                   where: bool = True) -> None:
+    """Add ``--db`` (and ``--where``) to a command."""
+    p.add_argument("--db", required=required, help=DB_HELP)
+    if where:
+        p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
+
+
+def open_db(args: argparse.Namespace) -> Database:
+    """The database of ``--db`` with the cases of ``--where`` (when the command has it)."""
+    from vfs.database import open_database
+
+    return open_database(args.db, getattr(args, "where", None))
+
+
+def say(msg: str) -> None:
+    """Print a progress line now (not buffered)."""
+    print(msg, flush=True)
+
+
+def load_plugins(specs: Sequence[str] | None) -> list[str]:
+    """Import user modules that register effects (dotted names or ``.py`` files).
+
+    Parameters
+    ----------
+    specs : sequence of str
+        Module names (``mypackage.effects``) or paths of ``.py`` files.
+
+    Returns
+    -------
+    list of str
+        The module names imported.
+
+    Raises
+    ------
+    ParameterError
+        A file that does not exist or a module that cannot be found.
+    """
+    loaded = []
+    for spec in specs or ():
+        path = Path(spec)
+        if spec.endswith(".py"):
+            if not path.is_file():
+                raise ParameterError(f"--plugin {spec}: no such file")
+            name = f"vfs_plugin_{path.stem}"
+            if name in sys.modules:  # already imported (and registered)
+                loaded.append(name)
+                continue
+            sp = importlib.util.spec_from_file_location(name, path)
+            if sp is None or sp.loader is None:
+                raise ParameterError(f"--plugin {spec}: cannot import")
+            mod = importlib.util.module_from_spec(sp)
+            sys.modules[name] = mod
+            try:
+                sp.loader.exec_module(mod)
+            except Exception:
+                del sys.modules[name]
+                raise
+        else:
+            try:
+                importlib.import_module(spec)
+            except ModuleNotFoundError as exc:
+                raise ParameterError(f"--plugin {spec}: {exc}") from None
+            name = spec
+        loaded.append(name)
+    return loaded

@@ -1,0 +1,118 @@
+"""Command-line interface of the database tools: ``vfs db validate|convert|import-pcm``.
+
+:func:`add_parsers` adds the command group to the main ``vfs`` parser; every
+subcommand sets ``func``, a callable ``func(args) -> int`` returning the exit
+code.  Data problems are printed, one per line, with exit code 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from vfs.database.io import save_csv_folder, save_database
+from vfs.database.pcm import export_pcm, import_pcm
+from vfs.database.source import FORMATS, load_any, resolve_database_path
+from vfs.errors import DataError, VfsError
+
+
+def _path(arg: str | Path) -> str:
+    """A database argument as a folder (``default`` is the bundled database)."""
+    return str(resolve_database_path(str(arg)))
+
+
+def _print_problems(error: DataError) -> None:
+    print(f"{len(error.problems)} problem(s):")
+    for problem in error.problems:
+        print(f"  - {problem}")
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """``vfs db validate DIR``: print "OK: ..." or every problem (exit code 1)."""
+    try:
+        db = load_any(_path(args.directory), validate=True)
+    except DataError as error:
+        _print_problems(error)
+        return 1
+    print(
+        f"OK: {db.n_cases} cases, {len(db.participants)} participants, "
+        f"{len(db.trajectories)} trajectory samples, {len(db.reconstruction)} "
+        f"reconstructions (schema {db.meta.get('schema_version')})"
+    )
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    """``vfs db convert SRC DST --to {parquet,csv,pcm}``."""
+    try:
+        db = load_any(_path(args.source), validate=True)
+        writer = {"parquet": save_database, "csv": save_csv_folder, "pcm": export_pcm}[args.to]
+        out = writer(db, args.destination)
+    except DataError as error:
+        _print_problems(error)
+        return 1
+    except VfsError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {db.n_cases} cases to {out} ({args.to})")
+    return 0
+
+
+def cmd_import_pcm(args: argparse.Namespace) -> int:
+    """``vfs db import-pcm SRC DST``: PCM CSV folder -> Parquet database."""
+    try:
+        db = import_pcm(args.source)
+        out = save_database(db, args.destination)
+    except DataError as error:
+        _print_problems(error)
+        return 1
+    except VfsError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    report = db.meta.get("pcm_import", {})
+    print(f"imported {db.n_cases} cases into {out}")
+    if isinstance(report, dict):
+        for column, text in report.get("defaults_used", {}).items():
+            print(f"  default used for {column}: {text}")
+        if report.get("skipped_cases"):
+            print(f"  skipped cases (not exactly two participants): {report['skipped_cases']}")
+    return 0
+
+
+def add_parsers(
+    subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
+) -> argparse.ArgumentParser:
+    """Add the ``db`` command group to a subparsers object.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        Result of ``parser.add_subparsers()`` of the main CLI.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``db`` parser.
+    """
+    db = subparsers.add_parser("db", help="accident-case databases: validate, convert, import",
+                               description="Accident-case databases: validate a folder against the "
+                               "schema, convert between Parquet, CSV and PreCrash-Matrix folders, "
+                               "import PreCrash-Matrix data. Format: docs/data-format.md.")
+    commands = db.add_subparsers(dest="db_command", metavar="COMMAND", required=True)
+
+    validate = commands.add_parser("validate", help="check a database against the schema")
+    validate.add_argument("directory", type=Path, help="Parquet, CSV or PCM folder, or 'default'")
+    validate.set_defaults(func=cmd_validate)
+
+    convert = commands.add_parser("convert", help="convert between database formats")
+    convert.add_argument("source", type=Path, help="Parquet, CSV or PCM folder")
+    convert.add_argument("destination", type=Path, help="output folder (replaced)")
+    convert.add_argument("--to", choices=FORMATS, required=True, help="output format")
+    convert.set_defaults(func=cmd_convert)
+
+    pcm = commands.add_parser("import-pcm", help="PreCrash-Matrix CSV folder -> Parquet")
+    pcm.add_argument("source", type=Path, help="folder with participant_data.csv, ...")
+    pcm.add_argument("destination", type=Path, help="output database folder (replaced)")
+    pcm.set_defaults(func=cmd_import_pcm)
+    return db

@@ -1,0 +1,36 @@
+"""``vfs impact``: batch-solve a table of impact configurations."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parsers(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``vfs impact``."""
+    p = subparsers.add_parser(
+        "impact", help="batch-solve a table of impact configurations (Parquet or CSV)",
+        description="Solve every row of an impact table with the Kudlich-Slibar model. "
+        "Columns and units: docs/data-format.md, section 'Impact tables'.",
+    )
+    p.add_argument("--input", required=True, help="input table (.parquet or .csv)")
+    p.add_argument("--output", required=True, help="output table (.parquet or .csv)")
+    p.add_argument("--on-error", choices=("raise", "record"), default="raise",
+                   help="'raise': stop on the first bad table and list every bad row; "
+                   "'record': write an error column and solve the valid rows")
+    p.set_defaults(func=cmd_impact)
+
+
+def cmd_impact(args: argparse.Namespace) -> int:
+    """Run ``vfs impact``."""
+    from pathlib import Path
+
+    from vfs.atomic import write_table
+    from vfs.database.impact_table import read_table, solve_impact_table
+
+    df = read_table(args.input)
+    out = solve_impact_table(df, on_error=args.on_error, table=Path(args.input).name)
+    write_table(args.output, out)
+    counts = out["impact_type"].value_counts().to_dict()
+    summary = ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))
+    print(f"solved {len(out)} impacts ({summary}) -> {args.output}")
+    return 0

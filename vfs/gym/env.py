@@ -1,0 +1,895 @@
+"""Gymnasium environments for testing AEB policies on the accident cases.
+
+``gymnasium.make("vfs/AEB-v0", db="default", split="train")`` gives one
+environment, ``gymnasium.make_vec("vfs/AEB-v0", num_envs=4096,
+vectorization_mode="vector_entry_point", ...)`` the native batched one
+(:class:`AEBVectorEnv`); both are registered when ``vfs`` is imported.
+docs/gym.md documents observation, action, reward and episode end.
+
+One episode is one case of the database from the start of its record: the
+agent controls the brake of the ego vehicle (participant ``ego``), the other
+participant follows its recorded path, and at contact the impact is solved
+with the same pre-crash simulation (:class:`vfs.physics.precrash.PrecrashRun`),
+impact configuration and impulse model as ``vfs study``.
+
+Both environments are thin layers over :class:`EpisodeBatch`, which runs the
+episodes of many sub-environments ("slots") as rows of one vectorised
+:class:`~vfs.physics.precrash.PrecrashRun`; every slot runs on its own clock, so a
+finished slot restarts with a new case while the others go on.  The single
+environment is an :class:`EpisodeBatch` of one slot: the same code, the same
+numbers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import gymnasium as gym
+import numpy as np
+import numpy.typing as npt
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+
+from vfs.adas.params import SensorParams
+from vfs.adas.sensor import outline_visible, rectangle_gap
+from vfs.analysis.risk import default_risk_curve, get_risk_curve
+from vfs.effects.base import hooks, parse_effect
+from vfs.errors import ParameterError
+from vfs.physics.impact import IMPACT_TYPE_NAMES
+from vfs.physics.precrash import (
+    BrakeActuatorParams,
+    KinematicState,
+    PrecrashObservation,
+    PrecrashRun,
+)
+from vfs.simulation import (
+    CaseBatch,
+    ImpactInputs,
+    SimulationParams,
+    impact_parameters,
+    impact_stage,
+    penetration_rule,
+)
+from vfs.units import G
+
+#: Names of the sensor observation's entries, in order (docs/gym.md, "Observation").
+OBSERVATION_NAMES: tuple[str, ...] = (
+    "ego_speed", "ego_accel", "object_seen", "gap", "rel_x", "rel_y", "rel_vx", "rel_vy",
+    "ttc", "road_friction",
+)
+#: Units of :data:`OBSERVATION_NAMES`.
+OBSERVATION_UNITS: tuple[str, ...] = ("m/s", "m/s^2", "-", "m", "m", "m", "m/s", "m/s", "s", "-")
+#: Bounds of the sensor observation (values are clipped to them).
+OBSERVATION_LOW = np.array([0.0, -20.0, 0.0, 0.0, -200.0, -200.0, -100.0, -100.0, 0.0, 0.0])
+OBSERVATION_HIGH = np.array([80.0, 20.0, 1.0, 200.0, 200.0, 200.0, 100.0, 100.0, 10.0, 2.0])
+
+#: Names of the privileged (full-state) observation's entries, in order.
+PRIVILEGED_NAMES: tuple[str, ...] = (
+    "t", "road_friction", "ego_speed", "ego_accel", "ego_yaw_rate", "ego_deceleration",
+    "obj_x", "obj_y", "obj_rel_yaw", "obj_vx", "obj_vy", "obj_yaw_rate", "obj_speed",
+    "obj_accel", "ego_length", "ego_width", "ego_cg_to_front", "obj_length", "obj_width",
+    "obj_cg_to_front", "gap",
+)
+PRIVILEGED_LOW = np.array([0.0, 0.0, 0.0, -20.0, -10.0, 0.0, -1000.0, -1000.0, -math.pi,
+                           -100.0, -100.0, -10.0, 0.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                           0.0])
+PRIVILEGED_HIGH = np.array([120.0, 2.0, 80.0, 20.0, 10.0, 20.0, 1000.0, 1000.0, math.pi,
+                            100.0, 100.0, 10.0, 80.0, 20.0, 25.0, 5.0, 25.0, 25.0, 5.0, 25.0,
+                            2000.0])
+
+_OBS_BOUNDS = (OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32))
+_PRIV_BOUNDS = (PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32))
+
+#: TTC reported when no contact is approaching [s] (the top of its range).
+TTC_NONE = 10.0
+
+#: Below this speed [m/s] a vehicle counts as standing still.
+STANDSTILL = 1e-6
+
+
+# ----------------------------------------------------------------------------
+# Parameters
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RewardParams:
+    """Reward of the AEB environments (docs/gym.md, "Reward").
+
+    Per step the reward is minus
+
+    - ``unnecessary_brake_weight`` x (ego deceleration / g) x dt in a case
+      whose recorded paths do not collide (a near miss: any braking is
+      unnecessary), [1 / (g s)];
+    - ``comfort_weight`` x |change of the ego deceleration| / g per step
+      (total variation of the brake, [1 / g]);
+
+    and at a collision (the terminal step) minus ``injury_weight`` x the
+    injury risk of the impact's delta-v by the curve ``risk_curve`` (default:
+    the default curve of ``injury_level``, as in ``vfs report
+    effectiveness``), summed over both drivers (``risk_of="both"``, the
+    expected number of injured drivers) or the ego driver only.
+
+    Attributes
+    ----------
+    injury_weight : float
+        Weight of the injury risk [-], default 1.
+    injury_level : str
+        Injury level of the default curve, default "MAIS3+".
+    risk_curve : str or None
+        Name of a registered curve (:mod:`vfs.analysis.risk`); overrides ``injury_level``.
+    risk_of : {"both", "ego"}
+        Whose risk counts, default "both".
+    unnecessary_brake_weight : float
+        Default 0.05 per g s: a 1 g stop from 50 km/h in a near miss costs
+        about 0.07, a few per cent of a likely MAIS3+ injury.
+    comfort_weight : float
+        Default 0.01 per g of brake change: applying and releasing a full
+        brake costs 0.02.
+    """
+
+    injury_weight: float = 1.0
+    injury_level: str = "MAIS3+"
+    risk_curve: str | None = None
+    risk_of: str = "both"
+    unnecessary_brake_weight: float = 0.05
+    comfort_weight: float = 0.01
+
+    def __post_init__(self) -> None:
+        if self.risk_of not in ("both", "ego"):
+            raise ParameterError(f"risk_of={self.risk_of!r}; use 'both' or 'ego'")
+        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ParameterError(f"reward {name}={value} must be finite and >= 0")
+
+    def curve(self) -> Any:
+        """The risk curve (:class:`vfs.analysis.risk.RiskCurve`)."""
+        if self.risk_curve:
+            return get_risk_curve(self.risk_curve)
+        return default_risk_curve(self.injury_level)
+
+
+#: Sensor of the environments by default: 150 m, 1.6 rad (about 92 deg: a radar and
+#: camera fusion that also sees crossing traffic), every step, no latency.
+DEFAULT_SENSOR = SensorParams(range=150.0, field_of_view=1.6, cycle_time=0.0, latency=0.0)
+
+#: Brake actuator by default: the generic AEB's (jerk 40 m/s^3, vfs.adas.systems.THREE_STAGE).
+DEFAULT_BRAKE = BrakeActuatorParams(model="jerk", jerk=40.0, release_jerk=40.0)
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Settings of the AEB environments (the keyword arguments of ``gymnasium.make``).
+
+    Attributes
+    ----------
+    db : str or Database
+        Database folder, "default" (the bundled one) or a loaded Database.
+    split : {"train", "test", "all"}
+        Which cases: a fixed random share ``test_share`` of the cases
+        (permutation seeded with ``split_seed``) is "test", the rest "train".
+    test_share : float
+        Share of test cases, default 0.2.
+    split_seed : int
+        Seed of the split, default 0.
+    where : str, optional
+        SQL filter on the cases table first (duckdb, as ``--where``).
+    ego : {1, 2}
+        The participant the agent brakes, default 1.
+    sensor : SensorParams
+        The ego's sensor (field of view, range, mounting); default
+        :data:`DEFAULT_SENSOR`.  Its cycle time and latency are not modelled
+        here (each step observes the present).
+    observe_friction : bool
+        Include the road friction coefficient in the observation (else 0);
+        default True.
+    privileged : bool
+        Observe the full state (:data:`PRIVILEGED_NAMES`) instead of the
+        sensor (:data:`OBSERVATION_NAMES`); default False.
+    brake : BrakeActuatorParams
+        Actuator between the demand and the delivered deceleration; default
+        :data:`DEFAULT_BRAKE` (the generic AEB's).
+    action_repeat : int
+        Simulation steps per environment step (each of ``simulation.precrash.dt``,
+        default 10 ms); default 1.
+    reward : RewardParams
+    simulation : SimulationParams
+        Pre-crash and impact settings (its brake is replaced by ``brake``).
+    impact_parameters : {"reconstruction", "default"}
+        Restitution and contact friction per case from the reconstruction or
+        the defaults, as ``vfs study``.
+    effects : tuple of str
+        Physical effects (:mod:`vfs.effects`, "NAME[:P=V,...]") added to the model.
+    """
+
+    db: Any = "default"
+    split: str = "train"
+    test_share: float = 0.2
+    split_seed: int = 0
+    where: str | None = None
+    ego: int = 1
+    sensor: SensorParams = DEFAULT_SENSOR
+    observe_friction: bool = True
+    privileged: bool = False
+    brake: BrakeActuatorParams = DEFAULT_BRAKE
+    action_repeat: int = 1
+    reward: RewardParams = field(default_factory=RewardParams)
+    simulation: SimulationParams = field(default_factory=SimulationParams)
+    impact_parameters: str = "reconstruction"
+    effects: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.split not in ("train", "test", "all"):
+            raise ParameterError(f"split={self.split!r}; use 'train', 'test' or 'all'")
+        if not 0.0 < self.test_share < 1.0:
+            raise ParameterError(f"test_share={self.test_share} outside (0, 1)")
+        if self.ego not in (1, 2):
+            raise ParameterError(f"ego={self.ego!r}; use 1 or 2")
+        if int(self.action_repeat) != self.action_repeat or not 1 <= self.action_repeat <= 100:
+            raise ParameterError(f"action_repeat={self.action_repeat} outside 1..100")
+        if self.impact_parameters not in ("reconstruction", "default"):
+            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use "
+                                 "'reconstruction' or 'default'")
+        if isinstance(self.effects, str):
+            object.__setattr__(self, "effects", (self.effects,))
+
+    @property
+    def observation_dim(self) -> int:
+        """Length of the observation vector."""
+        return len(PRIVILEGED_NAMES if self.privileged else OBSERVATION_NAMES)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) of the observation Box (float32)."""
+        if self.privileged:
+            return PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32)
+        return OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32)
+
+
+def make_config(**kwargs: Any) -> EnvConfig:
+    """An :class:`EnvConfig` from keyword arguments (dicts accepted for nested settings)."""
+    if isinstance(kwargs.get("reward"), dict):
+        kwargs["reward"] = RewardParams(**kwargs["reward"])
+    if isinstance(kwargs.get("sensor"), dict):
+        kwargs["sensor"] = SensorParams(**kwargs["sensor"])
+    if isinstance(kwargs.get("brake"), dict):
+        kwargs["brake"] = BrakeActuatorParams(**kwargs["brake"])
+    if "effects" in kwargs and kwargs["effects"] is not None:
+        eff = kwargs["effects"]
+        kwargs["effects"] = (eff,) if isinstance(eff, str) else tuple(eff)
+    known = {f.name for f in dataclasses.fields(EnvConfig)}
+    unknown = sorted(set(kwargs) - known)
+    if unknown:
+        raise ParameterError(f"unknown AEB environment setting(s) {unknown}; known: "
+                             f"{', '.join(sorted(known))}")
+    return EnvConfig(**kwargs)
+
+
+# ----------------------------------------------------------------------------
+# Cases
+# ----------------------------------------------------------------------------
+
+
+def split_case_ids(case_ids: npt.ArrayLike, split: str, test_share: float = 0.2,
+                   seed: int = 0) -> np.ndarray:
+    """The case ids of a split, in ascending order.
+
+    The ids are sorted, permuted with ``numpy.random.default_rng(seed)`` and
+    the first round(test_share x n) (at least one) are "test"; "all" keeps
+    every case.
+    """
+    ids = np.sort(np.asarray(case_ids))
+    if split == "all":
+        return ids
+    n_test = min(max(1, int(round(test_share * ids.size))), max(ids.size - 1, 1))
+    perm = np.random.default_rng(seed).permutation(ids.size)
+    test = np.zeros(ids.size, dtype=bool)
+    test[perm[:n_test]] = True
+    return ids[test] if split == "test" else ids[~test]
+
+
+def _load(cfg: EnvConfig) -> tuple[Any, np.ndarray]:
+    """(database, case ids of the split)."""
+    from vfs.database import open_database
+
+    db = open_database(cfg.db, cfg.where)
+    ids = split_case_ids(db.case_ids, cfg.split, cfg.test_share, cfg.split_seed)
+    if ids.size == 0:
+        raise ParameterError(f"no case in split {cfg.split!r}"
+                             + (f" of the selection {cfg.where!r}" if cfg.where else ""))
+    return db, ids
+
+
+def _rest_from(batch: CaseBatch, column: int) -> np.ndarray:
+    """Time [s, record axis] from which participant ``column`` (0/1) of each case stands
+    still for good (recorded speed 0 to the end of its record and beyond); inf if never."""
+    n = batch.size
+    p = batch.paths
+    rows = np.arange(n) + column * n
+    speed = p.knots[:, rows, 6]  # (M, n)
+    t = p.knots[:, rows, 0]
+    m = np.arange(speed.shape[0])[:, None]
+    valid = m < p.count[rows][None, :]
+    moving = (speed > STANDSTILL) & valid
+    last = np.where(moving.any(axis=0), speed.shape[0] - 1 - np.argmax(moving[::-1], axis=0), -1)
+    end_moving = moving[p.count[rows] - 1, np.arange(n)]
+    nxt = np.minimum(last + 1, p.count[rows] - 1)
+    out = np.where(last < 0, 0.0, t[nxt, np.arange(n)])
+    return np.where(end_moving, np.inf, out)
+
+
+# ----------------------------------------------------------------------------
+# Observations
+# ----------------------------------------------------------------------------
+
+
+class Dimensions(NamedTuple):
+    """Outline dimensions [m] of ego and object per case instance (float32 arrays (N,))."""
+
+    ego_front: np.ndarray
+    ego_rear: np.ndarray
+    ego_width: np.ndarray
+    obj_front: np.ndarray
+    obj_rear: np.ndarray
+    obj_width: np.ndarray
+
+    @classmethod
+    def of(cls, batch: CaseBatch, ego: int) -> Dimensions:
+        """Dimensions of the cases of ``batch`` with participant ``ego`` (1/2) as ego."""
+        v = (batch.vehicle1, batch.vehicle2)
+        e, o = v[ego - 1], v[2 - ego]
+        f = np.float32
+        return cls(e.cg_to_front.astype(f), e.cg_to_rear.astype(f), e.width.astype(f),
+                   o.cg_to_front.astype(f), o.cg_to_rear.astype(f), o.width.astype(f))
+
+    def take(self, rows: np.ndarray) -> Dimensions:
+        """Rows ``rows``."""
+        return Dimensions(*(a[rows] for a in self))
+
+
+def _visible(sx: np.ndarray, sy: np.ndarray, bx: np.ndarray, by: np.ndarray,
+             sensor: SensorParams, cx: np.ndarray, cy: np.ndarray, co: np.ndarray,
+             so: np.ndarray, hl: np.ndarray, hw: np.ndarray) -> np.ndarray:
+    """:func:`vfs.adas.sensor.outline_visible` with quick decisions first: the object's centre
+    inside the sector (seen) or beyond range + circumradius (not seen); the exact test
+    runs on the rest only.  (bx, by): boresight unit vector; (co, so): object axis."""
+    dx, dy = cx - sx, cy - sy
+    dist = np.sqrt(dx * dx + dy * dy)
+    half = 0.5 * sensor.field_of_view
+    ahead = (dx * bx + dy * by) >= math.cos(half) * dist if half < math.pi else True
+    seen = (dist <= sensor.range) & ahead
+    unsure = ~seen & (dist - np.sqrt(hl * hl + hw * hw) <= sensor.range)
+    if unsure.any():
+        u = np.flatnonzero(unsure)
+        seen[u] = outline_visible(sx[u], sy[u], np.arctan2(by[u], bx[u]), sensor.field_of_view,
+                                  sensor.range, cx[u], cy[u], np.arctan2(so[u], co[u]),
+                                  hl[u], hw[u])
+    return seen
+
+
+def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndarray:
+    """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
+
+    Sensor observation (:data:`OBSERVATION_NAMES`): ego speed [m/s] and
+    longitudinal acceleration [m/s^2]; whether the object's outline is in
+    the sensor's field of view (1/0); when it is: the gap between the
+    outlines [m], the position of the object's geometric centre relative to
+    the ego's front-bumper centre in the ego frame (x forward, y left) [m],
+    the object's velocity relative to the ego in the ego frame [m/s], and
+    the time to collision gap / closing speed [s] (closing speed = rate at
+    which the centres approach; :data:`TTC_NONE` when not approaching);
+    zeros (TTC :data:`TTC_NONE`) when unseen; the road friction coefficient
+    (0 unless ``observe_friction``).  The privileged observation
+    (:data:`PRIVILEGED_NAMES`) is the full state in the ego frame.  Values
+    are clipped to the Box bounds.
+    """
+    rows = p.rows
+    e, o = cfg.ego - 1, 2 - cfg.ego
+    f32 = np.float32
+    # positions relative to the ego CG in float64, then everything in float32 (the
+    # observation's type; float32 sin/cos are SIMD, float64 ones are not)
+    ex, ey = p.x[:, e], p.y[:, e]
+    ox, oy = (p.x[:, o] - ex).astype(f32), (p.y[:, o] - ey).astype(f32)
+    eyaw, oyaw = p.yaw[:, e].astype(f32), p.yaw[:, o].astype(f32)
+    ce, se = np.cos(eyaw), np.sin(eyaw)
+    co, so = np.cos(oyaw), np.sin(oyaw)
+    ev = p.speed[:, e].astype(f32)
+    if p.vx is not None and p.vy is not None:
+        vx, vy = p.vx.astype(f32), p.vy.astype(f32)
+    else:
+        h = p.heading.astype(f32)
+        vx, vy = p.speed.astype(f32) * np.cos(h), p.speed.astype(f32) * np.sin(h)
+    dims_rows = dims.take(rows)
+    ef, er, ew, of, orr, ow = dims_rows
+    e_c, o_c = 0.5 * (ef - er), 0.5 * (of - orr)  # geometric centre ahead of the CG
+    ecx, ecy = e_c * ce, e_c * se  # geometric centres, relative to the ego CG
+    ocx, ocy = ox + o_c * co, oy + o_c * so
+    ehl, ohl = 0.5 * (ef + er), 0.5 * (of + orr)
+    gap = rectangle_gap(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
+    # object centre relative to the ego's front-bumper centre, ego frame
+    dx, dy = ocx - ef * ce, ocy - ef * se
+    dvx, dvy = vx[:, o] - vx[:, e], vy[:, o] - vy[:, e]
+    rel_x, rel_y = ce * dx + se * dy, -se * dx + ce * dy
+    rel_vx, rel_vy = ce * dvx + se * dvy, -se * dvx + ce * dvy
+    closing = -(dx * dvx + dy * dvy) / np.maximum(np.sqrt(dx * dx + dy * dy), f32(1e-9))
+    ttc = np.where(closing > 0.0, gap / np.maximum(closing, f32(1e-12)), f32(TTC_NONE))
+    friction = p.road_friction.astype(f32) if cfg.observe_friction else \
+        np.zeros(rows.shape[0], f32)
+    accel = p.accel[:, e].astype(f32)
+    if cfg.privileged:
+        orel = np.arctan2(ce * so - se * co, ce * co + se * so)
+        cols = [np.broadcast_to(np.asarray(p.t, f32), rows.shape), friction, ev, accel,
+                p.yaw_rate[:, e], p.deceleration[:, e],
+                ce * ox + se * oy, -se * ox + ce * oy, orel,
+                rel_vx, rel_vy, p.yaw_rate[:, o], p.speed[:, o], p.accel[:, o],
+                ef + er, ew, ef, of + orr, ow, of, gap]
+        low, high = _PRIV_BOUNDS
+    else:
+        sn = cfg.sensor
+        mx, my = ef + f32(sn.mount_x), f32(sn.mount_y)
+        if sn.mount_yaw:
+            bx, by = np.cos(eyaw + f32(sn.mount_yaw)), np.sin(eyaw + f32(sn.mount_yaw))
+        else:
+            bx, by = ce, se
+        seen = _visible(ce * mx - se * my, se * mx + ce * my, bx, by, sn, ocx, ocy, co, so,
+                        ohl, 0.5 * ow)
+        cols = [ev, accel, seen, gap * seen, rel_x * seen, rel_y * seen, rel_vx * seen,
+                rel_vy * seen, np.where(seen, ttc, f32(TTC_NONE)), friction]
+        low, high = _OBS_BOUNDS
+    out = np.stack(cols, axis=1, dtype=np.float32)
+    np.clip(out, low, high, out=out)
+    if not np.isfinite(out).all():
+        out = np.nan_to_num(out, nan=0.0)
+    return out
+
+
+# ----------------------------------------------------------------------------
+# The episode engine
+# ----------------------------------------------------------------------------
+
+
+class EpisodeBatch:
+    """The episodes of ``num_slots`` sub-environments as rows of one PrecrashRun.
+
+    Rows are case instances: the split's cases, tiled when there are more
+    slots than cases so that every slot can always draw a case that no other
+    slot is running.  A slot draws its next case uniformly among the idle
+    instances (with one slot: uniformly among the split's cases).
+
+    Parameters
+    ----------
+    config : EnvConfig
+    num_slots : int
+    """
+
+    def __init__(self, config: EnvConfig, num_slots: int) -> None:
+        if int(num_slots) != num_slots or num_slots < 1:
+            raise ParameterError(f"num_envs={num_slots} must be a positive integer")
+        self.config = cfg = config
+        self.num_slots = int(num_slots)
+        db, ids = _load(cfg)
+        self.split_ids = ids
+        effects = tuple(parse_effect(e) if isinstance(e, str) else e for e in cfg.effects)
+        base = cfg.simulation
+        self.params = dataclasses.replace(
+            base, precrash=dataclasses.replace(base.precrash, brake=cfg.brake), effects=effects)
+        batch = CaseBatch.from_database(db, ids, impact_parameters=cfg.impact_parameters)
+        for hook in hooks(self.params.effects, "vehicles"):
+            batch = hook(batch)
+        n_cases = batch.size
+        copies = 1 if self.num_slots == 1 else max(1, math.ceil(2 * self.num_slots / n_cases))
+        self.batch = batch
+        self.case_index = np.tile(np.arange(n_cases), copies)  # instance -> case of the split
+        ci = self.case_index
+        self.dims = Dimensions.of(batch, cfg.ego).take(ci)
+        self.eps, self.mu = impact_parameters(batch, self.params.impact)
+        penetration = penetration_rule(batch, effects)
+        # recorded outcome of every case: a near miss makes any braking unnecessary
+        replay = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                             params=self.params.precrash, penetration=penetration)
+        while not replay.done:
+            replay.advance(None)
+        self.recorded_collision = replay.result().collided[ci]
+        self.other_rest_from = _rest_from(batch, 2 - cfg.ego)[ci]
+        self.curve = cfg.reward.curve()
+        self.run = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths,
+                               batch.road_friction, params=self.params.precrash,
+                               penetration=penetration, start=np.zeros(0, np.int64),
+                               open_ended=True, case_of=ci)
+        n = ci.size
+        self.slot_row = np.full(self.num_slots, -1, dtype=np.int64)
+        self.row_slot = np.full(n, -1, dtype=np.int64)
+        self.busy = np.zeros(n, dtype=bool)
+        self.prev_decel = np.zeros(n)  # ego deceleration after the last step
+
+    # ---------------------------------------------------------------- episodes
+
+    def case_id(self, row: int) -> Any:
+        """Case id of instance ``row`` (a Python scalar)."""
+        return self.batch.case_id[self.case_index[row]].item()
+
+    @property
+    def n_cases(self) -> int:
+        """Cases in the split."""
+        return int(self.split_ids.size)
+
+    def draw(self, slots: np.ndarray, rng: np.random.Generator,
+             case_ids: npt.ArrayLike | None = None) -> np.ndarray:
+        """Instances (rows) for new episodes of ``slots``: idle instances drawn uniformly,
+        or the given case ids."""
+        m = slots.shape[0]
+        free = ~self.busy
+        free[self.slot_row[slots][self.slot_row[slots] >= 0]] = True
+        if case_ids is not None:
+            want = np.broadcast_to(np.asarray(case_ids), (m,))
+            pos = np.searchsorted(self.split_ids, want)
+            ok = (pos < self.split_ids.size) & (self.split_ids[np.minimum(
+                pos, self.split_ids.size - 1)] == want)
+            if not ok.all():
+                raise ParameterError(f"case_id {want[~ok][0]!r} is not in split "
+                                     f"{self.config.split!r}")
+            out = np.empty(m, np.int64)
+            for j, c in enumerate(pos):  # m is small: explicit choice of cases
+                cand = np.flatnonzero(free & (self.case_index == c))
+                if cand.size == 0:
+                    raise ParameterError(f"case {want[j]!r} is running in every copy")
+                out[j] = cand[0]
+                free[cand[0]] = False
+            return out
+        idle = np.flatnonzero(free)
+        if self.num_slots == 1:
+            return idle[rng.integers(idle.size, size=m)] if idle.size else idle
+        pick = rng.choice(idle.size, size=m, replace=False)
+        return idle[pick]
+
+    def assign(self, slots: np.ndarray, rows: np.ndarray) -> None:
+        """Stop what ``slots`` run and give them instances ``rows`` (started by the next
+        :meth:`step_rows` or :meth:`start_now`)."""
+        old = self.slot_row[slots]
+        old = old[old >= 0]
+        running_old = old[self.run.running[old]]
+        if running_old.size:
+            self.run.stop(running_old)
+        self.busy[old] = False
+        self.row_slot[old] = -1
+        self.slot_row[slots] = rows
+        self.row_slot[rows] = slots
+        self.busy[rows] = True
+        self.prev_decel[rows] = 0.0
+
+    def start_now(self, rows: np.ndarray) -> None:
+        """Start ``rows`` (assigned, nothing else running) at the next step."""
+        if self.run.rows.size:
+            raise ParameterError("start_now needs every other episode stopped")
+        self.run.advance(None, start=rows)
+
+    def demand(self, actions: np.ndarray) -> np.ndarray:
+        """Deceleration demand (n, 2) [m/s^2] of the running rows for slot actions (S,)."""
+        run = self.run
+        rows = run.rows
+        a = np.clip(np.nan_to_num(actions[self.row_slot[rows]], nan=0.0), 0.0, 1.0)
+        d = np.zeros((rows.shape[0], 2))
+        d[:, self.config.ego - 1] = a * run.limit[rows, 0]
+        return d
+
+    def step_rows(self, actions: np.ndarray,
+                  start_rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Advance the running episodes ``action_repeat`` simulation steps.
+
+        ``actions`` (S,) are the slots' brake demands; ``start_rows``
+        (assigned instances) start at the last of these steps, so that they
+        begin at their own time 0.  Returns per-slot arrays "reward",
+        "terminated", "truncated", the instances that ended ("ended"), and
+        for the collided ones "impact_rows", "impact" and "risk".
+        """
+        cfg, run = self.config, self.run
+        s = self.num_slots
+        reward = np.zeros(s)
+        ended_rows: list[np.ndarray] = []
+        trunc_rows: list[np.ndarray] = []
+        rw = cfg.reward
+        dt = run.dt
+        e = cfg.ego - 1
+        last = cfg.action_repeat - 1
+        for i in range(cfg.action_repeat):
+            start = start_rows if i == last else None
+            if run.rows.size == 0 and start is None:
+                continue
+            run.advance(self.demand(actions) if run.rows.size else None, start=start)
+            rows = run.rows
+            decel = run.track.decel[:, e]
+            cost = rw.comfort_weight * np.abs(decel - self.prev_decel[rows]) / G
+            near_miss = ~self.recorded_collision[rows]
+            cost = cost + np.where(near_miss, rw.unnecessary_brake_weight * decel / G * dt, 0.0)
+            self.prev_decel[rows] = decel
+            reward[self.row_slot[rows]] -= cost
+            fin = run.finished
+            if fin.size:
+                run.finalize(fin)
+                ended_rows.append(fin[run.collided[fin]])
+                trunc_rows.append(fin[~run.collided[fin]])
+            # standstill: ego stopped, the object stopped for good; nothing moves any more
+            tau = run.local_time(rows)
+            still = (run.state.speed[:, e] <= STANDSTILL) & ~run.pending[rows] & (tau > 0.0) \
+                & (tau >= self.other_rest_from[rows])
+            if still.any():
+                r = rows[still]
+                run.stop(r, keep_state=True)
+                ended_rows.append(r)
+        terminated = np.zeros(s, dtype=bool)
+        truncated = np.zeros(s, dtype=bool)
+        ended = np.concatenate(ended_rows) if ended_rows else np.zeros(0, np.int64)
+        trunc = np.concatenate(trunc_rows) if trunc_rows else np.zeros(0, np.int64)
+        terminated[self.row_slot[ended]] = True
+        truncated[self.row_slot[trunc]] = True
+        out: dict[str, Any] = {"reward": reward, "terminated": terminated,
+                               "truncated": truncated, "ended": np.concatenate([ended, trunc])}
+        collided = ended[run.collided[ended]]
+        if collided.size:
+            imp = self.impacts(collided)
+            risk = self.risk(imp)
+            reward[self.row_slot[collided]] -= rw.injury_weight * risk
+            out["impact_rows"], out["impact"], out["risk"] = collided, imp, risk
+        return out
+
+    # ---------------------------------------------------------------- outcomes
+
+    def impacts(self, rows: np.ndarray) -> Any:
+        """Impact results (:class:`vfs.physics.impact.ImpactResult`) of collided instances ``rows``
+        (the impact stages of :func:`vfs.simulation.simulate_cases`, effects included)."""
+        run = self.run
+        cases = self.case_index[rows]
+        pre = ImpactInputs(KinematicState(*(a[rows] for a in run.impact_state)),
+                            run.poi[rows], run.cp_angle[rows], run.contact_time[rows],
+                            run.impact_time[rows])
+        hit = np.arange(rows.shape[0])
+        _, result, _, _ = impact_stage(self.batch.take(cases), pre, hit, self.eps[cases],
+                                       self.mu[cases], self.params)
+        return result
+
+    def risk(self, imp: Any) -> np.ndarray:
+        """Injury risk per impact (expected injured drivers, or the ego's risk)."""
+        e = self.config.ego
+        dv = np.stack([imp.delta_v1, imp.delta_v2], axis=1)
+        p = np.nan_to_num(self.curve.probability(np.abs(dv)), nan=0.0)
+        if self.config.reward.risk_of == "ego":
+            return np.where(imp.impact_type != 0, p[:, e - 1], 0.0)
+        return np.where(imp.impact_type != 0, p.sum(axis=1), 0.0)
+
+    def observations(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """Observations of the running rows (default) or of ended rows (their final state)."""
+        run = self.run
+        if rows is None:
+            return observe(run.observation(), self.dims, self.config)
+        return observe(self._final_observation(rows), self.dims, self.config)
+
+    def _final_observation(self, rows: np.ndarray) -> PrecrashObservation:
+        run = self.run
+        hit = run.collided[rows]
+        st = KinematicState(*(np.where(hit[:, None], a[rows], b[rows]) for a, b in
+                              zip(run.impact_state, run.end_state, strict=True)))
+        decel = np.zeros((rows.shape[0], 2))
+        decel[:, self.config.ego - 1] = self.prev_decel[rows]
+        return PrecrashObservation(
+            rows=rows, t=run.local_time(rows), x=st.x, y=st.y, yaw=st.yaw,
+            heading=np.arctan2(st.vy, st.vx), speed=st.speed,
+            accel=-decel, yaw_rate=st.yaw_rate, deceleration=decel,
+            road_friction=run.mu[rows], vx=st.vx, vy=st.vy)
+
+    def episode_info(self, rows: np.ndarray, imp: Any | None = None,
+                     imp_rows: np.ndarray | None = None,
+                     risk: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Outcome of ended episodes (arrays over ``rows``; docs/gym.md, "info")."""
+        run = self.run
+        e = self.config.ego - 1
+        n = rows.shape[0]
+        collided = run.collided[rows].copy()
+        info = {
+            "case_id": self.batch.case_id[self.case_index[rows]],
+            "collided": collided,
+            "recorded_collision": self.recorded_collision[rows],
+            "avoided": self.recorded_collision[rows] & ~collided,
+            "impact_speed": np.where(collided, run.impact_state.speed[rows, e], np.nan),
+            "impact_speed_other": np.where(collided, run.impact_state.speed[rows, 1 - e],
+                                           np.nan),
+            "closing_speed": np.full(n, np.nan),
+            "delta_v": np.full(n, np.nan),
+            "delta_v_other": np.full(n, np.nan),
+            "impact_type": np.full(n, "none", dtype=object),
+            "injury_risk": np.zeros(n),
+            "brake_start": run.brake_start[rows, e],
+            "speed_reduction": run.speed_reduction[rows, e],
+            "time": run.local_time(rows),
+        }
+        if imp is not None and imp_rows is not None and imp_rows.size:
+            order = np.argsort(rows, kind="stable")
+            pos = order[np.searchsorted(rows[order], imp_rows)]
+            dv = (imp.delta_v1, imp.delta_v2)
+            info["delta_v"][pos] = dv[e]
+            info["delta_v_other"][pos] = dv[1 - e]
+            info["closing_speed"][pos] = imp.closing_speed
+            info["impact_type"][pos] = [IMPACT_TYPE_NAMES[int(k)] for k in imp.impact_type]
+            if risk is not None:
+                info["injury_risk"][pos] = risk
+        return info
+
+
+# ----------------------------------------------------------------------------
+# The single environment
+# ----------------------------------------------------------------------------
+
+
+class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
+    """One AEB test episode per accident case (``gymnasium.make("vfs/AEB-v0", ...)``).
+
+    Keyword arguments are the fields of :class:`EnvConfig`.  Action: Box
+    [0, 1] (1,), the brake demand as a share of the available deceleration
+    (min(road friction x g, actuator limit)), through the brake actuator.
+    Observation: :func:`observe`.  Reward: :class:`RewardParams`.  Episode:
+    terminated at the impact (or when ego and object have come to rest for
+    good), truncated at the end of the case (its record + the simulation's
+    extra time) without collision.  ``reset(options={"case_id": ID})``
+    plays a given case.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": [], "render_fps": 100}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        if render_mode is not None:
+            raise ParameterError("the AEB environment has no render modes")
+        self.config = make_config(**kwargs)
+        self.core = EpisodeBatch(self.config, 1)
+        low, high = self.config.observation_bounds()
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.action_space = spaces.Box(0.0, 1.0, shape=(1,), dtype=np.float32)
+        self.render_mode = None
+        self._row = -1
+        self._done = True
+
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode on a random case of the split (or ``options["case_id"]``)."""
+        super().reset(seed=seed)
+        case = None if not options else options.get("case_id")
+        slots = np.zeros(1, np.int64)
+        rows = self.core.draw(slots, self.np_random, None if case is None else [case])
+        self.core.assign(slots, rows)
+        self.core.start_now(rows)
+        self._row = int(rows[0])
+        self._done = False
+        obs = self.core.observations()[0]
+        return obs, {"case_id": self.core.case_id(self._row), "t": 0.0}
+
+    def step(self, action: npt.ArrayLike) -> tuple[np.ndarray, float, bool, bool,
+                                                   dict[str, Any]]:
+        """Brake with ``action`` for one step (``action_repeat`` simulation steps)."""
+        if self._done:
+            raise ParameterError("step() after the episode ended; call reset()")
+        a = np.asarray(action, float).reshape(-1)[:1]
+        out = self.core.step_rows(a)
+        core, row = self.core, np.array([self._row])
+        term, trunc = bool(out["terminated"][0]), bool(out["truncated"][0])
+        info: dict[str, Any] = {"case_id": core.case_id(self._row)}
+        if term or trunc:
+            self._done = True
+            obs = core.observations(row)[0]
+            ep = core.episode_info(row, out.get("impact"), out.get("impact_rows"),
+                                   out.get("risk"))
+            info.update({k: (v[0].item() if hasattr(v[0], "item") else v[0])
+                         for k, v in ep.items()})
+        else:
+            obs = core.observations()[0]
+            info["t"] = float(core.run.local_time(row)[0])
+        return obs, float(out["reward"][0]), term, trunc, info
+
+    @property
+    def precrash_observation(self) -> PrecrashObservation:
+        """The simulation's full state of the running case (privileged; baseline policies)."""
+        return self.core.run.observation()
+
+
+# ----------------------------------------------------------------------------
+# The native vector environment
+# ----------------------------------------------------------------------------
+
+
+class AEBVectorEnv(VectorEnv):
+    """``num_envs`` AEB environments as one batched simulation (the vector entry point).
+
+    Same episodes, observations and rewards as :class:`AEBEnv` (one slot per
+    sub-environment, each on its own clock); autoreset "next step": the step
+    after a sub-environment ended starts its next case (its action is
+    ignored) and returns that case's first observation.  ``info`` holds
+    "case_id" and "t" for every sub-environment and, where an episode ended,
+    the outcome keys of :meth:`EpisodeBatch.episode_info` with gymnasium's
+    ``_key`` masks.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, render_mode: str | None = None,
+                 **kwargs: Any) -> None:
+        if render_mode is not None:
+            raise ParameterError("the AEB environment has no render modes")
+        self.config = make_config(**kwargs)
+        self.num_envs = int(num_envs)
+        self.core = EpisodeBatch(self.config, self.num_envs)
+        low, high = self.config.observation_bounds()
+        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.single_action_space = spaces.Box(0.0, 1.0, shape=(1,), dtype=np.float32)
+        self.observation_space = spaces.Box(np.tile(low, (self.num_envs, 1)),
+                                            np.tile(high, (self.num_envs, 1)), dtype=np.float32)
+        self.action_space = spaces.Box(0.0, 1.0, shape=(self.num_envs, 1), dtype=np.float32)
+        self.render_mode = None
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._rng = np.random.default_rng()
+
+    def reset(self, *, seed: int | list[int] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start new episodes in every sub-environment (``options["case_id"]``: array of ids)."""
+        if seed is not None:
+            self._rng = np.random.default_rng(seed if isinstance(seed, int) else list(seed))
+        slots = np.arange(self.num_envs)
+        cases = None if not options else options.get("case_id")
+        rows = self.core.draw(slots, self._rng, cases)
+        self.core.assign(slots, rows)
+        self.core.start_now(rows)
+        self._autoreset[:] = False
+        obs = self._observations()
+        return obs, self._base_info()
+
+    def step(self, actions: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                    np.ndarray, dict[str, Any]]:
+        """One step of every sub-environment (see the class docstring for autoreset)."""
+        core = self.core
+        acts = np.asarray(actions, float).reshape(self.num_envs, -1)[:, 0]
+        again = np.flatnonzero(self._autoreset)
+        start = None
+        if again.size:  # autoreset: these start their next case; their actions are ignored
+            start = core.draw(again, self._rng)
+            core.assign(again, start)
+            acts = acts.copy()
+            acts[again] = 0.0
+        out = core.step_rows(acts, start)
+        self._autoreset = out["terminated"] | out["truncated"]
+        obs = self._observations()
+        info = self._base_info()
+        ended = out["ended"]
+        if ended.size:
+            slots = core.row_slot[ended]
+            obs[slots] = core.observations(ended)
+            ep = core.episode_info(ended, out.get("impact"), out.get("impact_rows"),
+                                   out.get("risk"))
+            for key, values in ep.items():
+                full = np.zeros(self.num_envs, dtype=values.dtype) if values.dtype != object \
+                    else np.full(self.num_envs, None, dtype=object)
+                if values.dtype.kind == "f":
+                    full[:] = np.nan
+                full[slots] = values
+                mask = np.zeros(self.num_envs, dtype=bool)
+                mask[slots] = True
+                if key in info:
+                    info[key][slots] = values
+                else:
+                    info[key], info[f"_{key}"] = full, mask
+        return (obs, out["reward"].astype(np.float64), out["terminated"], out["truncated"],
+                info)
+
+    def _observations(self) -> np.ndarray:
+        core = self.core
+        run = core.run
+        obs = np.zeros((self.num_envs, core.config.observation_dim), np.float32)
+        if run.rows.size:
+            obs[core.row_slot[run.rows]] = core.observations()
+        return obs
+
+    def _base_info(self) -> dict[str, Any]:
+        core = self.core
+        rows = core.slot_row
+        t = np.where(core.run.running[rows], core.run.local_time(rows), np.nan)
+        every = np.ones(self.num_envs, bool)
+        return {"case_id": core.batch.case_id[core.case_index[rows]], "_case_id": every,
+                "t": t, "_t": every.copy()}

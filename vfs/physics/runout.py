@@ -1,0 +1,986 @@
+"""Post-crash run-out: vehicles sliding and rolling from the separation to rest.
+
+After the impact each vehicle moves as a planar rigid body with three degrees
+of freedom (CG position x, y and yaw) on four wheels, steering angle 0, until
+the tyre forces have dissipated its kinetic energy.  Seed 004 ("Postcrash
+movement"): whether a vehicle was "rolling or sliding ... has a huge influence
+on the amount of energy dissipated", which is why a time-forward vehicle model
+replaces an assumed mean deceleration; seed 002: the rest positions are the
+criterion a simulation is judged by (its Marquard run-out is the energy-only
+alternative); seed 000: frontal deformation can lock wheels, hence a brake
+factor per wheel.
+
+Wheels sit at (L1, +-track/2) and (-L2, +-track/2) in the vehicle frame, in the
+order FL, FR, RL, RR (:data:`WHEEL_NAMES`).  Per wheel (docs/physics.md,
+section 5):
+
+* **normal load** (eq. R0): static axle split, N_front = m g L2 / L / 2 and
+  N_rear = m g L1 / L / 2 per wheel; optionally (``load_transfer``) shifted by
+  recent accelerations, dN_x = m a_x h / L between the axles and
+  dN_y = m a_y h / track between the sides, shared by the axles in proportion
+  to their static loads; clipped at >= 0;
+* **locked wheel** (brake factor b = 1, eq. R1): the tyre slides,
+  F = -mu N u / |u| with u the contact-point velocity;
+* **rolling wheel** (b < 1): longitudinal F_x = -(b mu + f_r) N sgn(u_x)
+  (braking plus rolling resistance, eq. R2), lateral F_y = -C N alpha with
+  alpha = atan2(u_y, max(|u_x|, v_alpha)) (linear tyre, eq. R3), the vector
+  scaled down to mu N where it exceeds the friction circle (eq. R4).
+
+**Integration.**  Every force law above has the form F = -D u with a diagonal,
+non-negative "secant damping" D(u) per wheel.  For the generalized body-frame
+velocity q = (u, v, r) the tyre forces are -A q with A = sum_i J_i^T D_i J_i,
+symmetric positive semi-definite.  One step (:func:`_advance`) freezes A at a
+predicted mid-step velocity and advances the frozen linear system
+M dq/dt = -A q with R(-dt M^-1 A), R the stability function of Alexander's
+L-stable two-stage SDIRK method.  Because every eigenvalue factor R lies in
+[-0.21, 1], the kinetic energy can only decrease, whatever dt; the step is
+second order, and it stays stable in the stiff regimes (a wheel about to stop,
+a slowly rolling tyre) where explicit Euler would need dt < 1 ms.  Poses follow
+by the trapezoidal rule, which makes a straight slide at constant
+deceleration exact.
+
+Everything is batched over N vehicles; the only Python loop runs over the
+time steps.  Vehicles at rest are frozen with zero velocity (which the step
+leaves exactly unchanged) and compacted out of the working arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from vfs.errors import ParameterError
+from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
+from vfs.physics.vehicle import VehicleArrays
+from vfs.units import G
+
+#: Wheel order of every per-wheel array (columns of ``wheel_brake``).
+WHEEL_NAMES = ("FL", "FR", "RL", "RR")
+
+#: Speed v_eps [m/s] that regularises the sliding direction of a locked wheel
+#: and the sign of the longitudinal slip of a rolling wheel, u / max(|u|, v_eps):
+#: below 1 cm/s the Coulomb force becomes a viscous one.  Far below the stop
+#: speed (5 cm/s), it changes run-out distances by less than 0.1 mm.
+SLIP_SPEED_REGULARISATION = 0.01
+
+#: Floor v_alpha [m/s] of the longitudinal speed in the slip angle
+#: alpha = atan2(u_lat, max(|u_long|, v_alpha)), so that alpha stays defined for
+#: a wheel at longitudinal standstill.  The linear tyre range then ends at
+#: |u_lat| = (mu / C) v_alpha, about 7 mm/s for mu = 0.7 and C = 10 /rad.
+SLIP_ANGLE_SPEED_FLOOR = 0.1
+
+#: Guard against division by zero in atan(z)/z and in the friction-circle scale.
+_TINY = 1e-30
+
+#: Alexander's SDIRK constant gamma = 1 - 1/sqrt(2): R(z) = (1 + (1 - 2 gamma) z) /
+#: (1 - gamma z)^2 is second order and L-stable, min over z <= 0 of R = -0.207.
+_GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
+
+#: Compact the working arrays when fewer than this share of them still moves.
+_COMPACT_SHARE = 0.8
+
+#: Smallest working set [vehicles] worth compacting.
+_COMPACT_MIN = 64
+
+
+@dataclass(frozen=True)
+class RunoutParams:
+    """Parameters of the run-out simulation, with their documented defaults.
+
+    Attributes
+    ----------
+    dt : float
+        Time step [s], in (0, 0.05].  Default 5 ms.  The step is stable and
+        dissipative for every dt (module docstring), so dt sets only the
+        accuracy: halving it moves the rest positions of realistic post-crash
+        states by a few centimetres at most (docs/physics.md, section 5).
+    wheel_brake : tuple of 4 floats
+        Default brake factor b of the wheels FL, FR, RL, RR, each in [0, 1]:
+        1 = locked, sliding wheel; b < 1 = rolling wheel braked with b mu N.
+        Default 0.8 on every wheel: the driver brakes after the crash and ABS
+        keeps the wheels rolling at 80 % of the friction limit.  There is no
+        firm source for this value (seed 004 leaves the post-crash driver
+        action to the user, seed 000 shows wheels locked by frontal
+        deformation); vary it, or pass ``wheel_brake`` per vehicle.
+    rolling_resistance : float
+        Rolling-resistance coefficient f_r of a rolling wheel [-], in [0, 0.5].
+        Default 0.015 (passenger-car tyre on asphalt).
+    cornering_stiffness : float
+        Cornering stiffness per unit wheel load C [1/rad], in (0, 100]: the
+        lateral force of a rolling wheel is C N alpha in the linear range.
+        Default 10 /rad (passenger-car tyres: about 10-20 /rad).
+    load_transfer : bool
+        Shift the wheel loads with the accelerations of the previous steps
+        (default False: static loads).
+    v_stop : float
+        Stop speed [m/s], in (0, 1].  A vehicle is at rest when its CG speed
+        and |yaw rate| times the distance from the CG to its farthest outline
+        corner (the "half diagonal", :func:`corner_radius`) are both below
+        v_stop; it is then frozen with zero velocity.  Default 0.05 m/s.
+    max_time : float
+        Longest simulated run-out [s], in (0, 3600], rounded up to a whole
+        number of path intervals.  Vehicles still moving then are reported
+        with ``at_rest = False``.  Default 30 s.
+    path_interval : float
+        Time between the recorded path samples [s]; a whole multiple of dt.
+        Default 0.05 s.
+    """
+
+    dt: float = 0.005
+    wheel_brake: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
+    rolling_resistance: float = 0.015
+    cornering_stiffness: float = 10.0
+    load_transfer: bool = False
+    v_stop: float = 0.05
+    max_time: float = 30.0
+    path_interval: float = 0.05
+
+    def __post_init__(self) -> None:
+        def check(name: str, value: object, lo: float, hi: float, lo_open: bool) -> float:
+            if isinstance(value, (bool, np.bool_)):
+                raise ParameterError(f"{name}={value!r} is not a number")
+            try:
+                v = float(value)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                raise ParameterError(f"{name}={value!r} is not a number") from None
+            ok = math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi
+            if not ok:
+                bracket = "(" if lo_open else "["
+                raise ParameterError(f"{name}={v:g} outside {bracket}{lo:g}, {hi:g}]")
+            return v
+
+        dt = check("dt", self.dt, 0.0, 0.05, True)
+        check("rolling_resistance", self.rolling_resistance, 0.0, 0.5, False)
+        check("cornering_stiffness", self.cornering_stiffness, 0.0, 100.0, True)
+        check("v_stop", self.v_stop, 0.0, 1.0, True)
+        max_time = check("max_time", self.max_time, 0.0, 3600.0, True)
+        interval = check("path_interval", self.path_interval, 0.0, 3600.0, True)
+        brake = self.wheel_brake
+        if isinstance(brake, (str, bytes)) or np.ndim(brake) != 1 or len(brake) != 4:
+            raise ParameterError(
+                f"wheel_brake={brake!r} must be 4 brake factors (FL, FR, RL, RR)")
+        for name, b in zip(WHEEL_NAMES, brake, strict=True):
+            check(f"wheel_brake[{name}]", b, 0.0, 1.0, False)
+        if not isinstance(self.load_transfer, (bool, np.bool_)):
+            raise ParameterError(f"load_transfer={self.load_transfer!r} must be True or False")
+        ratio = interval / dt
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+            raise ParameterError(
+                f"path_interval={interval:g} s must be a whole multiple of dt={dt:g} s")
+        if max_time < dt:
+            raise ParameterError(f"max_time={max_time:g} s is shorter than dt={dt:g} s")
+
+    @property
+    def steps_per_sample(self) -> int:
+        """Time steps between two recorded path samples."""
+        return max(1, round(self.path_interval / self.dt))
+
+    @property
+    def max_steps(self) -> int:
+        """Largest number of time steps: max_time rounded up to whole path intervals."""
+        samples = math.ceil(self.max_time / self.path_interval - 1e-9)
+        return samples * self.steps_per_sample
+
+
+class RunoutState(NamedTuple):
+    """Kinematic state of N vehicles, arrays of shape (N,), SI units, global frame.
+
+    Attributes
+    ----------
+    x, y : ndarray
+        CG position [m].
+    yaw : ndarray
+        Heading of the vehicle x axis [rad], counter-clockwise from global x.
+    vx, vy : ndarray
+        CG velocity [m/s], global frame.
+    yaw_rate : ndarray
+        Yaw rate [rad/s], counter-clockwise positive.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    yaw_rate: np.ndarray
+
+    @classmethod
+    def from_arrays(cls, x: npt.ArrayLike, y: npt.ArrayLike, yaw: npt.ArrayLike,
+                    vx: npt.ArrayLike, vy: npt.ArrayLike,
+                    yaw_rate: npt.ArrayLike) -> RunoutState:
+        """Build from array-likes (broadcast to a common 1-D shape, float copies)."""
+        arrays = np.broadcast_arrays(
+            *(np.atleast_1d(np.asarray(a, float)) for a in (x, y, yaw, vx, vy, yaw_rate)))
+        return cls(*(np.array(a, float) for a in arrays))
+
+
+class RunoutResult(NamedTuple):
+    """Result of :func:`run_out` for N vehicles.
+
+    Attributes
+    ----------
+    rest_x, rest_y : ndarray (N,)
+        CG rest position [m] (where ``at_rest`` is False: the position at the
+        end of the simulated time).
+    rest_yaw : ndarray (N,)
+        Rest heading [rad], not wrapped (the accumulated yaw angle).
+    time_to_rest : ndarray (N,)
+        Time from the start of the run-out to rest [s]; NaN where the vehicle
+        was still moving at the end of the simulated time.
+    distance : ndarray (N,)
+        Length of the CG path [m].
+    at_rest : ndarray of bool (N,)
+        True where the vehicle came to rest within ``max_time``.
+    path : ndarray (N, K, 3)
+        CG pose (x [m], y [m], yaw [rad]) every ``path_interval``, from t = 0;
+        after a vehicle has stopped its samples repeat the rest pose.
+    path_t : ndarray (K,)
+        Times of the path samples [s].
+    kinetic_energy : ndarray (N, K)
+        Kinetic energy, translational plus rotational [J], at the path samples.
+    """
+
+    rest_x: np.ndarray
+    rest_y: np.ndarray
+    rest_yaw: np.ndarray
+    time_to_rest: np.ndarray
+    distance: np.ndarray
+    at_rest: np.ndarray
+    path: np.ndarray
+    path_t: np.ndarray
+    kinetic_energy: np.ndarray
+
+
+class PairRunoutResult(NamedTuple):
+    """Result of :func:`run_out_pair` for N collisions.
+
+    Attributes
+    ----------
+    result1, result2 : RunoutResult
+        Run-out of vehicle 1 and of vehicle 2 (same path times).
+    secondary_collision : ndarray of bool (N,)
+        True where the outlines, after having separated (overlap area <=
+        :data:`vfs.physics.geometry.AREA_TOLERANCE`), overlapped again.
+    secondary_collision_time : ndarray (N,)
+        Time of the first secondary overlap [s] from the start of the run-out;
+        NaN where there is none.
+    """
+
+    result1: RunoutResult
+    result2: RunoutResult
+    secondary_collision: np.ndarray
+    secondary_collision_time: np.ndarray
+
+
+# ----------------------------------------------------------------------------
+# Small public helpers
+# ----------------------------------------------------------------------------
+
+
+def wheel_positions(vehicles: VehicleArrays) -> np.ndarray:
+    """Wheel contact points (N, 4, 2) [m] in the vehicle frame, order FL, FR, RL, RR."""
+    lf, lr = vehicles.cg_to_front_axle, vehicles.cg_to_rear_axle
+    half = 0.5 * vehicles.track_width
+    x = np.stack([lf, lf, -lr, -lr], axis=-1)
+    y = np.stack([half, -half, half, -half], axis=-1)
+    return np.stack([x, y], axis=-1)
+
+
+def static_wheel_loads(vehicles: VehicleArrays) -> np.ndarray:
+    """Static wheel loads (N, 4) [N], order FL, FR, RL, RR (eq. R0).
+
+    N_f = m g L2 / (2 L) on each front wheel, N_r = m g L1 / (2 L) on each rear wheel.
+    """
+    m, wb = vehicles.mass, vehicles.wheelbase
+    front = 0.5 * m * G * vehicles.cg_to_rear_axle / wb
+    rear = 0.5 * m * G * vehicles.cg_to_front_axle / wb
+    return np.stack([front, front, rear, rear], axis=-1)
+
+
+def corner_radius(vehicles: VehicleArrays) -> np.ndarray:
+    """Distance (N,) [m] from the CG to the farthest outline corner.
+
+    The "half diagonal" of the stop criterion and of the broad phase; it
+    equals half the outline diagonal when the CG sits in the outline centre.
+    """
+    reach = np.maximum(vehicles.cg_to_front, vehicles.cg_to_rear)
+    return np.sqrt(reach**2 + (0.5 * vehicles.width) ** 2)
+
+
+def kinetic_energy(vehicles: VehicleArrays, state: RunoutState) -> np.ndarray:
+    """Kinetic energy (N,) [J]: m (vx^2 + vy^2) / 2 + I yaw_rate^2 / 2."""
+    return 0.5 * vehicles.mass * (state.vx**2 + state.vy**2) + 0.5 * (
+        vehicles.yaw_inertia * state.yaw_rate**2)
+
+
+# ----------------------------------------------------------------------------
+# Input checks
+# ----------------------------------------------------------------------------
+
+
+def _check_vehicles(vehicles: VehicleArrays, n: int, label: str) -> VehicleArrays:
+    arrays = [np.asarray(a, float) for a in vehicles]
+    for name, a in zip(VehicleArrays._fields, arrays, strict=True):
+        if a.shape != (n,):
+            raise ParameterError(f"{label}.{name} has shape {a.shape}, expected ({n},)")
+        ok = np.isfinite(a) & ((a >= 0.0) if name == "front_overhang" else (a > 0.0))
+        if not ok.all():
+            bad = int(np.flatnonzero(~ok)[0])
+            bound = ">= 0" if name == "front_overhang" else "> 0"
+            raise ParameterError(f"{label}.{name}[{bad}]={a[bad]!r} must be finite and {bound}")
+    v = VehicleArrays(*arrays)
+    lr = v.cg_to_rear_axle
+    if not (lr > 0).all():
+        bad = int(np.flatnonzero(~(lr > 0))[0])
+        raise ParameterError(
+            f"{label}: cg_to_front_axle[{bad}]={v.cg_to_front_axle[bad]:g} must be smaller "
+            f"than wheelbase[{bad}]={v.wheelbase[bad]:g} (the CG lies between the axles)")
+    return v
+
+
+def _check_state(state: RunoutState, label: str) -> tuple[RunoutState, int]:
+    if not isinstance(state, RunoutState):
+        raise ParameterError(f"{label} must be a RunoutState, got {type(state).__name__}")
+    arrays = [np.atleast_1d(np.asarray(a, float)) for a in state]
+    n = arrays[0].shape[0] if arrays[0].ndim == 1 else -1
+    for name, a in zip(RunoutState._fields, arrays, strict=True):
+        if a.ndim != 1 or a.shape[0] != n:
+            raise ParameterError(
+                f"{label}.{name} has shape {a.shape}; all fields must have the same shape (N,)")
+        if not np.isfinite(a).all():
+            bad = int(np.flatnonzero(~np.isfinite(a))[0])
+            raise ParameterError(f"{label}.{name}[{bad}]={a[bad]!r} is not finite")
+    return RunoutState(*arrays), n
+
+
+def _check_friction(road_friction: npt.ArrayLike, n: int) -> np.ndarray:
+    mu = np.asarray(road_friction, float)
+    if mu.ndim > 1 or (mu.ndim == 1 and mu.shape[0] != n):
+        raise ParameterError(f"road_friction has shape {mu.shape}, expected () or ({n},)")
+    mu = np.broadcast_to(mu, (n,)).copy()
+    ok = np.isfinite(mu) & (mu > 0.0) & (mu <= 3.0)
+    if not ok.all():
+        bad = int(np.flatnonzero(~ok)[0])
+        raise ParameterError(f"road_friction[{bad}]={mu[bad]!r} outside (0, 3]")
+    return mu
+
+
+def _check_brake(wheel_brake: npt.ArrayLike | None, params: RunoutParams, n: int,
+                 label: str = "wheel_brake") -> np.ndarray:
+    raw = params.wheel_brake if wheel_brake is None else wheel_brake
+    b = np.asarray(raw, float)
+    if b.shape not in ((4,), (n, 4)):
+        raise ParameterError(f"{label} has shape {b.shape}, expected (4,) or ({n}, 4)")
+    b = np.broadcast_to(b, (n, 4)).copy()
+    ok = np.isfinite(b) & (b >= 0.0) & (b <= 1.0)
+    if not ok.all():
+        row, col = (int(i[0]) for i in np.nonzero(~ok))
+        raise ParameterError(
+            f"{label}[{row}, {WHEEL_NAMES[col]}]={b[row, col]!r} outside [0, 1]")
+    return b
+
+
+# ----------------------------------------------------------------------------
+# The integrator
+# ----------------------------------------------------------------------------
+
+
+class _Working(NamedTuple):
+    """Per-vehicle arrays of the working set (the vehicles not compacted away).
+
+    Per-wheel arrays are wheel-major, (4, n), so that each wheel row is
+    contiguous.  :func:`_compact` selects columns of every field alike.
+    """
+
+    rows: np.ndarray  # (n,) positions in the full arrays
+    mass: np.ndarray  # [kg]
+    inertia: np.ndarray  # [kg m^2]
+    lf: np.ndarray  # CG to front axle L1 [m]
+    lr: np.ndarray  # CG to rear axle L2 [m]
+    half_track: np.ndarray  # [m]
+    front_share: np.ndarray  # L2 / L [-], front axle share of the static load
+    rear_share: np.ndarray  # L1 / L [-]
+    lon_transfer: np.ndarray  # m h / L [kg]: axle load shift per unit a_x
+    lat_transfer: np.ndarray  # m h / track [kg]: side load shift per unit a_y
+    radius: np.ndarray  # CG to farthest outline corner [m]
+    mu: np.ndarray  # road friction [-]
+    brake_coef: np.ndarray  # (4, n) b mu + f_r [-] of rolling wheels (eq. R2)
+    locked: np.ndarray  # (4, n) bool, b = 1
+    static_load: np.ndarray  # (4, n) [N] (eq. R0)
+    brake_load: np.ndarray  # (4, n) (b mu + f_r) N [N] at static load
+    stiff_load: np.ndarray  # (4, n) C N [N/rad] at static load
+    limit_load: np.ndarray  # (4, n) mu N [N] at static load
+    scratch: np.ndarray  # (6, 4, n) work buffers of _secant_damping
+    # state
+    x: np.ndarray  # [m]
+    y: np.ndarray  # [m]
+    yaw: np.ndarray  # [rad]
+    vx: np.ndarray  # [m/s] global
+    vy: np.ndarray  # [m/s]
+    r: np.ndarray  # [rad/s]
+    vx_prev: np.ndarray  # velocity at the start of the previous step (predictor)
+    vy_prev: np.ndarray
+    r_prev: np.ndarray
+    acc_x: np.ndarray  # mean body-frame acceleration of the last step [m/s^2]
+    acc_y: np.ndarray
+    acc_x_prev: np.ndarray  # ... of the step before
+    acc_y_prev: np.ndarray
+    distance: np.ndarray  # CG path length [m]
+    moving: np.ndarray  # bool
+
+
+def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
+             brake: np.ndarray, params: RunoutParams) -> _Working:
+    n = state.x.shape[0]
+    wb = vehicles.wheelbase
+    lf, lr = vehicles.cg_to_front_axle, vehicles.cg_to_rear_axle
+    static = static_wheel_loads(vehicles).T.copy()
+    coef = (brake * mu[:, None] + params.rolling_resistance).T.copy()
+    zeros = np.zeros(n)
+    return _Working(
+        rows=np.arange(n), mass=vehicles.mass.copy(), inertia=vehicles.yaw_inertia.copy(),
+        lf=lf.copy(), lr=lr.copy(), half_track=0.5 * vehicles.track_width,
+        front_share=lr / wb, rear_share=lf / wb,
+        lon_transfer=vehicles.mass * vehicles.cg_height / wb,
+        lat_transfer=vehicles.mass * vehicles.cg_height / vehicles.track_width,
+        radius=corner_radius(vehicles), mu=mu.copy(), brake_coef=coef,
+        locked=(brake >= 1.0).T.copy(), static_load=static, brake_load=coef * static,
+        stiff_load=params.cornering_stiffness * static, limit_load=mu * static,
+        scratch=np.empty((6, 4, n)),
+        x=state.x.copy(), y=state.y.copy(), yaw=state.yaw.copy(),
+        vx=state.vx.copy(), vy=state.vy.copy(), r=state.yaw_rate.copy(),
+        vx_prev=state.vx.copy(), vy_prev=state.vy.copy(), r_prev=state.yaw_rate.copy(),
+        acc_x=zeros.copy(), acc_y=zeros.copy(), acc_x_prev=zeros.copy(),
+        acc_y_prev=zeros.copy(), distance=zeros.copy(), moving=np.ones(n, bool),
+    )
+
+
+def _wheel_limits(w: _Working, params: RunoutParams) -> tuple[np.ndarray, ...]:
+    """Per-wheel (b mu + f_r) N, C N and mu N, each (4, n), from the wheel loads.
+
+    Static loads unless ``load_transfer``: then the loads follow the body-frame
+    acceleration extrapolated from the last two steps to the middle of this
+    one, a = 2 a_last - a_before (the plain previous-step value lags by one
+    step, a first-order error; see docs/physics.md, section 5).
+    """
+    if not params.load_transfer:
+        return w.brake_load, w.stiff_load, w.limit_load
+    ax = 2.0 * w.acc_x - w.acc_x_prev
+    ay = 2.0 * w.acc_y - w.acc_y_prev
+    lon = 0.5 * w.lon_transfer * ax  # per wheel: half the axle shift m a_x h / L (eq. R0)
+    lat = w.lat_transfer * ay  # side shift m a_y h / track, shared by the axles (eq. R0)
+    lat_f, lat_r = lat * w.front_share, lat * w.rear_share
+    s = w.static_load
+    load = np.stack([s[0] - lon - lat_f, s[1] - lon + lat_f,
+                     s[2] + lon - lat_r, s[3] + lon + lat_r])
+    np.maximum(load, 0.0, out=load)
+    return w.brake_coef * load, params.cornering_stiffness * load, w.mu * load
+
+
+def _secant_damping(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
+                    v: np.ndarray, r: np.ndarray, any_locked: bool,
+                    any_rolling: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudinal and lateral secant damping D = |F| / |u| (4, n) [N s/m] of each wheel.
+
+    (u, v, r) is the body-frame velocity at which the tyre forces are
+    evaluated.  With steering angle 0 the wheels of a side share the
+    longitudinal contact-point velocity u -+ r track/2 and the wheels of an
+    axle the lateral one, v + r L1 or v - r L2.  Only magnitudes enter: every
+    force opposes its velocity component.  The results live in
+    ``w.scratch``; they are valid until the next call.
+    """
+    brake_load, stiff_load, limit_load = limits
+    a_long, a_lat, d_long, d_lat, t1, t2 = w.scratch
+    rh = r * w.half_track
+    np.abs(u - rh, out=a_long[0])
+    np.abs(u + rh, out=a_long[1])
+    a_long[2], a_long[3] = a_long[0], a_long[1]
+    np.abs(v + r * w.lf, out=a_lat[0])
+    np.abs(v - r * w.lr, out=a_lat[2])
+    a_lat[1], a_lat[3] = a_lat[0], a_lat[2]
+    if any_rolling:
+        # eq. R2: |F_x| = (b mu + f_r) N |u_x| / max(|u_x|, v_eps)
+        np.maximum(a_long, SLIP_SPEED_REGULARISATION, out=t1)
+        np.divide(brake_load, t1, out=d_long)
+        # eq. R3: |F_y| = C N atan(z), z = |u_y| / max(|u_x|, v_alpha); D = C N atan(z)/z / floor
+        np.maximum(a_long, SLIP_ANGLE_SPEED_FLOOR, out=t1)
+        np.divide(a_lat, t1, out=t2)
+        np.maximum(t2, _TINY, out=t2)
+        np.arctan(t2, out=d_lat)
+        d_lat /= t2
+        d_lat *= stiff_load
+        d_lat /= t1
+        # eq. R4: friction circle, |F| <= mu N, both components scaled alike
+        np.multiply(d_long, a_long, out=t1)
+        t1 *= t1
+        np.multiply(d_lat, a_lat, out=t2)
+        t2 *= t2
+        t1 += t2
+        np.sqrt(t1, out=t1)
+        np.maximum(t1, _TINY, out=t1)
+        np.divide(limit_load, t1, out=t1)
+        np.minimum(t1, 1.0, out=t1)
+        d_long *= t1
+        d_lat *= t1
+    if any_locked:
+        # eq. R1: F = -mu N u / max(|u|, v_eps), the same damping in both directions
+        lock = np.hypot(a_long, a_lat, out=t1)
+        np.maximum(lock, SLIP_SPEED_REGULARISATION, out=lock)
+        np.divide(limit_load, lock, out=lock)
+        if not any_rolling:
+            return lock, lock
+        np.copyto(d_long, lock, where=w.locked)
+        np.copyto(d_lat, lock, where=w.locked)
+    return d_long, d_lat
+
+
+class _Damping(NamedTuple):
+    """Entries of the damping matrix A = sum_i J_i^T D_i J_i (3 x 3, symmetric).
+
+    For q = (u, v, r) a wheel at (a, c) slips with u - r c (longitudinal) and
+    v + r a (lateral), so J_i = [[1, 0, -c], [0, 1, a]] and A_uv = 0.
+    """
+
+    uu: np.ndarray  # [N s/m]
+    vv: np.ndarray  # [N s/m]
+    ur: np.ndarray  # [N s]
+    vr: np.ndarray  # [N s]
+    rr: np.ndarray  # [N m s]
+
+
+def _damping_matrix(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
+                    v: np.ndarray, r: np.ndarray, any_locked: bool,
+                    any_rolling: bool) -> _Damping:
+    """Damping matrix at body-frame velocity (u, v, r).
+
+    Sums pair left and right wheels first, which keeps mirror images exact
+    in floating point.
+    """
+    ht, lf, lr = w.half_track, w.lf, w.lr
+    d_long, d_lat = _secant_damping(w, limits, u, v, r, any_locked, any_rolling)
+    sum_long = (d_long[0] + d_long[1]) + (d_long[2] + d_long[3])
+    lat_front = d_lat[0] + d_lat[1]
+    lat_rear = d_lat[2] + d_lat[3]
+    return _Damping(
+        uu=sum_long,
+        vv=lat_front + lat_rear,
+        ur=-ht * ((d_long[0] - d_long[1]) + (d_long[2] - d_long[3])),
+        vr=lf * lat_front - lr * lat_rear,
+        rr=ht * ht * sum_long + lf * lf * lat_front + lr * lr * lat_rear,
+    )
+
+
+class _Solver(NamedTuple):
+    """M + k A (M = diag(m, m, I)) eliminated for u and v: solves in closed form."""
+
+    mass: np.ndarray
+    inertia: np.ndarray
+    p: np.ndarray  # m + k A_uu
+    q: np.ndarray  # m + k A_vv
+    ku: np.ndarray  # k A_ur
+    kv: np.ndarray  # k A_vr
+    schur: np.ndarray  # I + k A_rr - ku^2 / p - kv^2 / q > 0
+
+    @classmethod
+    def factor(cls, mass: np.ndarray, inertia: np.ndarray, a: _Damping, k: float) -> _Solver:
+        p = mass + k * a.uu
+        q = mass + k * a.vv
+        ku = k * a.ur
+        kv = k * a.vr
+        return cls(mass, inertia, p, q, ku, kv, inertia + k * a.rr - (ku * ku / p + kv * kv / q))
+
+    def solve(self, u: np.ndarray, v: np.ndarray,
+              r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q' = (M + k A)^-1 M q."""
+        mu, mv = self.mass * u, self.mass * v
+        r_new = (self.inertia * r - (self.ku * mu / self.p + self.kv * mv / self.q)) / self.schur
+        return (mu - self.ku * r_new) / self.p, (mv - self.kv * r_new) / self.q, r_new
+
+
+def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
+    """Advance the working set by one time step, in place.
+
+    1. Predict the mid-step velocity, q_m = (3 q_n - q_{n-1}) / 2 (q_n on the
+       first step), and freeze the damping there, A = A(q_m), in the vehicle
+       frame at the predicted mid-step heading.
+    2. Advance M dq/dt = -A q over dt with R(-dt M^-1 A),
+       R(z) = (1 + (1 - 2 gamma) z) / (1 - gamma z)^2: two solves with
+       M + gamma dt A, then q' = y - (1 - 2 gamma) dt M^-1 A y.  A symmetric
+       positive semi-definite gives |R| <= 1 on every mode: energy never rises.
+    3. Poses by the trapezoidal rule, x' = x + dt (v + v') / 2.
+
+    Freezing A at the mid-step and the frame at the mid-step heading keeps
+    the step second order; the predictor costs no extra force evaluation.
+    """
+    dt = params.dt
+    limits = _wheel_limits(w, params)
+    any_locked = bool(w.locked.any())
+    any_rolling = not bool(w.locked.all())
+    if first:
+        vx_m, vy_m, r_m = w.vx, w.vy, w.r
+    else:
+        vx_m = 1.5 * w.vx - 0.5 * w.vx_prev
+        vy_m = 1.5 * w.vy - 0.5 * w.vy_prev
+        r_m = 1.5 * w.r - 0.5 * w.r_prev
+    heading = w.yaw + (0.5 * dt) * r_m
+    c, s = np.cos(heading), np.sin(heading)
+    u0 = c * w.vx + s * w.vy  # body-frame velocity at the start of the step
+    v0 = c * w.vy - s * w.vx
+    a = _damping_matrix(w, limits, c * vx_m + s * vy_m, c * vy_m - s * vx_m, r_m,
+                        any_locked, any_rolling)
+    solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+    u1, v1, r1 = solver.solve(u0, v0, w.r)
+    u2, v2, r2 = solver.solve(u1, v1, r1)
+    k = (1.0 - 2.0 * _GAMMA) * dt
+    u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
+    v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
+    r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    vx_new = c * u_new - s * v_new
+    vy_new = s * u_new + c * v_new
+    if params.load_transfer:
+        w.acc_x_prev[:] = w.acc_x
+        w.acc_y_prev[:] = w.acc_y
+        np.divide(u_new - u0, dt, out=w.acc_x)
+        np.divide(v_new - v0, dt, out=w.acc_y)
+    dx = (0.5 * dt) * (w.vx + vx_new)
+    dy = (0.5 * dt) * (w.vy + vy_new)
+    w.x[:] += dx
+    w.y[:] += dy
+    w.yaw[:] += (0.5 * dt) * (w.r + r_new)
+    w.distance[:] += np.sqrt(dx * dx + dy * dy)
+    w.vx_prev[:] = w.vx
+    w.vy_prev[:] = w.vy
+    w.r_prev[:] = w.r
+    w.vx[:] = vx_new
+    w.vy[:] = vy_new
+    w.r[:] = r_new
+
+
+def _newly_at_rest(w: _Working, v_stop: float) -> np.ndarray:
+    """Moving vehicles whose CG speed and outermost corner speed are below v_stop."""
+    v2 = v_stop * v_stop
+    corner = w.r * w.radius
+    return w.moving & (w.vx * w.vx + w.vy * w.vy < v2) & (corner * corner < v2)
+
+
+def _freeze(w: _Working, now: np.ndarray) -> None:
+    """Zero the velocities (and their history) of the vehicles flagged in ``now``."""
+    for a in (w.vx, w.vy, w.r, w.vx_prev, w.vy_prev, w.r_prev, w.acc_x, w.acc_y,
+              w.acc_x_prev, w.acc_y_prev):
+        a[now] = 0.0
+    w.moving[now] = False
+
+
+def _compact(w: _Working) -> _Working:
+    """Drop the vehicles at rest from the working set."""
+    keep = w.moving
+    # compress keeps every wheel row contiguous (fancy indexing a[..., keep] does not)
+    return _Working(*(a.compress(keep, axis=-1) for a in w))
+
+
+#: Called after every step with the time [s], the state of all N vehicles
+#: (read-only views) and the mask of the vehicles that moved during the step.
+StepCallback = Callable[[float, RunoutState, np.ndarray], None]
+
+
+def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
+              params: RunoutParams, on_step: StepCallback | None = None) -> RunoutResult:
+    """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`."""
+    n = state.x.shape[0]
+    w = _prepare(vehicles, state, mu, brake, params)
+    # full arrays: current state of the working set, rest state of the others
+    x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
+    vx, vy, r = state.vx.copy(), state.vy.copy(), state.yaw_rate.copy()
+    distance = np.zeros(n)
+    time_to_rest = np.full(n, np.nan)
+    moving = np.ones(n, bool)
+    mass, inertia = vehicles.mass, vehicles.yaw_inertia
+    poses: list[np.ndarray] = []
+    energies: list[np.ndarray] = []
+
+    def stop(t: float) -> None:
+        now = _newly_at_rest(w, params.v_stop)
+        if not now.any():
+            return
+        _freeze(w, now)
+        idx = w.rows[now]
+        x[idx], y[idx], yaw[idx] = w.x[now], w.y[now], w.yaw[now]
+        vx[idx] = vy[idx] = r[idx] = 0.0
+        distance[idx] = w.distance[now]
+        time_to_rest[idx] = t
+        moving[idx] = False
+
+    def publish() -> None:
+        idx = w.rows
+        x[idx], y[idx], yaw[idx] = w.x, w.y, w.yaw
+        vx[idx], vy[idx], r[idx] = w.vx, w.vy, w.r
+
+    def sample() -> None:
+        publish()
+        poses.append(np.stack([x, y, yaw], axis=-1))
+        energies.append(0.5 * mass * (vx * vx + vy * vy) + 0.5 * inertia * r * r)
+
+    stop(0.0)
+    if params.load_transfer:
+        # the accelerations "of the previous steps" at t = 0: those of a trial step
+        trial = _Working(*(a.copy() for a in w))
+        _advance(trial, params, True)
+        for a in (w.acc_x, w.acc_x_prev):
+            a[:] = trial.acc_x
+        for a in (w.acc_y, w.acc_y_prev):
+            a[:] = trial.acc_y
+    sample()
+    per_sample = params.steps_per_sample
+    step = 0
+    while step < params.max_steps and moving.any():
+        size = w.rows.shape[0]
+        if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
+            w = _compact(w)
+        moved = moving.copy() if on_step is not None else moving
+        _advance(w, params, step == 0)
+        step += 1
+        t = step * params.dt
+        stop(t)
+        if on_step is not None:
+            publish()
+            on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+        if step % per_sample == 0:
+            sample()
+    if step % per_sample != 0:
+        sample()  # the rest poses (or the poses at max_time) at the next sample time
+    publish()
+    distance[w.rows] = w.distance
+    path = np.stack(poses, axis=1) if n else np.zeros((0, len(poses), 3))
+    kinetic = np.stack(energies, axis=1) if n else np.zeros((0, len(energies)))
+    path_t = np.arange(len(poses)) * (per_sample * params.dt)
+    return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
+
+
+# ----------------------------------------------------------------------------
+# Public entry points
+# ----------------------------------------------------------------------------
+
+
+def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.ArrayLike,
+            params: RunoutParams | None = None,
+            wheel_brake: npt.ArrayLike | None = None) -> RunoutResult:
+    """Simulate the post-crash run-out of N vehicles to rest.
+
+    Parameters
+    ----------
+    vehicles : VehicleArrays
+        The N vehicles (mass, yaw inertia, axle positions, track, CG height, outline).
+    state : RunoutState
+        State at the start of the run-out (just after the impact), arrays (N,).
+    road_friction : array_like, () or (N,)
+        Tyre-road friction coefficient mu [-], in (0, 3].
+    params : RunoutParams, optional
+        Time step, tyre and stop parameters (defaults: ``RunoutParams()``).
+    wheel_brake : array_like (4,) or (N, 4), optional
+        Brake factor b per wheel (FL, FR, RL, RR) in [0, 1]: 1 locked, < 1
+        rolling and braked with b mu N.  Default: ``params.wheel_brake``.
+
+    Returns
+    -------
+    RunoutResult
+
+    Examples
+    --------
+    A car sliding on locked wheels from 10 m/s on mu = 0.8 stops after
+    v^2 / (2 mu g):
+
+    >>> from vfs.physics.vehicle import VehicleParams, stack_vehicles
+    >>> car = stack_vehicles([VehicleParams()])
+    >>> start = RunoutState.from_arrays(0, 0, 0, 10.0, 0, 0)
+    >>> res = run_out(car, start, 0.8, wheel_brake=(1, 1, 1, 1))
+    >>> round(float(res.rest_x[0]), 2), round(10.0**2 / (2 * 0.8 * G), 2)
+    (6.37, 6.37)
+    """
+    params = RunoutParams() if params is None else params
+    if not isinstance(params, RunoutParams):
+        raise ParameterError(f"params must be RunoutParams, got {type(params).__name__}")
+    state, n = _check_state(state, "state")
+    vehicles = _check_vehicles(vehicles, n, "vehicles")
+    mu = _check_friction(road_friction, n)
+    brake = _check_brake(wheel_brake, params, n)
+    return _simulate(vehicles, state, mu, brake, params)
+
+
+#: A corner of one outline this deep [m] inside the other proves an overlap area
+#: above AREA_TOLERANCE: the overlap then contains a quarter disc of this
+#: radius around the corner, pi (1e-4)^2 / 4 = 7.9e-9 m^2 > 1e-9 m^2.
+_CORNER_DEPTH = 1e-4
+
+
+class _SecondaryCollisions:
+    """Tracks separation and renewed overlap of the pairs (k, k + N) of a 2N batch.
+
+    A pair is tested in three phases: the distance of the CGs against the sum
+    of the corner radii (:func:`corner_radius`); for the near pairs the
+    separating-axis test of the two rectangles (disjoint or touching -> no
+    overlap) and the depth of the deepest corner inside the other outline
+    (deeper than :data:`_CORNER_DEPTH` -> overlap); only the remaining pairs go
+    to :func:`vfs.physics.geometry.overlap`, whose area decides against AREA_TOLERANCE.
+    """
+
+    def __init__(self, vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray,
+                 yaw: np.ndarray) -> None:
+        n = x.shape[0] // 2
+        radius = corner_radius(vehicles)
+        self.vehicles = vehicles
+        self.n = n
+        self.radius_sum = radius[:n] + radius[n:]
+        self.half_length = 0.5 * vehicles.length
+        self.half_width = 0.5 * vehicles.width
+        self.centre_offset = vehicles.cg_to_front - self.half_length  # CG -> outline centre
+        self.separated = ~self._overlapping(np.arange(n), x, y, yaw)[0]
+        self.secondary = np.zeros(n, bool)
+        self.time = np.full(n, np.nan)
+        self.next_check = np.zeros(n)  # earliest time a pair can touch [s]
+        self.gyration2 = vehicles.yaw_inertia / vehicles.mass  # I / m [m^2]
+        # outline point speed bound per unit CG speed bound: 1 + R / sqrt(I / m)
+        self.reach = 1.0 + radius / np.sqrt(self.gyration2)
+
+    def _overlapping(self, pairs: np.ndarray, x: np.ndarray, y: np.ndarray,
+                     yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Overlap area > AREA_TOLERANCE for the given pair indices.
+
+        Also returns the depth [m] of the deepest corner where it proved the
+        overlap (0 elsewhere).
+        """
+        result = np.zeros(pairs.shape[0], bool)
+        proof = np.zeros(pairs.shape[0])
+        i, j = pairs, pairs + self.n
+        dx = x[j] - x[i]
+        dy = y[j] - y[i]
+        near = np.flatnonzero(dx * dx + dy * dy < self.radius_sum[pairs] ** 2)
+        if near.size == 0:
+            return result, proof
+        i, j = i[near], j[near]
+        c1, s1, c2, s2 = np.cos(yaw[i]), np.sin(yaw[i]), np.cos(yaw[j]), np.sin(yaw[j])
+        l1, w1 = self.half_length[i], self.half_width[i]
+        l2, w2 = self.half_length[j], self.half_width[j]
+        off1, off2 = self.centre_offset[i], self.centre_offset[j]
+        # outline centre of 2 relative to that of 1, in frame 1 and in frame 2
+        gx = dx[near] + off2 * c2 - off1 * c1
+        gy = dy[near] + off2 * s2 - off1 * s1
+        x12, y12 = c1 * gx + s1 * gy, c1 * gy - s1 * gx
+        x21, y21 = -(c2 * gx + s2 * gy), -(c2 * gy - s2 * gx)
+        cos_rel = c1 * c2 + s1 * s2  # heading of 2 relative to 1
+        sin_rel = c1 * s2 - s1 * c2
+        ac, as_ = np.abs(cos_rel), np.abs(sin_rel)
+        # separating axes: the edge normals of both rectangles
+        sat = (np.abs(x12) < l1 + l2 * ac + w2 * as_) & (np.abs(y12) < w1 + l2 * as_ + w2 * ac)
+        sat &= (np.abs(x21) < l2 + l1 * ac + w1 * as_) & (np.abs(y21) < w2 + l1 * as_ + w1 * ac)
+        depth = np.full(near.size, -np.inf)
+        for sl in (1.0, -1.0):
+            for sw in (1.0, -1.0):
+                # corner of 2 in frame 1 (rotate by +rel) and corner of 1 in frame 2 (by -rel)
+                px = x12 + sl * l2 * cos_rel - sw * w2 * sin_rel
+                py = y12 + sl * l2 * sin_rel + sw * w2 * cos_rel
+                depth = np.maximum(depth, np.minimum(l1 - np.abs(px), w1 - np.abs(py)))
+                px = x21 + sl * l1 * cos_rel + sw * w1 * sin_rel
+                py = y21 - sl * l1 * sin_rel + sw * w1 * cos_rel
+                depth = np.maximum(depth, np.minimum(l2 - np.abs(px), w2 - np.abs(py)))
+        deep = sat & (depth > _CORNER_DEPTH)
+        result[near[deep]] = True
+        proof[near[deep]] = depth[deep]
+        unsure = np.flatnonzero(sat & ~deep)
+        if unsure.size:
+            a, b = i[unsure], j[unsure]
+            v = self.vehicles
+            o1 = vehicle_outline(v.take(a), x[a], y[a], yaw[a])
+            o2 = vehicle_outline(v.take(b), x[b], y[b], yaw[b])
+            result[near[unsure]] = overlap(o1, o2).area > AREA_TOLERANCE
+        return result, proof
+
+    def __call__(self, t: float, state: RunoutState, moved: np.ndarray) -> None:
+        n = self.n
+        check = np.flatnonzero(~self.secondary & (moved[:n] | moved[n:]) & (self.next_check <= t))
+        if check.size == 0:
+            return
+        x, y, yaw = state.x, state.y, state.yaw
+        over, depth = self._overlapping(check, x, y, yaw)
+        # Skip pairs whose state cannot change for a while.  Kinetic energy E never
+        # grows, so |v| <= sqrt(2 E / m) = vmax and |r| <= vmax / sqrt(I / m) for good:
+        # corner circles a gap apart cannot touch before gap / (vmax1 + vmax2), and a
+        # corner at depth d inside the other outline cannot get out (to the proof depth)
+        # before (d - _CORNER_DEPTH) / (vmax1 (1 + R1/g1) + vmax2 (1 + R2/g2)).
+        i, j = check, check + n
+        gap = np.hypot(x[j] - x[i], y[j] - y[i]) - self.radius_sum[check]
+        both = np.concatenate([i, j])
+        vx, vy, r = state.vx[both], state.vy[both], state.yaw_rate[both]
+        vmax = np.sqrt(vx * vx + vy * vy + self.gyration2[both] * r * r)
+        closing = vmax[: i.size] + vmax[i.size:]
+        point = vmax * self.reach[both]
+        escape = point[: i.size] + point[i.size:]
+        was_separated = self.separated[check]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wait = np.where(gap > 0.0, gap / closing, 0.0)
+            wait = np.where(~was_separated & (depth > _CORNER_DEPTH),
+                            (depth - _CORNER_DEPTH) / escape, wait)
+        self.next_check[check] = t + wait
+        hit = check[was_separated & over]
+        self.secondary[hit] = True
+        self.time[hit] = t
+        self.separated[check[~was_separated & ~over]] = True
+
+
+def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: RunoutState,
+                 state2: RunoutState, road_friction: npt.ArrayLike,
+                 params: RunoutParams | None = None,
+                 wheel_brake1: npt.ArrayLike | None = None,
+                 wheel_brake2: npt.ArrayLike | None = None) -> PairRunoutResult:
+    """Run out both vehicles of N collisions together and flag secondary collisions.
+
+    The 2N vehicles are simulated as one batch.  After the impact the outlines
+    of a pair usually still overlap; once the overlap area has fallen to
+    <= :data:`vfs.physics.geometry.AREA_TOLERANCE` the pair counts as separated, and a
+    later overlap is a secondary collision (checked after every step: a circle
+    broad phase, a separating-axis test, then :func:`vfs.physics.geometry.overlap`).
+    Secondary collisions are detected, not solved: the vehicles pass through
+    each other.
+
+    Parameters
+    ----------
+    vehicles1, vehicles2 : VehicleArrays
+        Vehicle 1 and vehicle 2 of each collision, (N,) each.
+    state1, state2 : RunoutState
+        Their states just after the impact.
+    road_friction : array_like, () or (N,)
+        Tyre-road friction mu [-] of each collision (both vehicles).
+    params : RunoutParams, optional
+    wheel_brake1, wheel_brake2 : array_like (4,) or (N, 4), optional
+        Brake factors per wheel; default ``params.wheel_brake``.
+
+    Returns
+    -------
+    PairRunoutResult
+    """
+    params = RunoutParams() if params is None else params
+    if not isinstance(params, RunoutParams):
+        raise ParameterError(f"params must be RunoutParams, got {type(params).__name__}")
+    s1, n = _check_state(state1, "state1")
+    s2, n2 = _check_state(state2, "state2")
+    if n2 != n:
+        raise ParameterError(f"state1 has {n} vehicles but state2 has {n2}")
+    v1 = _check_vehicles(vehicles1, n, "vehicles1")
+    v2 = _check_vehicles(vehicles2, n, "vehicles2")
+    mu = _check_friction(road_friction, n)
+    b1 = _check_brake(wheel_brake1, params, n, "wheel_brake1")
+    b2 = _check_brake(wheel_brake2, params, n, "wheel_brake2")
+    both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
+    state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
+    tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
+    res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
+                    on_step=tracker)
+    first = RunoutResult(*(a if name == "path_t" else a[:n]
+                           for name, a in zip(RunoutResult._fields, res, strict=True)))
+    second = RunoutResult(*(a if name == "path_t" else a[n:]
+                            for name, a in zip(RunoutResult._fields, res, strict=True)))
+    return PairRunoutResult(first, second, tracker.secondary, tracker.time)

@@ -20,7 +20,7 @@ from vfs.analysis.effectiveness import (
 from vfs.analysis.risk import MS_PER_MPH, get_risk_curve
 from vfs.cli import main
 from vfs.errors import DataError, ParameterError
-from vfs.study.core import normalise_runs
+from vfs.study import normalise_runs
 
 NAN = np.nan
 

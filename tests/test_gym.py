@@ -119,7 +119,7 @@ def test_rectangle_gap_equals_shapely():
 def test_aeb_policy_in_env_equals_the_same_aeb_in_a_study(name, tmp_path):
     from vfs.database import load_database
     from vfs.database import resolve_database_path as database_path
-    from vfs.study.core import run_study
+    from vfs.study import run_study
 
     system = get_system(name)
     env = AEBEnv(split="test", brake=system.brake)

@@ -20,8 +20,8 @@ from vfs.physics.precrash import (
 )
 from vfs.physics.runout import RunoutParams
 from vfs.simulation import SimulationParams
-from vfs.study.core import BASELINE, RunTask, load_study, resolve_system, run_task
-from vfs.study.core import run_study as _run_study
+from vfs.study import BASELINE, RunTask, load_study, resolve_system, run_task
+from vfs.study import run_study as _run_study
 
 WHERE = "case_id <= 40"  # 40 cases of the bundled database
 CHUNK = 20  # -> 2 chunks
@@ -31,7 +31,7 @@ FAST = SimulationParams(precrash=PrecrashParams(dt=0.02, extra_time=1.0, contact
 
 
 def run_study(*args, **kwargs):  # noqa: ANN002, ANN003, ANN201
-    """:func:`vfs.study.core.run_study` with fast parameters and no progress bar by default."""
+    """:func:`vfs.study.run_study` with fast parameters and no progress bar by default."""
     kwargs.setdefault("params", FAST)
     kwargs.setdefault("progress", False)
     return _run_study(*args, **kwargs)

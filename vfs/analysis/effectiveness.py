@@ -899,7 +899,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
     DataError
         Not a study folder, or the study is not complete.
     """
-    from vfs.study.core import RUNS_FILE, load_study
+    from vfs.study import RUNS_FILE, load_study
 
     result = load_study(study)
     if result.table is None:

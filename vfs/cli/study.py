@@ -12,6 +12,7 @@ import argparse
 import sys
 import time
 
+from vfs.cli.common import DB_HELP, WHERE_HELP
 from vfs.errors import ParameterError
 
 
@@ -27,7 +28,7 @@ def _positive_int(text: str) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
-    from vfs.study.core import run_study
+    from vfs.study import run_study
 
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     if not systems:
@@ -88,17 +89,20 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "(baseline) and with each AEB system on the equipped vehicle(s), in chunks written to "
         "OUT/chunks, combined into OUT/runs.parquet. See docs/study.md.",
     )
-    p.add_argument("--db", required=True,
-                   help="database folder (Parquet, CSV or PCM) or 'default' (bundled database)")
-    p.add_argument("--systems", required=True,
-                   help="comma-separated AEB systems, e.g. three-stage,ideal")
+    from vfs.adas import SYSTEMS
+    from vfs.study import EXECUTORS
+
+    p.add_argument("--db", required=True, help=DB_HELP)
+    p.add_argument("--systems", required=True, metavar="NAMES",
+                   help="comma-separated AEB systems, e.g. three-stage,ideal; known: "
+                   f"{', '.join(SYSTEMS)} (docs/aeb.md)")
     p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
-    p.add_argument("--where", help="SQL predicate on the cases table, e.g. "
-                   "\"accident_type IN (241, 242)\"")
+    p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
     p.add_argument("--equip", choices=("1", "2", "both"), default="both",
                    help="vehicles carrying the system in the treatment runs (default both)")
-    p.add_argument("--engine", choices=("serial", "process", "dask"), default="process",
-                   help="executor: serial, local processes (default) or dask")
+    p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
+                   help="executor: serial, local processes (default), dask, or one registered "
+                   "with vfs.study.register_executor")
     p.add_argument("--workers", type=_positive_int,
                    help="parallel workers (default: min(CPUs, chunks))")
     p.add_argument("--scheduler", metavar="ADDRESS",

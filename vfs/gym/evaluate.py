@@ -11,7 +11,7 @@ from vfs.database import Database, open_database
 from vfs.errors import ParameterError
 from vfs.gym.env import make_config, split_case_ids
 from vfs.gym.policies import PolicySystem, load_policy
-from vfs.study.core import StudyResult, run_study
+from vfs.study import StudyResult, run_study
 
 
 def evaluate_policy(policy: str | Any, db: str | os.PathLike[str] | Database, out: str, *,

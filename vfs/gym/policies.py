@@ -14,7 +14,7 @@ deceleration).  Baselines:
     view, cycle, latency) on the simulation's full state, which it reads
     from the environment it is bound to (:meth:`AEBPolicy.bind`).
 
-:class:`PolicySystem` turns a policy into a system for :func:`vfs.study.core.run_study`:
+:class:`PolicySystem` turns a policy into a system for :func:`vfs.study.run_study`:
 a controller that computes the same observation from the simulation state
 each step and brakes the ego vehicle with the policy's demand through the
 same actuator.  ``vfs evaluate-policy`` uses it, so a policy is evaluated
@@ -175,7 +175,7 @@ class PolicyController:
 
 @dataclass(frozen=True)
 class PolicySystem:
-    """A policy as a system of :func:`vfs.study.core.run_study` (the ego vehicle brakes).
+    """A policy as a system of :func:`vfs.study.run_study` (the ego vehicle brakes).
 
     Attributes
     ----------

@@ -1,7 +1,61 @@
 """AEB effectiveness studies: baseline and treatment runs of every case of a database.
 
-See :mod:`vfs.study.core` and docs/study.md.
+:func:`run_study` runs (or resumes) a study into a folder, :func:`load_study`
+reads one.  The parts: :mod:`~vfs.study.layout` (names, files, columns),
+:mod:`~vfs.study.systems` (what a system is, lookup by name),
+:mod:`~vfs.study.tasks` (one chunk with one system), :mod:`~vfs.study.executors`
+(serial, processes, dask), :mod:`~vfs.study.manifest` (the folder, resume,
+reading) and :mod:`~vfs.study.run`.  See docs/study.md.
 """
 
-from vfs.study.core import *  # noqa: F403
-from vfs.study.core import __all__  # noqa: F401
+from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count, register_executor
+from vfs.study.layout import (
+    BASELINE,
+    CASES_FILE,
+    CHUNK_DIR,
+    DEFAULT_CHUNK_SIZE,
+    EQUIP_RULES,
+    MANIFEST_FILE,
+    RUNS_FILE,
+    equipped_flags,
+)
+from vfs.study.manifest import (
+    StudyResult,
+    case_ids_hash,
+    combine_chunks,
+    data_hash,
+    load_study,
+    read_manifest,
+)
+from vfs.study.run import run_study
+from vfs.study.systems import AEBSystem, resolve_system, resolve_systems
+from vfs.study.tasks import RunTask, assemble_chunk, normalise_runs, run_task
+
+__all__ = [
+    "BASELINE",
+    "CASES_FILE",
+    "CHUNK_DIR",
+    "DEFAULT_CHUNK_SIZE",
+    "EQUIP_RULES",
+    "EXECUTORS",
+    "MANIFEST_FILE",
+    "RUNS_FILE",
+    "AEBSystem",
+    "ExecutorOptions",
+    "RunTask",
+    "StudyResult",
+    "assemble_chunk",
+    "case_ids_hash",
+    "combine_chunks",
+    "cpu_count",
+    "data_hash",
+    "equipped_flags",
+    "load_study",
+    "normalise_runs",
+    "read_manifest",
+    "register_executor",
+    "resolve_system",
+    "resolve_systems",
+    "run_study",
+    "run_task",
+]

@@ -1,0 +1,317 @@
+"""Running a study: baseline and treatment runs of every case of a database.
+
+A study re-simulates every selected case of an accident database once without
+a system (``system = "baseline"``: the recorded behaviour) and once per AEB
+system (the treatment: the system acts on the equipped vehicle(s)), each run
+from the start of the records through impact or avoidance to rest
+(:func:`vfs.simulation.simulate_cases`).  The outcome is one tidy table with a
+row per (case, system), ``runs.parquet``, read by the effectiveness analysis
+(:mod:`vfs.analysis.effectiveness`).
+
+Work is split into chunks of ``chunk_size`` cases in database order.  Every
+(chunk, system) pair, the baseline included, is one task
+(:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the chunk's
+cases.  When all runs of a chunk are in, the main process writes the chunk
+atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never redone
+(``resume``).  A case that makes a batch raise is isolated by bisection and
+recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
+baseline, 1.. = the systems in the order given) draw their random numbers from
+``numpy.random.default_rng([seed, k, j])``, so the results do not depend on
+the executor (:mod:`vfs.study.executors`) nor on the order in which tasks
+finish.  The folder layout is described in :mod:`vfs.study.manifest`; the
+columns and the command line in docs/study.md.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.atomic import write_json, write_table
+from vfs.database import Database, DatabaseSelection, select_database
+from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
+from vfs.simulation import CaseBatch, SimulationParams
+from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
+from vfs.study.layout import (
+    BASELINE,
+    CASES_FILE,
+    CHUNK_DIR,
+    DEFAULT_CHUNK_SIZE,
+    EQUIP_RULES,
+    MANIFEST_FILE,
+    MANIFEST_FORMAT,
+    MANIFEST_VERSION,
+    RUNS_FILE,
+    chunk_path,
+    equipped_flags,
+)
+from vfs.study.manifest import (
+    StudyResult,
+    case_ids_hash,
+    combine_chunks,
+    counts_summary,
+    data_hash,
+    environment_versions,
+    now,
+    prepare_folder,
+)
+from vfs.study.systems import SystemRegistry, resolve_systems
+from vfs.study.tasks import RunTask, assemble_chunk, error_text
+
+#: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
+IMPACT_PARAMETER_SOURCES: tuple[str, ...] = ("reconstruction", "default")
+
+
+def _positive_int(name: str, value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer | float) \
+            or int(value) != value or value < 1:
+        raise ParameterError(f"{name}={value!r} must be a positive integer")
+    return int(value)
+
+
+def _new_manifest(selection: DatabaseSelection, where: str | None, chunk_size: int,
+                  n_chunks: int, systems: Sequence[Any], equip: str, seed: int,
+                  impact_parameters: str, params: SimulationParams, engine: str
+                  ) -> dict[str, Any]:
+    """``study.json`` of a study about to start (status ``running``)."""
+    database, ids = selection.database, selection.database.case_ids
+    names = [str(s.name) for s in systems]
+    return {
+        "format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "status": "running",
+        "created": now(), "updated": now(),
+        "db": selection.folder if selection.folder is not None else "<in-memory database>",
+        "db_format": selection.fmt, "db_name": str(database.meta.get("name", "")),
+        "where": where, "data_hash": data_hash(database), "case_ids_hash": case_ids_hash(ids),
+        "n_cases": int(ids.size), "chunk_size": chunk_size, "n_chunks": n_chunks,
+        "system_names": names,
+        "systems": [{"name": n, "description": str(getattr(s, "description", "")),
+                     "brake": repr(getattr(s, "brake", None))}
+                    for n, s in zip(names, systems, strict=True)],
+        "system_definitions": [repr(s) for s in systems],
+        "equip": equip, "equipped": list(EQUIP_RULES[equip]), "seed": seed,
+        "rng": "numpy.random.default_rng([seed, chunk, system index]); baseline index 0",
+        "impact_parameters": impact_parameters, "params": repr(params),
+        "engine": engine, "versions": environment_versions(),
+    }
+
+
+@dataclass
+class _ChunkWriter:
+    """Collects the runs of each chunk and writes the chunk file when all are in."""
+
+    out: Path
+    runners: int
+    cases: pd.DataFrame
+    progress: Any
+    on_chunk: Callable[[int, int], None] | None
+    cases_run: int = 0
+    pending: dict[int, dict[int, pd.DataFrame]] = field(default_factory=dict)
+
+    def __call__(self, task: RunTask, table: pd.DataFrame) -> None:
+        n = len(task.case_ids)
+        if len(table) != n:
+            raise SimulationError(f"chunk {task.chunk}, system {task.system_name}: "
+                                  f"{len(table)} rows for {n} cases")
+        parts = self.pending.setdefault(task.chunk, {})
+        parts[task.system_index] = table
+        self.progress.update(n / self.runners)
+        if len(parts) < self.runners:
+            return
+        del self.pending[task.chunk]
+        chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
+        write_table(chunk_path(self.out, task.chunk), chunk_table)
+        self.cases_run += n
+        if self.on_chunk is not None:
+            self.on_chunk(task.chunk, self.cases_run)
+
+
+def _progress_bar(total: int, show: bool | None) -> Any:
+    from tqdm import tqdm
+
+    if show is None:
+        show = sys.stderr.isatty() and not os.environ.get("CI")
+    return tqdm(total=total, unit="case", desc="vfs study", disable=not show, smoothing=0.1,
+                file=sys.stderr,
+                bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
+                           "{rate_fmt}]")
+
+
+def run_study(
+    db: str | os.PathLike[str] | Database,
+    systems: Sequence[str | Any] | str,
+    out: str | os.PathLike[str],
+    *,
+    engine: str = "process",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    seed: int = 0,
+    where: str | None = None,
+    equip: str | int = "both",
+    resume: bool = False,
+    overwrite: bool = False,
+    params: SimulationParams | None = None,
+    impact_parameters: str = "reconstruction",
+    registry: SystemRegistry | None = None,
+    progress: bool | None = None,
+    dask_processes: bool = True,
+    max_chunks: int | None = None,
+    on_chunk: Callable[[int, int], None] | None = None,
+) -> StudyResult:
+    """Run (or resume) an AEB effectiveness study and write its folder.
+
+    Parameters
+    ----------
+    db : path, ``"default"`` or Database
+        Database folder (Parquet, CSV or PCM), ``"default"`` for the bundled
+        database, or an in-memory :class:`vfs.database.Database` (its chunks
+        are then pickled to the workers).
+    systems : sequence of str or system objects, or "a,b"
+        AEB systems; names are looked up with :func:`resolve_system`.
+    out : path
+        Study folder (created).
+    engine : {"serial", "process", "dask"}
+        Executor (:data:`EXECUTORS`); default local processes.
+    workers : int, optional
+        Parallel workers; default ``min(cpu count, tasks to run)`` (a task = one
+        chunk with one system).
+    scheduler : str, optional
+        Dask scheduler address (engine "dask"); default a local cluster.
+    chunk_size : int
+        Cases per chunk (default 200).
+    seed : int
+        Seed of all random draws (systems with noise or reaction times).
+    where : str, optional
+        SQL predicate on the cases table selecting the cases (duckdb).
+    equip : {"1", "2", "both"}
+        Which vehicles carry the system in the treatment runs; default both.
+    resume : bool
+        Continue the study in ``out``: chunks on disk are kept; refused if
+        the inputs differ (:data:`RESUME_KEYS`).  An absent or empty ``out``
+        starts a new study.
+    overwrite : bool
+        Replace an existing study in ``out`` (never a folder of another kind).
+    params : SimulationParams, optional
+        Base simulation settings; each system replaces the pre-crash part
+        with ``system.precrash_params(params.precrash)``.
+    impact_parameters : {"reconstruction", "default"}
+        Restitution and contact friction of the reconstruction where present
+        (default) or the model defaults.
+    registry : mapping or callable, optional
+        System lookup instead of :func:`vfs.adas.get_system`.
+    progress : bool, optional
+        Progress bar on stderr; default when stderr is a terminal and the
+        environment variable CI is not set.
+    dask_processes : bool
+        Local dask cluster with processes (True) or threads.
+    max_chunks : int, optional
+        Run at most this many chunks now, then return an incomplete study
+        (to be resumed); for tests and staged runs.
+    on_chunk : callable, optional
+        ``on_chunk(chunk_index, cases_done)`` after each chunk file is written.
+
+    Returns
+    -------
+    StudyResult
+
+    Raises
+    ------
+    ParameterError
+        Bad arguments, an existing study without resume/overwrite, or a
+        resume with other inputs.
+    DataError
+        The database cannot be read or ``where`` is invalid.
+    """
+    started = time.perf_counter()
+    executor = EXECUTORS.get(engine)
+    chunk_size = _positive_int("chunk_size", chunk_size)
+    if workers is not None:
+        workers = _positive_int("workers", workers)
+    if impact_parameters not in IMPACT_PARAMETER_SOURCES:
+        raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
+                             f"{', '.join(IMPACT_PARAMETER_SOURCES)}")
+    equip = str(equip)
+    equipped_flags(equip, 0)  # validates
+    seed = int(seed)
+    params = params or SimulationParams()
+    system_objs = resolve_systems(systems, registry)
+    names = [str(s.name) for s in system_objs]
+
+    selection = select_database(db, where)
+    database, folder = selection.database, selection.folder
+    ids = database.case_ids
+    if ids.size == 0:
+        raise DataError(DataProblem("cases", "", None, None,
+                                    "no case selected" + (f" by {where!r}" if where else "")))
+    chunks = [ids[i:i + chunk_size] for i in range(0, ids.size, chunk_size)]
+    out_dir = Path(out)
+    manifest = prepare_folder(
+        out_dir, _new_manifest(selection, where, chunk_size, len(chunks), system_objs, equip,
+                               seed, impact_parameters, params, engine), resume, overwrite)
+    (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
+    write_json(out_dir / MANIFEST_FILE, manifest)
+    cases_meta = database.cases.reset_index(drop=True)
+    write_table(out_dir / CASES_FILE, cases_meta)
+
+    todo = [k for k in range(len(chunks)) if not chunk_path(out_dir, k).exists()]
+    if max_chunks is not None:
+        todo = todo[:max(0, int(max_chunks))]
+    batch_all = None
+    if folder is None:  # in memory: the tasks carry their cases
+        batch_all = CaseBatch.from_database(database, impact_parameters=impact_parameters)
+    runners: list[Any | None] = [None, *system_objs]
+    tasks = []
+    for k in todo:
+        start = k * chunk_size
+        sub = None if batch_all is None else batch_all.take(
+            np.arange(start, start + chunks[k].size))
+        for j, system in enumerate(runners):
+            tasks.append(RunTask(
+                chunk=k, case_ids=chunks[k], system_index=j, system=system, db_path=folder,
+                db_format=selection.fmt, batch=sub, equip=equip, seed=seed, params=params,
+                impact_parameters=impact_parameters))
+    n_workers = 1 if engine == "serial" else (
+        workers if workers else max(1, min(cpu_count(), len(tasks))))
+    bar = _progress_bar(sum(chunks[k].size for k in todo), progress)
+    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, on_chunk)
+    try:
+        if tasks:
+            executor(tasks, writer, ExecutorOptions(n_workers, scheduler, dask_processes))
+    except BaseException as exc:
+        # chunks written so far stay; the study can be resumed
+        manifest.update(status="interrupted" if isinstance(exc, KeyboardInterrupt) else "failed",
+                        updated=now(), error=error_text(exc))
+        write_json(out_dir / MANIFEST_FILE, manifest)
+        raise
+    finally:
+        bar.close()
+    manifest.pop("error", None)
+
+    elapsed = time.perf_counter() - started
+    done = [k for k in range(len(chunks)) if chunk_path(out_dir, k).exists()]
+    summary: dict[str, Any] = {"chunks_done": len(done), "cases_run": writer.cases_run,
+                               "elapsed_s": elapsed,
+                               "cases_per_s": writer.cases_run / elapsed if elapsed > 0 else 0.0,
+                               "workers": n_workers}
+    table = None
+    if len(done) == len(chunks):
+        write_table(out_dir / RUNS_FILE, combine_chunks(out_dir, ids, [BASELINE, *names]))
+        table = pd.read_parquet(out_dir / RUNS_FILE)  # dtypes exactly as load_study gives
+        summary["systems"] = counts_summary(table, names)
+        manifest["status"] = "complete"
+    else:
+        manifest["status"] = "incomplete"
+    manifest.update(updated=now(), summary=summary)
+    write_json(out_dir / MANIFEST_FILE, manifest)
+    return StudyResult(out_dir, table, manifest)
+
+
+__all__ = ["IMPACT_PARAMETER_SOURCES", "run_study"]

@@ -1,0 +1,245 @@
+"""One chunk of a study: load its cases, run them with one system, the runs table.
+
+Tasks run in worker processes (or dask workers); they get the database path
+and the case ids, not arrays, and load their cases themselves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.database import Database, load_any, load_database
+from vfs.errors import ParameterError, SimulationError
+from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
+from vfs.study.layout import (
+    BASELINE,
+    BOOL_COLUMNS,
+    EQUIP_RULES,
+    INT_COLUMNS,
+    KEY_COLUMNS,
+    equipped_flags,
+)
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One vectorised run: the cases of one chunk with one system (small; pickled).
+
+    Attributes
+    ----------
+    chunk : int
+        Chunk number k (position in the study, from 0).
+    case_ids : ndarray (n,)
+        The chunk's cases in database order.
+    system_index : int
+        j: 0 for the baseline, 1.. for the systems in the study's order.
+    system : object or None
+        The AEB system; None for the baseline.
+    db_path : str or None
+        Database folder the worker loads the cases from.
+    db_format : str
+        ``"parquet"``, ``"csv"`` or ``"pcm"`` (``"memory"`` with ``batch``).
+    batch : CaseBatch or None
+        The cases themselves when the study runs on an in-memory database
+        (no folder).
+    equip : str
+        Key of :data:`EQUIP_RULES`.
+    seed : int
+        Study seed; the run draws from ``default_rng([seed, chunk, system_index])``.
+    params : SimulationParams
+        Base simulation parameters (a system adapts the pre-crash part).
+    impact_parameters : str
+        ``"reconstruction"`` or ``"default"`` (:meth:`CaseBatch.from_database`).
+    """
+
+    chunk: int
+    case_ids: np.ndarray
+    system_index: int
+    system: Any | None
+    db_path: str | None
+    db_format: str
+    batch: CaseBatch | None
+    equip: str
+    seed: int
+    params: SimulationParams
+    impact_parameters: str
+
+    @property
+    def system_name(self) -> str:
+        """Value of the ``system`` column."""
+        return BASELINE if self.system is None else str(self.system.name)
+
+
+@lru_cache(maxsize=2)
+def _whole_database(path: str, fmt: str, stamp: float) -> Database:
+    """A whole non-Parquet database, loaded once per worker process."""
+    return load_any(path, fmt=fmt, validate=False)
+
+
+def load_chunk(task: RunTask) -> CaseBatch:
+    """The chunk's cases as a batch, in the task's order.
+
+    Parquet databases are read case-selectively (duckdb on the files, only
+    the chunk's rows); CSV and PCM folders are loaded whole once per process.
+    """
+    if task.batch is not None:
+        return task.batch
+    if task.db_path is None:
+        raise ParameterError("a chunk task needs a database path or a batch")
+    ids = np.asarray(task.case_ids)
+    if task.db_format == "parquet":
+        where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
+        db = load_database(task.db_path, where=where, validate=False)
+    else:
+        stamp = max(p.stat().st_mtime for p in Path(task.db_path).iterdir())
+        db = _whole_database(task.db_path, task.db_format, stamp)
+    return CaseBatch.from_database(db, ids, impact_parameters=task.impact_parameters)
+
+
+def error_text(exc: BaseException) -> str:
+    """The message recorded for a failed run: ``"TypeName: message"`` (one line)."""
+    text = f"{type(exc).__name__}: {exc}".replace("\n", " ").strip()
+    return text if len(text) <= 500 else text[:497] + "..."
+
+
+def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
+    """``controller.events()`` as columns ``<key>1``, ``<key>2`` (NaN where never)."""
+    events = getattr(controller, "events", None)
+    if controller is None or not callable(events):
+        return {}
+    cols: dict[str, np.ndarray] = {}
+    for key, values in dict(events()).items():
+        arr = np.asarray(values, dtype=float)
+        if arr.shape != (n, 2):
+            raise SimulationError(f"controller event {key!r} has shape {arr.shape}, "
+                                  f"expected ({n}, 2)")
+        cols[f"{key}1"], cols[f"{key}2"] = arr[:, 0], arr[:, 1]
+    return cols
+
+
+def _run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+               params: SimulationParams, rng: np.random.Generator) -> pd.DataFrame:
+    """One vectorised run of ``batch`` (baseline when ``system`` is None) as a table."""
+    controller = None
+    if system is not None:
+        params = dataclasses.replace(params,
+                                     precrash=system.precrash_params(params.precrash))
+        controller = system.controller(batch, equipped)
+    res = simulate_cases(batch, controller=controller, params=params, rng=rng)
+    table = results_table(batch, res)
+    for name, values in _events_columns(controller, batch.size).items():
+        table[name] = values
+    return table
+
+
+def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+                 params: SimulationParams, key: list[int]
+                 ) -> tuple[list[pd.DataFrame], dict[int, str]]:
+    """Run the batch; if it raises, bisect to isolate the failing cases.
+
+    Returns the tables of the parts that ran (each with a ``_pos`` column:
+    the case's position in ``batch``) and ``{position: error text}``.
+    Sub-batches draw from ``default_rng(key + [first position, size])``.
+    """
+
+    def attempt(start: int, stop: int) -> tuple[list[pd.DataFrame], dict[int, str]]:
+        whole = start == 0 and stop == batch.size
+        sub = batch if whole else batch.take(np.arange(start, stop))
+        rng = np.random.default_rng(key if whole else [*key, start, stop - start])
+        try:
+            table = _run_batch(sub, system, equipped[start:stop], params, rng)
+        except Exception as exc:  # recorded per case; the study goes on
+            if stop - start == 1:
+                return [], {start: error_text(exc)}
+            mid = (start + stop) // 2
+            t1, e1 = attempt(start, mid)
+            t2, e2 = attempt(mid, stop)
+            return t1 + t2, {**e1, **e2}
+        table.insert(0, "_pos", np.arange(start, stop))
+        return [table], {}
+
+    return attempt(0, batch.size)
+
+
+def run_task(task: RunTask) -> pd.DataFrame:
+    """Simulate the chunk's cases with one system (or the baseline) as one batch.
+
+    Returns one row per case in the task's order: case_id, system, error
+    (empty when fine), equipped1/2, the :func:`results_table` columns and
+    the controller's events; failed runs have an error text and NaN
+    outcomes.  Case metadata (accident type, weight) is added by the caller.
+    """
+    batch = load_chunk(task)
+    equipped = equipped_flags(task.equip, batch.size)
+    tables, errors = _run_guarded(batch, task.system, equipped, task.params,
+                                  [int(task.seed), int(task.chunk), int(task.system_index)])
+    if errors:
+        pos = np.fromiter(errors, dtype=np.int64)
+        tables.append(pd.DataFrame({"_pos": pos, "case_id": batch.case_id[pos],
+                                    "error": list(errors.values())}))
+    out = pd.concat(tables, ignore_index=True) if len(tables) > 1 else tables[0]
+    out = out.sort_values("_pos", kind="stable").drop(columns="_pos")
+    out.insert(1, "system", task.system_name)
+    if "error" not in out.columns:
+        out["error"] = ""
+    out["error"] = out["error"].fillna("").astype(object)
+    flags = EQUIP_RULES[task.equip] if task.system is not None else (False, False)
+    out["equipped1"], out["equipped2"] = flags
+    return out.reset_index(drop=True)
+
+
+def assemble_chunk(parts: Sequence[pd.DataFrame], cases: pd.DataFrame | None = None
+                   ) -> pd.DataFrame:
+    """One chunk's table from its runs (baseline first): rows case by case, then system."""
+    frames = []
+    for j, part in enumerate(parts):
+        frames.append(part.assign(_pos=np.arange(len(part)), _sys=j))
+    out = pd.concat(frames, ignore_index=True)
+    out = out.sort_values(["_pos", "_sys"], kind="stable").drop(columns=["_pos", "_sys"])
+    return normalise_runs(out.reset_index(drop=True), cases)
+
+
+def normalise_runs(df: pd.DataFrame, cases: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Column order and dtypes of a runs table (also used for each chunk).
+
+    Adds ``accident_type`` and ``weight`` from ``cases`` (weight NaN -> 1),
+    puts :data:`KEY_COLUMNS` first, makes :data:`BOOL_COLUMNS` nullable
+    booleans, ``impact_type`` text with NA for failed runs and ``error`` text
+    (empty when the run was fine).
+    """
+    out = df.copy()
+    if cases is not None:
+        meta = cases.drop_duplicates("case_id").set_index("case_id")
+        ids = out["case_id"].to_numpy()
+        if "accident_type" in meta.columns:
+            out["accident_type"] = meta["accident_type"].reindex(ids).to_numpy()
+        weight = meta["weight"].reindex(ids).to_numpy(float) if "weight" in meta.columns \
+            else np.ones(len(out))
+        out["weight"] = np.where(np.isfinite(weight), weight, 1.0)
+    for col in KEY_COLUMNS:
+        if col not in out.columns:
+            out[col] = "" if col == "error" else np.nan
+    out["error"] = out["error"].fillna("").astype(str).astype(object)
+    for col in BOOL_COLUMNS:
+        if col in out.columns:
+            out[col] = out[col].astype("boolean")
+    for col in INT_COLUMNS:
+        if col in out.columns:
+            out[col] = out[col].astype("Int64")
+    if "impact_type" in out.columns:
+        out["impact_type"] = out["impact_type"].astype(object).where(
+            out["impact_type"].notna(), None)
+    rest = [c for c in out.columns if c not in KEY_COLUMNS]
+    return out[list(KEY_COLUMNS) + rest]
+
+
+
+__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_task"]

@@ -1,0 +1,143 @@
+"""The package's shape: light imports, module sizes, the public API, a non-editable install.
+
+The layer contracts themselves are checked by ``lint-imports`` (``.ci/run``,
+contracts in pyproject.toml).
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import os
+import re
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "vfs"
+
+
+def _modules_after_import(statement: str) -> set[str]:
+    code = f"import sys, json; {statement}; print(json.dumps(sorted(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    return set(json.loads(out.stdout))
+
+
+@pytest.mark.parametrize("statement", [
+    "import vfs.physics.impact",
+    "import vfs",
+    "import vfs.simulation",
+    "import vfs.effects",
+])
+def test_core_imports_are_light(statement: str) -> None:
+    loaded = _modules_after_import(statement)
+    heavy = {"pandas", "matplotlib", "duckdb", "pyarrow", "dask", "scipy.stats", "vfs.cli",
+             "vfs.report", "vfs.analysis", "vfs.scenarios"}
+    assert not heavy & loaded, f"{statement} imports {sorted(heavy & loaded)}"
+
+
+def test_lazy_public_api_resolves_every_name() -> None:
+    import vfs
+
+    for name in vfs.__all__:
+        assert getattr(vfs, name) is not None, name
+    with pytest.raises(AttributeError):
+        vfs.no_such_name  # noqa: B018
+
+
+def test_no_top_level_helper_packages() -> None:
+    # vfs is the only top-level package of the distribution
+    top = {p.name for p in ROOT.iterdir() if (p / "__init__.py").exists()}
+    assert top == {"vfs"}
+
+
+def _python_modules() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def test_module_sizes() -> None:
+    # one concept per module: none over 1,250 lines, at most three over 900
+    sizes = {str(p.relative_to(ROOT)): len(p.read_text().splitlines())
+             for p in _python_modules()}
+    too_big = {k: v for k, v in sizes.items() if v > 1250}
+    assert not too_big, too_big
+    large = {k: v for k, v in sizes.items() if v > 900}
+    assert len(large) <= 3, large
+
+
+def test_no_private_name_crosses_a_module_boundary() -> None:
+    """``from vfs.x import _name`` appears nowhere in the package."""
+    offenders = []
+    for path in _python_modules():
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("vfs"):
+                for alias in node.names:
+                    if alias.name.startswith("_") and not alias.name.startswith("__"):
+                        offenders.append(f"{path.relative_to(ROOT)}: {node.module}.{alias.name}")
+    assert not offenders, offenders
+
+
+def test_matplotlib_is_never_switched_globally() -> None:
+    pattern = re.compile(r"matplotlib\.use\(|import matplotlib\.pyplot|from matplotlib import "
+                         r"pyplot")
+    offenders = [str(p.relative_to(ROOT)) for p in _python_modules()
+                 if pattern.search(p.read_text())]
+    assert not offenders, offenders
+
+
+def _api_example() -> tuple[str, str]:
+    text = (ROOT / "docs" / "api.md").read_text()
+    blocks = re.findall(r"```(python|text)\n(.*?)```", text, flags=re.S)
+    code = next(b for kind, b in blocks if kind == "python")
+    expected = next(b for kind, b in blocks if kind == "text")
+    return code, expected
+
+
+def test_api_example_runs_and_prints_what_the_docs_show(tmp_path: Path) -> None:
+    code, expected = _api_example()
+    script = tmp_path / "study.py"
+    script.write_text(code)
+    env = {**os.environ, "MPLBACKEND": "Agg", "CI": "true"}
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == expected.split()
+
+
+@pytest.mark.slow
+def test_non_editable_install_works_from_another_folder(tmp_path: Path) -> None:
+    """``pip install .`` (a wheel, not editable) into a fresh venv; commands from elsewhere."""
+    env_dir = tmp_path / "venv"
+    venv.create(env_dir, system_site_packages=True, with_pip=True)
+    py = env_dir / "bin" / "python"
+    subprocess.run([str(py), "-m", "pip", "install", "--quiet", "--no-deps", str(ROOT)],
+                   check=True, capture_output=True, timeout=600)
+    work = tmp_path / "elsewhere"
+    work.mkdir()
+    env = {**os.environ, "MPLBACKEND": "Agg", "CI": "true", "PYTHONPATH": ""}
+    env.pop("PYTHONPATH")
+
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        result = subprocess.run([str(env_dir / "bin" / args[0]), *args[1:]], cwd=work,
+                                capture_output=True, text=True, env=env, timeout=600)
+        assert result.returncode == 0, result.stderr[-2000:]
+        return result
+
+    where = run("python", "-c", "import vfs, os; print(os.path.dirname(vfs.__file__))")
+    assert str(env_dir) in where.stdout  # the installed copy, not the source tree
+    run("python", "-c", "import vfs; assert vfs.open_database('default').n_cases == 600")
+    for name in ("adas", "scenarios"):
+        probe = subprocess.run([str(py), "-c", f"import {name}"], cwd=work, env=env,
+                               capture_output=True)
+        assert probe.returncode != 0, f"a top-level {name!r} package is installed"
+    run("vfs", "run-case", "--plot", "x.png")
+    assert (work / "x.png").stat().st_size > 10_000
+    run("vfs", "study", "--db", "default", "--where", "case_id <= 12", "--systems",
+        "three-stage", "--engine", "serial", "--out", "s")
+    assert (work / "s" / "runs.parquet").exists()

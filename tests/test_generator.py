@@ -10,9 +10,10 @@ import pytest
 
 from vfs.cli import main
 from vfs.database import load_csv_folder, load_database, save_csv_folder, validate_database
+from vfs.database.paths import paths_from_trajectories
 from vfs.effects import BUILTIN_EFFECTS
 from vfs.errors import ParameterError
-from vfs.physics.paths import find_index, paths_from_trajectories, pose_at_arclength, record_at_time
+from vfs.physics.paths import find_index, pose_at_arclength, record_at_time
 from vfs.scenarios.generator import (
     GROUND_TRUTH_CASES_FILE,
     GROUND_TRUTH_FILE,

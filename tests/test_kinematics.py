@@ -13,10 +13,11 @@ from hypothesis import strategies as st
 
 import vfs.scenarios.kinematics as kin
 from vfs.database import Database, validate_database
+from vfs.database.paths import paths_from_trajectories
 from vfs.database.schema import TABLES, empty_table, normalise_table
 from vfs.errors import ParameterError, SimulationError
 from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, overlap
-from vfs.physics.paths import concat_paths, paths_from_trajectories
+from vfs.physics.paths import concat_paths
 from vfs.physics.precrash import PrecrashParams, outline_distance, simulate_precrash
 from vfs.physics.vehicle import validate_vehicle_values
 from vfs.scenarios.kinematics import (

@@ -30,8 +30,7 @@ from vfs.errors import (
     TargetExistsError,
     VfsError,
 )
-
-__version__ = "0.1.0"
+from vfs.version import __version__
 
 #: Public name -> module it lives in (imported on first access).
 _LAZY: dict[str, str] = {

@@ -12,11 +12,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
@@ -30,7 +29,7 @@ from vfs.physics.impact import (
     solve_impact,
     with_outcome,
 )
-from vfs.physics.paths import PathArrays, concat_paths, paths_from_trajectories
+from vfs.physics.paths import PathArrays, concat_paths
 from vfs.physics.precrash import (
     BrakeController,
     KinematicState,
@@ -46,6 +45,11 @@ from vfs.physics.runout import (
     run_out_pair,
 )
 from vfs.physics.vehicle import VehicleArrays
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+    from vfs.database import Database
 
 
 @dataclass(frozen=True)
@@ -121,7 +125,7 @@ class CaseBatch(NamedTuple):
         return self.yaw_inertia_known
 
     @classmethod
-    def from_database(cls, db: object, case_ids: npt.ArrayLike | None = None,
+    def from_database(cls, db: Database, case_ids: npt.ArrayLike | None = None,
                       impact_parameters: str = "reconstruction") -> CaseBatch:
         """Build a batch from a :class:`vfs.database.Database` (all cases by default).
 
@@ -139,8 +143,12 @@ class CaseBatch(NamedTuple):
         if impact_parameters not in ("reconstruction", "default"):
             raise ParameterError(f"impact_parameters={impact_parameters!r}; "
                                  "use 'reconstruction' or 'default'")
-        ids = np.asarray(db.case_ids if case_ids is None else case_ids)  # type: ignore[attr-defined]
-        sub = db.subset(ids) if case_ids is not None else db  # type: ignore[attr-defined]
+        import pandas as pd  # the database's tables; imported here to keep the core light
+
+        from vfs.database.paths import paths_from_trajectories
+
+        ids = np.asarray(db.case_ids if case_ids is None else case_ids)
+        sub = db.subset(ids) if case_ids is not None else db
         v1, v2 = sub.vehicles()
         order = pd.Index(sub.case_ids).get_indexer(ids)
         v1, v2 = v1.take(order), v2.take(order)
@@ -467,6 +475,8 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
     secondary_collision_time, min_distance, time_closest, brake_start{i},
     speed_reduction{i}.
     """
+    import pandas as pd
+
     pre, imp, ro = res.precrash, res.impact, res.runout
     st = pre.impact_state
     cols: dict[str, object] = {

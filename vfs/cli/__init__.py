@@ -44,7 +44,7 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command."""
-    from vfs import __version__
+    from vfs.version import __version__
 
     parser = argparse.ArgumentParser(
         prog="vfs",

@@ -64,9 +64,9 @@ def environment_versions() -> dict[str, str]:
     """Versions of vfs, Python and the libraries that determine the numbers."""
     import pyarrow
 
-    import vfs
+    from vfs.version import __version__
 
-    versions = {"vfs": vfs.__version__, "python": platform.python_version(),
+    versions = {"vfs": __version__, "python": platform.python_version(),
                 "numpy": np.__version__, "pandas": pd.__version__,
                 "pyarrow": pyarrow.__version__, "platform": platform.platform()}
     return versions

@@ -276,8 +276,8 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     if len(diag.worst):
         doc.append(_table(diag.worst.drop(columns=["index"])))
     for k, key in enumerate(sorted(k for k in figures if k.startswith("case_")), start=1):
-        doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model "
-                          "(crosses: rest positions of the reconstruction)", alt=key))
+        doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model; "
+                          "X markers: the reconstruction's rest positions"))
     st2 = diag.stats
     doc += [
         Heading("Cost", 2),

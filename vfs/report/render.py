@@ -298,9 +298,9 @@ pre{background:#f6f7f9;border:1px solid var(--rule);padding:.7rem 1rem;overflow-
 border-radius:4px}
 pre code{background:none;padding:0}
 .table-wrap{overflow-x:auto;margin:.8rem 0 1.2rem}
-table{border-collapse:collapse;font-size:.88rem;font-variant-numeric:tabular-nums}
-th,td{border:1px solid var(--rule);padding:.3rem .6rem;vertical-align:top}
-th{background:var(--head);font-weight:600;text-align:left}
+table{border-collapse:collapse;font-size:.85rem;font-variant-numeric:tabular-nums}
+th,td{border:1px solid var(--rule);padding:.25rem .5rem;vertical-align:top}
+th{background:var(--head);font-weight:600;text-align:left;vertical-align:bottom}
 tbody tr:nth-child(even){background:var(--zebra)}
 tbody tr:hover{background:#eaf0fb}
 .r{text-align:right}.c{text-align:center}.l{text-align:left}

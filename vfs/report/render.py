@@ -84,8 +84,8 @@ class Table:
     empty : str, optional
         Text shown instead of a table without rows; None shows nothing.
 
-    Cells that hold a number or an interval (``1.2 [0.8, 1.6]``) never wrap
-    in HTML.
+    Cells that hold a number, an interval (``1.2 [0.8, 1.6]``) or a short
+    name without spaces (``three-stage``) never wrap in HTML.
     """
 
     columns: tuple[str, ...]
@@ -344,7 +344,8 @@ def _html_table(t: Table) -> str:
         cells = []
         for text, a in zip(row, align, strict=True):
             c = cls[a]
-            if (a == "right" and is_numeric_text(text)) or _CI.search(text):
+            if ((a == "right" and is_numeric_text(text)) or _CI.search(text)
+                    or (len(text) <= 24 and " " not in text)):  # numbers, intervals, names
                 c += " nw"
             cells.append(f'<td class="{c}">{inline_html(text)}</td>')
         body.append("<tr>" + "".join(cells) + "</tr>")

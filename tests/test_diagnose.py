@@ -31,7 +31,7 @@ from vfs.analysis.calibrate import (
     read_model_config,
     write_model_config,
 )
-from vfs.analysis.diagnose import diagnose, residual_associations, write_report
+from vfs.analysis.diagnose import diagnose, residual_associations
 from vfs.analysis.ledger import ledger_chain, read_ledger
 from vfs.cli import main as dcli
 from vfs.effects import (
@@ -43,6 +43,7 @@ from vfs.effects import (
     unregister_effect,
 )
 from vfs.errors import DataError, ParameterError
+from vfs.report.diagnose import write_diagnosis_report
 from vfs.scenarios.generator import NO_NOISE, generate_database, write_generated
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
@@ -158,7 +159,7 @@ def test_diagnose_ranks_the_hidden_effect_and_writes_reports(tyre_db, tmp_path):
     assert not any(c.significant for c in diag.candidates[1:])
     assert "tyre_impulse" in diag.verdict[0]
     assert diag.stats["variants"] > 0 and diag.stats["total_seconds"] > 0
-    paths = write_report(diag, tmp_path / "diag", json_path=tmp_path / "s.json")
+    paths = write_diagnosis_report(diag, tmp_path / "diag", json_path=tmp_path / "s.json")
     summary = json.loads((tmp_path / "s.json").read_text())
     assert summary["ranking"][0] == "tyre_impulse"
     c0 = summary["candidates"][0]

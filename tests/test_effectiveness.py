@@ -15,11 +15,11 @@ from vfs.analysis.effectiveness import (
     effectiveness,
     paired_runs,
     risk_curves_for,
-    write_effectiveness_report,
 )
 from vfs.analysis.risk import MS_PER_MPH, get_risk_curve
 from vfs.cli import main
 from vfs.errors import DataError, ParameterError
+from vfs.report.effectiveness import write_effectiveness_report
 from vfs.study import normalise_runs
 
 NAN = np.nan

@@ -12,7 +12,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import uuid
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -71,9 +70,9 @@ def write_atomic(path: PathLike, write: Callable[[Path], None]) -> Path:
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.tmp-", suffix=target.suffix,
-                               dir=target.parent)
-    os.close(fd)
+    # created like open() creates files (mode 0o666 less the umask), not 0o600 as mkstemp
+    tmp = str(target.parent / f".{target.stem}.tmp-{uuid.uuid4().hex}{target.suffix}")
+    os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
     try:
         write(Path(tmp))
         os.replace(tmp, target)

@@ -4,7 +4,8 @@
 cross-validate to ``ledger.jsonl`` in the results folder (the default model,
 each diagnosed candidate, each calibrated combination).  ``vfs ledger
 FOLDER`` shows the table and the *chain*: the error falling from the default
-model through each added effect, as a table and a waterfall figure.
+model through each added effect, as a table and a waterfall figure
+(:func:`vfs.report.ledger.plot_waterfall`).
 
 A record::
 
@@ -186,36 +187,6 @@ def chain_table(chain: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def plot_waterfall(chain: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
-    """Waterfall figure of the chain: bars from the default CV RMSE down each step."""
-    from vfs.report.figures import _pyplot
-
-    plt = _pyplot()
-    labels = ["default"] + [f"+ {r['added']}" for r in chain[1:]]
-    values = [float(r["cv_rmse_overall"]) for r in chain]
-    fig, ax = plt.subplots(figsize=(1.6 * len(values) + 2.0, 4.0))
-    for k, v in enumerate(values):
-        if k == 0:
-            ax.bar(k, v, color="#7f7f7f")
-        else:
-            lo, hi = sorted((values[k - 1], v))
-            ax.bar(k, hi - lo, bottom=lo, color="#2ca02c" if v < values[k - 1] else "#d62728")
-            ax.plot([k - 1.4, k + 0.4], [values[k - 1]] * 2, "k:", lw=0.8)
-        ax.text(k, v, f"{v:.3g}", ha="center", va="bottom", fontsize=8)
-    ax.bar(len(values), values[-1], color="#1f77b4")
-    ax.text(len(values), values[-1], f"{values[-1]:.3g}", ha="center", va="bottom", fontsize=8)
-    ax.set_xticks(range(len(values) + 1), labels + ["final"], rotation=20, ha="right",
-                  fontsize=8)
-    ax.set_ylabel("cross-validated RMSE (standardised, all outputs)")
-    ax.set_title("Error ledger: the model error falling with each added effect", fontsize=10)
-    fig.tight_layout()
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    return p
-
-
 def format_chain(chain: Sequence[Mapping[str, Any]]) -> str:
     """The chain as text for the terminal."""
     if not chain:
@@ -232,4 +203,4 @@ def format_chain(chain: Sequence[Mapping[str, Any]]) -> str:
 
 
 __all__ = ["LEDGER_FILE", "append_records", "chain_table", "format_chain", "ledger_chain",
-           "ledger_path", "ledger_table", "make_record", "plot_waterfall", "read_ledger"]
+           "ledger_path", "ledger_table", "make_record", "read_ledger"]

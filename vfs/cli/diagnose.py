@@ -1,4 +1,5 @@
-"""``vfs diagnose``, ``vfs calibrate`` and ``vfs ledger`` (see :mod:`vfs.analysis.diagnose`)."""
+"""``vfs diagnose``, ``vfs calibrate`` and ``vfs ledger`` (see :mod:`vfs.analysis.diagnose`,
+:mod:`vfs.report.diagnose`)."""
 
 from __future__ import annotations
 
@@ -34,8 +35,9 @@ def _settings(args: argparse.Namespace) -> dict[str, int]:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run the diagnosis, write the reports and append the ledger."""
-    from vfs.analysis.diagnose import diagnose, write_report
+    from vfs.analysis.diagnose import diagnose
     from vfs.analysis.ledger import append_records, make_record
+    from vfs.report.diagnose import write_diagnosis_report
 
     load_plugins(args.plugin)
     db, path = _load_db(args.db)
@@ -45,7 +47,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                     zoom_rounds=s["zoom"], n_boot=s["n_boot"], correction=args.correction,
                     alpha=args.alpha, min_reduction=args.min_reduction, worst=args.worst,
                     database=str(path), progress=say)
-    paths = write_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
+    paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
     print(diag.ranked_table()[["rank", "effect", "significant", "reduction", "ci_low",
                                "ci_high", "reduction_affected", "fitted"]]
@@ -132,9 +134,9 @@ def cmd_ledger(args: argparse.Namespace) -> int:
         ledger_chain,
         ledger_path,
         ledger_table,
-        plot_waterfall,
         read_ledger,
     )
+    from vfs.report.ledger import plot_waterfall
 
     records = read_ledger(args.folder)
     table = ledger_table(records)

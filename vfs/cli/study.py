@@ -52,7 +52,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 def cmd_report_effectiveness(args: argparse.Namespace) -> int:
     """``vfs report effectiveness STUDY``: write report.md, report.html and figures."""
-    from vfs.analysis.effectiveness import write_effectiveness_report
+    from vfs.report.effectiveness import write_effectiveness_report
 
     started = time.perf_counter()
     report = write_effectiveness_report(args.study, risk_curves=args.risk_curve or None,

@@ -6,11 +6,11 @@ import os
 from typing import Any
 
 from vfs.adas.systems import AEBSystem
-from vfs.analysis.effectiveness import write_effectiveness_report
 from vfs.database import Database, open_database
 from vfs.errors import ParameterError
 from vfs.gym.env import make_config, split_case_ids
 from vfs.gym.policies import PolicySystem, load_policy
+from vfs.report.effectiveness import write_effectiveness_report
 from vfs.study import StudyResult, run_study
 
 

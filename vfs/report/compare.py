@@ -6,17 +6,16 @@ Figure 5 (POIs in vehicle coordinates: reconstruction circles, VFS
 triangles), Figure 6 (boxplots per impact type) and Table 1 (paired t-tests
 in km/h and degrees); Bland-Altman plots, model-vs-reconstruction scatter
 plots and top views of the worst cases are added.  matplotlib is imported
-lazily (Agg backend) by the figure functions only.
+lazily by the figure functions only (:func:`vfs.report.figures.new_figure`,
+no pyplot); the text is rendered by :mod:`vfs.report.render`; every file is
+written atomically.
 """
 
 from __future__ import annotations
 
-import html
 import json
 import math
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +34,18 @@ from vfs.analysis.compare import (
     TABLE1_OUTCOMES,
     Comparison,
 )
+from vfs.atomic import write_atomic, write_table, write_text
+from vfs.report.figures import new_figure, save_figure
+from vfs.report.render import (
+    Block,
+    BulletList,
+    Figure,
+    Heading,
+    Paragraph,
+    Report,
+    Table,
+    write_report,
+)
 from vfs.units import KMH_PER_MS
 
 #: Colours of seed 001's Figure 5: reconstruction full / sliding (circles),
@@ -49,15 +60,6 @@ GROUP_COLORS = {GROUP_FULL: "#1f4e9c", GROUP_SLIDING: "#e6b800", GROUP_CHANGED: 
 FIGURE_OUTCOMES: tuple[str, ...] = (
     "delta_v", "ees", "velocity_angle_change", "post_speed", "runout_displacement", "pdof",
 )
-
-
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 # ----------------------------------------------------------------------------
@@ -93,78 +95,6 @@ def _p(value: Any) -> str:
     return "< 0.001" if v < 0.001 else f"{v:.3f}"
 
 
-@dataclass(frozen=True)
-class _Block:
-    """One element of the report: heading, paragraph, table or image."""
-
-    kind: str  # "h1", "h2", "h3", "p", "table", "img", "list"
-    text: str = ""
-    table: pd.DataFrame | None = None
-    items: tuple[str, ...] = ()
-
-
-def _md_table(df: pd.DataFrame) -> str:
-    cols = [str(c) for c in df.columns]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
-    for row in df.itertuples(index=False):
-        lines.append("| " + " | ".join(str(v).replace("|", "/") for v in row) + " |")
-    return "\n".join(lines)
-
-
-def _render_markdown(blocks: Sequence[_Block]) -> str:
-    out = []
-    for b in blocks:
-        if b.kind in ("h1", "h2", "h3"):
-            out.append("#" * int(b.kind[1]) + " " + b.text)
-        elif b.kind == "p":
-            out.append(b.text)
-        elif b.kind == "list":
-            out.append("\n".join(f"- {i}" for i in b.items))
-        elif b.kind == "table" and b.table is not None:
-            out.append(_md_table(b.table) if len(b.table) else "(no rows)")
-        elif b.kind == "img":
-            out.append(f"![{b.text}]({b.items[0]})\n\n*{b.text}*")
-    return "\n\n".join(out) + "\n"
-
-
-def _inline_html(text: str) -> str:
-    """Escape and render `code` spans."""
-    parts = html.escape(text).split("`")
-    return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
-
-
-def _render_html(blocks: Sequence[_Block], title: str) -> str:
-    body = []
-    for b in blocks:
-        if b.kind in ("h1", "h2", "h3"):
-            body.append(f"<{b.kind}>{_inline_html(b.text)}</{b.kind}>")
-        elif b.kind == "p":
-            body.append(f"<p>{_inline_html(b.text)}</p>")
-        elif b.kind == "list":
-            body.append("<ul>" + "".join(f"<li>{_inline_html(i)}</li>" for i in b.items)
-                        + "</ul>")
-        elif b.kind == "table" and b.table is not None:
-            if len(b.table):
-                head = "".join(f"<th>{html.escape(str(c))}</th>" for c in b.table.columns)
-                rows = "".join(
-                    "<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in row) + "</tr>"
-                    for row in b.table.itertuples(index=False))
-                body.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>")
-            else:
-                body.append("<p>(no rows)</p>")
-        elif b.kind == "img":
-            body.append(f'<figure><img src="{html.escape(b.items[0])}" alt="'
-                        f'{html.escape(b.text)}"><figcaption>{_inline_html(b.text)}'
-                        "</figcaption></figure>")
-    style = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;line-height:1.4}"
-             "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
-             "td,th{border:1px solid #bbb;padding:3px 7px;text-align:right}"
-             "th{background:#eee}td:first-child,th:first-child{text-align:left}"
-             "img{max-width:100%}figcaption{font-style:italic;font-size:0.9em}")
-    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{html.escape(title)}"
-            f"</title><style>{style}</style></head><body>\n" + "\n".join(body)
-            + "\n</body></html>\n")
-
 
 # ----------------------------------------------------------------------------
 # Figures
@@ -178,13 +108,15 @@ def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> N
     impact type; bands connect the categories of the same cases, arrows
     and counts mark the changes (e.g. full -> sliding).
     """
-    plt = _pyplot()
+    from matplotlib.patches import Rectangle
+
     c = comparison.contingency
     cats = list(c.categories)
     counts = c.table.to_numpy()
     left = counts.sum(axis=1)
     right = counts.sum(axis=0)
-    fig, ax = plt.subplots(figsize=(7.5, 5.5))
+    fig = new_figure((7.5, 5.5))
+    ax = fig.subplots()
     width, x0, x1 = 0.18, 0.0, 1.0
     gap = max(0.02 * max(c.n, 1), 0.3)
 
@@ -201,8 +133,8 @@ def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> N
         color = TYPE_COLORS.get(cat, "#777777")
         for x, start, total in ((x0, ls[k], left[k]), (x1, rs[k], right[k])):
             if total:
-                ax.add_patch(plt.Rectangle((x - width / 2, start), width, total, color=color,
-                                           ec="black", lw=0.8))
+                ax.add_patch(Rectangle((x - width / 2, start), width, total, color=color,
+                                       ec="black", lw=0.8))
                 ax.text(x, start + total / 2, f"{cat}\n{int(total)}", ha="center",
                         va="center", fontsize=10, color="white" if cat != "sliding" else "black",
                         weight="bold")
@@ -266,9 +198,11 @@ def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> 
     bumper (forward positive), y to the left scaled to the median width, on the
     outline of a median vehicle.  Left: the whole vehicle; right: the front.
     """
-    plt = _pyplot()
+    from matplotlib.patches import Rectangle
+
     pairs = comparison.pairs
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), gridspec_kw={"width_ratios": [1.6, 1]})
+    fig = new_figure((11, 4.8))
+    axes = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.6, 1]})
     length = float(np.nanmedian(pairs["length"])) if pairs["length"].notna().any() else 4.5
     width = float(np.nanmedian(pairs["width"])) if pairs["width"].notna().any() else 1.8
     rx, ry = _poi_plot_coordinates(pairs, "reference")
@@ -276,8 +210,8 @@ def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> 
     rtype = pairs["reference_type"].to_numpy(object)
     mtype = pairs["vfs_type"].to_numpy(object)
     for ax in axes:
-        ax.add_patch(plt.Rectangle((-length, -width / 2), length, width, fill=False, ec="black",
-                                   lw=1.2))
+        ax.add_patch(Rectangle((-length, -width / 2), length, width, fill=False, ec="black",
+                               lw=1.2))
         ax.plot([0, 0], [-width / 2, width / 2], "k-", lw=3)  # front
         ax.plot(np.c_[rx, mx].T, np.c_[ry, my].T, "-", color="#999999", lw=0.6)
         for cat in IMPACT_CATEGORIES:
@@ -309,10 +243,10 @@ def plot_boxplots(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     """Seed 001's Figure 6: boxplots of delta-v, EES and the change of velocity angle
     for (a) both full and (b) both sliding, reconstruction vs VFS, equal axes;
     whiskers at the minimum and maximum."""
-    plt = _pyplot()
     pairs = comparison.pairs
     names = [o for o in TABLE1_OUTCOMES if f"reference_{o}" in pairs.columns]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), sharey=True)
+    fig = new_figure((11, 4.8))
+    axes = fig.subplots(1, 2, sharey=True)
     for ax, group, letter in ((axes[0], GROUP_FULL, "a"), (axes[1], GROUP_SLIDING, "b")):
         sel = (pairs["group"] == group).to_numpy()
         data, positions, colors, ticks, labels = [], [], [], [], []
@@ -347,13 +281,13 @@ def plot_bland_altman(comparison: Comparison, path: str | os.PathLike[str]) -> N
     """Bland-Altman plots: difference VFS - reconstruction against the mean of both,
     per vehicle, coloured by group; bias and 95 % limits of agreement of all
     compared vehicles, the TOST margin shaded."""
-    plt = _pyplot()
     names = _figure_outcomes(comparison)
     pairs = comparison.pairs
     paired = comparison.paired.set_index(["outcome", "group"])
     ncol = 3
     nrow = max(1, math.ceil(len(names) / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(13, 3.8 * nrow), squeeze=False)
+    fig = new_figure((13, 3.8 * nrow))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     for ax, name in zip(axes.ravel(), names, strict=False):
         o = OUTCOMES_BY_NAME[name]
         f = o.display_factor
@@ -388,12 +322,12 @@ def plot_bland_altman(comparison: Comparison, path: str | os.PathLike[str]) -> N
 
 def plot_scatter(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     """VFS against reconstruction per vehicle with the identity line, coloured by group."""
-    plt = _pyplot()
     names = _figure_outcomes(comparison)
     pairs = comparison.pairs
     ncol = 3
     nrow = max(1, math.ceil(len(names) / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(13, 4.0 * nrow), squeeze=False)
+    fig = new_figure((13, 4.0 * nrow))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     for ax, name in zip(axes.ravel(), names, strict=False):
         o = OUTCOMES_BY_NAME[name]
         f = o.display_factor
@@ -438,7 +372,6 @@ def plot_worst_cases(comparison: Comparison, folder: Path, count: int) -> list[t
     from vfs.report.figures import plot_case_topview
     from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
-    plt = _pyplot()
     ids = worst["case_id"].to_numpy()
     batch = CaseBatch.from_database(db, ids)
     res = simulate_cases(batch, params=comparison.params or SimulationParams())
@@ -477,16 +410,11 @@ def plot_worst_cases(comparison: Comparison, folder: Path, count: int) -> list[t
         file = folder / f"worst_{row.rank:02d}_case_{row.case_id}.png"
         _save(fig, file)
         out.append((file, title))
-    plt.close("all")
     return out
 
 
 def _save(fig: Any, path: str | os.PathLike[str]) -> None:
-    plt = _pyplot()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=True)
 
 
 # ----------------------------------------------------------------------------
@@ -646,9 +574,8 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     figs.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
 
-    files["json"] = folder / "comparison.json"
-    files["json"].write_text(json.dumps(comparison.to_dict(), indent=1, allow_nan=False) + "\n",
-                             encoding="utf-8")
+    files["json"] = write_text(folder / "comparison.json", json.dumps(
+        comparison.to_dict(), indent=1, allow_nan=False) + "\n")
     tables = {
         "cases": comparison.cases, "pairs": comparison.pairs,
         "poi_distances": comparison.poi_distances, "rest_distances": comparison.rest_distances,
@@ -656,13 +583,11 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         "case_errors": comparison.case_errors,
     }
     for name, df in tables.items():
-        files[name] = folder / f"{name}.csv"
-        df.to_csv(files[name], index=False)
+        files[name] = write_table(folder / f"{name}.csv", df)
     for name in ("pairs", "paired", "case_errors"):
-        files[f"{name}_parquet"] = folder / f"{name}.parquet"
-        tables[name].to_parquet(files[f"{name}_parquet"], index=False)
-    files["contingency"] = folder / "contingency.csv"
-    comparison.contingency.table.to_csv(files["contingency"])
+        files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", tables[name])
+    files["contingency"] = write_atomic(folder / "contingency.csv",
+                                        comparison.contingency.table.to_csv)
 
     figure_jobs = {
         "fig_impact_types": ("fig4_impact_types.png", plot_impact_types),
@@ -679,99 +604,100 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[f"fig_worst_{k + 1}"] = file
 
     blocks = _report_blocks(comparison, top, worst, folder)
-    title = "VFS vs reconstruction"
-    files["report_md"] = folder / "report.md"
-    files["report_md"].write_text(_render_markdown(blocks), encoding="utf-8")
-    files["report_html"] = folder / "report.html"
-    files["report_html"].write_text(_render_html(blocks, title), encoding="utf-8")
+    files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))
     return files
 
 
+def _table(df: pd.DataFrame) -> Table:
+    return Table.from_frame(df, empty="(no rows)")
+
+
 def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str]],
-                   folder: Path) -> list[_Block]:
+                   folder: Path) -> list[Block]:
     c = comparison
     cont = c.contingency
     counts = c.status_counts
     excluded = c.excluded
     effects = ", ".join(repr(e) for e in c.params.effects) if c.params is not None else ""
-    b: list[_Block] = [
-        _Block("h1", "Virtual forward simulation vs reconstruction"),
-        _Block("p", f"VFS source: {c.source}; model: default"
-               + (f" with effects {effects}" if effects else "") + ". "
-               f"{len(c.cases)} cases with a reconstruction: "
-               + ", ".join(f"{k} {v}" for k, v in counts.items() if v)
-               + ". Cases avoided by the VFS or with an error are excluded from the paired "
-               "tests (section 8). Differences are VFS - reconstruction; speeds in km/h, "
-               "angles in degrees. The analysis follows Tomasch et al. (seed 001: Figures 4-6, "
-               "Table 1); formulas and conventions: docs/compare.md."),
-        _Block("h2", "1 Impact type (seed 001, Figure 4)"),
-        _Block("p", f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
-               f"{cont.n_agree} of {cont.n} cases agree (observed agreement "
-               f"{_num(cont.observed_agreement, 3)})."),
-        _Block("table", table=_contingency_display(c)),
-        _Block("table", table=_tests_display(c)),
-        _Block("p", "The chi-squared test reproduces the paper: it compares the type "
-               "frequencies of the two methods as if they were independent samples. The "
-               "samples are the same accidents, so McNemar (2 x 2), Stuart-Maxwell and Bowker "
-               "are the appropriate paired tests; kappa measures agreement beyond chance."),
-        _Block("img", "Figure 4: impact types in reconstruction and VFS; bands and arrows "
-               "show how the cases move between the types.",
-               items=("figures/fig4_impact_types.png",)),
-        _Block("h2", "2 Point of impact in vehicle coordinates (seed 001, Figure 5)"),
-        _Block("p", "Distance between the reconstruction POI (in the vehicle's frame at the "
-               "reconstruction's impact pose) and the VFS POI (in the same vehicle's frame at "
-               "the VFS impact pose), per vehicle (n = 2 x cases). The CI of the mean resamples "
-               "cases with both vehicles (bootstrap)."),
-        _Block("table", table=_distance_display(c.poi_distances)),
-        _Block("img", "Figure 5: POIs in vehicle coordinates; circles reconstruction (blue "
-               "full, green sliding), triangles VFS (red full, yellow sliding).",
-               items=("figures/fig5_poi_positions.png",)),
-        _Block("h2", "3 Table 1: paired t-tests, same impact type in both"),
-        _Block("p", "Seed 001's layout: per vehicle (n = 2 x cases) among the cases with the "
-               "same impact type in reconstruction and VFS; p from the paired t-test."),
-        _Block("table", table=_table1_display(c.table1)),
-        _Block("p", "Beyond the paper: mean difference VFS - reconstruction with its 95 % "
-               "confidence interval, Holm-adjusted p (family: every test of section 5), "
-               "Wilcoxon signed-rank p (Pratt), the t-test on the per-case mean of the two "
-               "vehicles (the two vehicles of a case are not independent) and the TOST "
-               "equivalence test with its margin. A p-value above 0.05 is no evidence of "
-               "agreement: only the TOST (equivalent = yes) is."),
-        _Block("table", table=_table1_extra_display(c.table1)),
-        _Block("h2", "4 Boxplots per impact type (seed 001, Figure 6)"),
-        _Block("img", "Figure 6: (a) both full, (b) both sliding; reconstruction blue, VFS red; "
-               "whiskers at minimum and maximum, equal axes.",
-               items=("figures/fig6_boxplots.png",)),
-        _Block("h2", "5 All outcomes"),
-        _Block("p", "Per vehicle (n = 2 x cases; energy loss per case), overall ('all') and by "
-               "impact-type group. Margins of the TOST: " + _margins_text(c) + "."),
-        _Block("table", table=_paired_display(c.paired)),
-        _Block("img", "Bland-Altman plots: difference against mean, bias (solid) and 95 % "
-               "limits of agreement (dashed) over all compared vehicles, TOST margin shaded.",
-               items=("figures/bland_altman.png",)),
-        _Block("img", "VFS against reconstruction with the identity line.",
-               items=("figures/scatter.png",)),
-        _Block("h2", "6 Rest positions"),
-        _Block("p", "Distance between the rest positions of reconstruction and VFS per vehicle "
-               "[m]; the x/y differences and the run-out displacement are in section 5."),
-        _Block("table", table=_distance_display(c.rest_distances)),
-        _Block("h2", "7 Worst cases"),
-        _Block("p", f"The {min(top, len(c.case_errors))} cases with the largest error, ranked by "
-               "score = the largest |VFS - reconstruction| / margin over delta-v, EES, change "
-               "of velocity angle, post-impact speed and rest x/y of both vehicles (full list: "
-               "case_errors.csv)."),
-        _Block("table", table=_worst_display(c, top)),
+    b: list[Block] = [
+        Heading("Virtual forward simulation vs reconstruction", 1),
+        Paragraph(f"VFS source: {c.source}; model: default"
+                  + (f" with effects {effects}" if effects else "") + ". "
+                  f"{len(c.cases)} cases with a reconstruction: "
+                  + ", ".join(f"{k} {v}" for k, v in counts.items() if v)
+                  + ". Cases avoided by the VFS or with an error are excluded from the paired "
+                  "tests (section 8). Differences are VFS - reconstruction; speeds in km/h, "
+                  "angles in degrees. The analysis follows Tomasch et al. (seed 001: Figures "
+                  "4-6, Table 1); formulas and conventions: docs/compare.md."),
+        Heading("1 Impact type (seed 001, Figure 4)", 2),
+        Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
+                  f"{cont.n_agree} of {cont.n} cases agree (observed agreement "
+                  f"{_num(cont.observed_agreement, 3)})."),
+        _table(_contingency_display(c)),
+        _table(_tests_display(c)),
+        Paragraph("The chi-squared test reproduces the paper: it compares the type "
+                  "frequencies of the two methods as if they were independent samples. The "
+                  "samples are the same accidents, so McNemar (2 x 2), Stuart-Maxwell and "
+                  "Bowker are the appropriate paired tests; kappa measures agreement beyond "
+                  "chance."),
+        Figure("figures/fig4_impact_types.png",
+               "Figure 4: impact types in reconstruction and VFS; bands and arrows show how "
+               "the cases move between the types."),
+        Heading("2 Point of impact in vehicle coordinates (seed 001, Figure 5)", 2),
+        Paragraph("Distance between the reconstruction POI (in the vehicle's frame at the "
+                  "reconstruction's impact pose) and the VFS POI (in the same vehicle's frame "
+                  "at the VFS impact pose), per vehicle (n = 2 x cases). The CI of the mean "
+                  "resamples cases with both vehicles (bootstrap)."),
+        _table(_distance_display(c.poi_distances)),
+        Figure("figures/fig5_poi_positions.png",
+               "Figure 5: POIs in vehicle coordinates; circles reconstruction (blue full, "
+               "green sliding), triangles VFS (red full, yellow sliding)."),
+        Heading("3 Table 1: paired t-tests, same impact type in both", 2),
+        Paragraph("Seed 001's layout: per vehicle (n = 2 x cases) among the cases with the "
+                  "same impact type in reconstruction and VFS; p from the paired t-test."),
+        _table(_table1_display(c.table1)),
+        Paragraph("Beyond the paper: mean difference VFS - reconstruction with its 95 % "
+                  "confidence interval, Holm-adjusted p (family: every test of section 5), "
+                  "Wilcoxon signed-rank p (Pratt), the t-test on the per-case mean of the two "
+                  "vehicles (the two vehicles of a case are not independent) and the TOST "
+                  "equivalence test with its margin. A p-value above 0.05 is no evidence of "
+                  "agreement: only the TOST (equivalent = yes) is."),
+        _table(_table1_extra_display(c.table1)),
+        Heading("4 Boxplots per impact type (seed 001, Figure 6)", 2),
+        Figure("figures/fig6_boxplots.png",
+               "Figure 6: (a) both full, (b) both sliding; reconstruction blue, VFS red; "
+               "whiskers at minimum and maximum, equal axes."),
+        Heading("5 All outcomes", 2),
+        Paragraph("Per vehicle (n = 2 x cases; energy loss per case), overall ('all') and by "
+                  "impact-type group. Margins of the TOST: " + _margins_text(c) + "."),
+        _table(_paired_display(c.paired)),
+        Figure("figures/bland_altman.png",
+               "Bland-Altman plots: difference against mean, bias (solid) and 95 % limits of "
+               "agreement (dashed) over all compared vehicles, TOST margin shaded."),
+        Figure("figures/scatter.png", "VFS against reconstruction with the identity line."),
+        Heading("6 Rest positions", 2),
+        Paragraph("Distance between the rest positions of reconstruction and VFS per vehicle "
+                  "[m]; the x/y differences and the run-out displacement are in section 5."),
+        _table(_distance_display(c.rest_distances)),
+        Heading("7 Worst cases", 2),
+        Paragraph(f"The {min(top, len(c.case_errors))} cases with the largest error, ranked by "
+                  "score = the largest |VFS - reconstruction| / margin over delta-v, EES, "
+                  "change of velocity angle, post-impact speed and rest x/y of both vehicles "
+                  "(full list: case_errors.csv)."),
+        _table(_worst_display(c, top)),
     ]
     for file, caption in worst:
-        b.append(_Block("img", caption + " (VFS in colour, reconstruction POI and rest "
-                        "positions in grey)", items=(str(file.relative_to(folder)),)))
+        b.append(Figure(file.relative_to(folder).as_posix(),
+                        caption + " (VFS in colour, reconstruction POI and rest positions in "
+                        "grey)"))
     b += [
-        _Block("h2", "8 Cases not compared"),
-        _Block("table", table=pd.DataFrame({
+        Heading("8 Cases not compared", 2),
+        _table(pd.DataFrame({
             "case": excluded["case_id"], "status": excluded["status"],
             "reconstruction": excluded["reference_type"],
             "message": excluded["error"].fillna("")})),
-        _Block("h2", "Files"),
-        _Block("list", items=(
+        Heading("Files", 2),
+        BulletList((
             "`comparison.json`: every number (SI units)",
             "`table1.csv` (km/h, deg), `paired.csv`/`.parquet` (SI; `display_factor` converts)",
             "`contingency.csv`, `poi_distances.csv`, `rest_distances.csv`",

@@ -1,24 +1,92 @@
-"""Figures; matplotlib is imported lazily, and physics modules never import this one."""
+"""Figures: one helper to make and save them, and the top view of a simulated case.
+
+matplotlib is imported lazily inside the functions, and only the object-oriented
+API is used: :func:`new_figure` returns a :class:`matplotlib.figure.Figure`
+that belongs to no pyplot figure manager, so the global backend and the
+figures of a notebook user stay untouched (no ``pyplot``, no
+``matplotlib.use``).  :func:`save_figure` writes atomically through
+:func:`vfs.atomic.write_figure`.  Physics modules never import this one.
+"""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vfs.atomic import write_figure
 from vfs.physics.geometry import vehicle_outline
+from vfs.units import KMH_PER_MS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
 
 COLORS = ("#1f77b4", "#d62728")
 
+#: Resolution of saved report figures [dots per inch].
+DEFAULT_DPI = 110
 
-def _pyplot() -> Any:
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def new_figure(figsize: tuple[float, float] | None = None, *, layout: str | None = None,
+               agg: bool = False, **kwargs: Any) -> Figure:
+    """A new figure, independent of pyplot and of the global backend.
 
-    return plt
+    Parameters
+    ----------
+    figsize : (float, float), optional
+        Width and height [inch]; default ``rcParams["figure.figsize"]``.
+    layout : str, optional
+        ``"constrained"``, ``"tight"`` or None (as :class:`matplotlib.figure.Figure`).
+    agg : bool
+        Attach a :class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`, for
+        callers that draw to a pixel buffer (``fig.canvas.buffer_rgba()``).
+        Saving needs none: ``Figure.savefig`` chooses the canvas of the format.
+    **kwargs
+        Passed to :class:`matplotlib.figure.Figure` (``dpi``, ``facecolor``, ...).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Add axes with ``fig.subplots(...)`` or ``fig.add_subplot(...)``.
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout=layout, **kwargs)
+    if agg:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig)
+    return fig
+
+
+def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: float = DEFAULT_DPI,
+                tight: bool = False, **savefig: Any) -> Path:
+    """Save a figure atomically (format from the suffix: PNG, SVG, PDF, ...).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : path
+        Target file; its folder is created.
+    dpi : float
+        Resolution [dots per inch] (default :data:`DEFAULT_DPI`).
+    tight : bool
+        Call ``fig.tight_layout()`` first (for figures made without a layout
+        engine).
+    **savefig
+        Passed to :meth:`matplotlib.figure.Figure.savefig`.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    if tight:
+        fig.tight_layout()
+    return write_figure(path, fig, dpi=dpi, **savefig)
 
 
 def _outline_patch(ax: Any, corners: np.ndarray, color: str, style: str, label: str | None,
@@ -32,7 +100,8 @@ def _outline_patch(ax: Any, corners: np.ndarray, color: str, style: str, label: 
 
 
 def plot_case_topview(batch: Any, results: Any, index: int = 0,
-                      path: str | Path | None = None, title: str | None = None) -> Any:
+                      path: str | os.PathLike[str] | None = None, title: str | None = None
+                      ) -> Figure:
     """Top view of one simulated case.
 
     Shows both recorded paths, the outlines at first contact and at impact,
@@ -40,10 +109,10 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
     the run-out paths and the outlines at rest.  Returns the figure; writes
     it to ``path`` (PNG/SVG/PDF by suffix) when given.
     """
-    plt = _pyplot()
     pre, imp, ro = results.precrash, results.impact, results.runout
     n = batch.size
-    fig, ax = plt.subplots(figsize=(9, 7))
+    fig = new_figure((9, 7))
+    ax = fig.subplots()
     for j, (veh, res) in enumerate(((batch.vehicle1, ro.result1), (batch.vehicle2, ro.result2))):
         color = COLORS[j]
         p = batch.paths
@@ -87,9 +156,10 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
                 label="contact plane")
         ax.plot(*poi, "k*", ms=12, label="POI")
         kind = ("none", "full", "sliding")[int(imp.impact_type[index])]
-        info = (f"{kind} impact, delta-v {imp.delta_v1[index] * 3.6:.1f} / "
-                f"{imp.delta_v2[index] * 3.6:.1f} km/h, EES {imp.ees1[index] * 3.6:.1f} / "
-                f"{imp.ees2[index] * 3.6:.1f} km/h")
+        info = (f"{kind} impact, delta-v {imp.delta_v1[index] * KMH_PER_MS:.1f} / "
+                f"{imp.delta_v2[index] * KMH_PER_MS:.1f} km/h, "
+                f"EES {imp.ees1[index] * KMH_PER_MS:.1f} / "
+                f"{imp.ees2[index] * KMH_PER_MS:.1f} km/h")
     else:
         info = f"no collision, closest approach {pre.min_distance[index]:.2f} m"
     ax.set_title(title or f"case {batch.case_id[index]}: {info}", fontsize=10)
@@ -115,7 +185,8 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
     ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
     fig.tight_layout()
     if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        save_figure(fig, path, dpi=120)
     return fig
+
+
+__all__ = ["COLORS", "DEFAULT_DPI", "new_figure", "plot_case_topview", "save_figure"]

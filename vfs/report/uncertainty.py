@@ -2,8 +2,9 @@
 
 Tables (Parquet and CSV), a JSON summary, Markdown and HTML reports and
 figures, written atomically (temporary file, then rename) into an output
-folder.  matplotlib is imported lazily (Agg backend) by the figure functions
-only; the physics modules never import this one.  Speeds are shown in km/h,
+folder.  matplotlib is imported lazily by the figure functions only
+(:func:`vfs.report.figures.new_figure`, no pyplot); the text is rendered by
+:mod:`vfs.report.render`; the physics modules never import this one.  Speeds are shown in km/h,
 angles in degrees; the tables keep SI units.
 """
 
@@ -11,17 +12,25 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.diagnose import write_json
-from vfs.database.impact_table import write_table_atomic
-from vfs.report.compare import _Block, _render_html, _render_markdown
+from vfs.atomic import write_json, write_table
+from vfs.report.figures import new_figure, save_figure
+from vfs.report.render import (
+    Block,
+    BulletList,
+    Figure,
+    Heading,
+    Paragraph,
+    Report,
+    Table,
+    write_report,
+)
 from vfs.uncertainty.core import (
     DISPLAY_UNITS,
     INPUTS_BY_NAME,
@@ -36,15 +45,6 @@ TYPE_COLORS = {"full": "#1f4e9c", "sliding": "#e6b800", "none": "#9e9e9e"}
 OVERVIEW_OUTCOMES: tuple[str, ...] = ("delta_v1", "ees1", "rest_distance1", "sliding")
 
 
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _horizontal() -> dict[str, Any]:
     """Keyword of a horizontal box plot (``orientation`` since matplotlib 3.10)."""
     import matplotlib
@@ -53,45 +53,20 @@ def _horizontal() -> dict[str, Any]:
     return {"orientation": "horizontal"} if (major, minor) >= (3, 10) else {"vert": False}
 
 
-def _atomic(path: Path, write: Callable[[Path], None]) -> Path:
-    """Write through a temporary sibling (same suffix) and rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
-
-
-def _text(path: Path, text: str) -> Path:
-    return _atomic(path, lambda p: p.write_text(text, encoding="utf-8"))
-
-
 def _save(fig: Any, path: Path) -> Path:
-    plt = _pyplot()
-    fig.tight_layout()
-    _atomic(path, lambda p: fig.savefig(p, dpi=110))
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def _tables(folder: Path, tables: dict[str, pd.DataFrame], parquet: Sequence[str],
             files: dict[str, Path]) -> None:
     for name, df in tables.items():
-        files[name] = folder / f"{name}.csv"
-        write_table_atomic(df, files[name])
+        files[name] = write_table(folder / f"{name}.csv", df)
         if name in parquet:
-            files[f"{name}_parquet"] = folder / f"{name}.parquet"
-            write_table_atomic(df, files[f"{name}_parquet"])
+            files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", df)
 
 
-def _report(folder: Path, blocks: list[_Block], title: str, files: dict[str, Path]) -> None:
-    files["report_md"] = _text(folder / "report.md", _render_markdown(blocks))
-    files["report_html"] = _text(folder / "report.html", _render_html(blocks, title))
+def _report(folder: Path, blocks: list[Block], title: str, files: dict[str, Path]) -> None:
+    files.update(write_report(folder, Report(title, tuple(blocks))))
 
 
 def _display(outcome: str) -> tuple[str, float]:
@@ -119,10 +94,10 @@ def _pct(v: Any) -> str:
 def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     """Box plots of the relative half-width (the +- % of seed 002) per ratio outcome,
     full and sliding nominal impacts side by side."""
-    plt = _pyplot()
     data = bands[bands["kind"] == "ratio"]
     outcomes = list(dict.fromkeys(data["outcome"]))
-    fig, ax = plt.subplots(figsize=(8.5, 0.42 * len(outcomes) + 1.6))
+    fig = new_figure((8.5, 0.42 * len(outcomes) + 1.6))
+    ax = fig.subplots()
     for k, group in enumerate(("full", "sliding")):
         vals = [100.0 * data[(data["outcome"] == o) & (data["nominal_type"] == group)]
                 ["rel_half_width"].dropna().to_numpy() for o in outcomes]
@@ -149,11 +124,11 @@ def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
 
 def plot_case_bands(bands: pd.DataFrame, outcome: str, path: Path, max_cases: int = 40) -> Path:
     """5-95 % band, median and recorded value of one outcome for the first cases."""
-    plt = _pyplot()
     unit, factor = _display(outcome)
     data = bands[bands["outcome"] == outcome].head(max_cases)
     y = np.arange(len(data))
-    fig, ax = plt.subplots(figsize=(7.5, 0.22 * len(data) + 1.5))
+    fig = new_figure((7.5, 0.22 * len(data) + 1.5))
+    ax = fig.subplots()
     colors = [TYPE_COLORS.get(t, "#777777") for t in data["nominal_type"]]
     ax.hlines(y, data["p5"] * factor, data["p95"] * factor, colors=colors, lw=3, alpha=0.7)
     ax.plot(data["p50"] * factor, y, "|", color="black", ms=8, label="median")
@@ -170,8 +145,8 @@ def plot_case_bands(bands: pd.DataFrame, outcome: str, path: Path, max_cases: in
 
 def plot_sliding_probability(cases: pd.DataFrame, path: Path) -> Path:
     """Histogram of the probability of a sliding impact, by nominal impact type."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    fig = new_figure((6.5, 3.8))
+    ax = fig.subplots()
     bins = np.linspace(0, 100, 21)
     for t in ("full", "sliding"):
         v = 100.0 * cases.loc[cases["nominal_type"] == t, "p_sliding"].to_numpy(float)
@@ -229,9 +204,9 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
                      "inputs": result.inputs}, ("bands", "cases"), files)
     if result.samples is not None:
         files["samples"] = folder / "samples.parquet"
-        write_table_atomic(result.samples, files["samples"])
+        write_table(files["samples"], result.samples)
     n_cases = len(result.cases)
-    files["json"] = write_json({
+    files["json"] = write_json(folder / "uncertainty.json", {
         "n_cases": n_cases, "n_samples": result.n_samples, "seed": result.seed,
         "model_runs": n_cases * result.n_samples, "seconds": result.seconds,
         "config": result.config.source,
@@ -240,7 +215,7 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
         "summary": summary.to_dict(orient="records"),
         "impact_types": result.cases["nominal_type"].value_counts().to_dict(),
         "mean_p_sliding": float(result.cases["p_sliding"].mean()),
-    }, folder / "uncertainty.json")
+    })
     figs = folder / "figures"
     if plots:
         files["fig_rel_half_width"] = plot_relative_half_widths(
@@ -256,39 +231,41 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     inputs["clipped_share"] = [_pct(v) for v in inputs["clipped_share"]]
     types = result.cases["nominal_type"].value_counts()
     blocks = [
-        _Block("h1", "Monte-Carlo uncertainty of the collision outcomes"),
-        _Block("p", f"{n_cases} cases x {result.n_samples} samples = "
-               f"{n_cases * result.n_samples} model runs (impact from the reconstruction's "
-               f"configuration, run-out at dt = {result.config.runout_dt * 1e3:g} ms) in "
-               f"{result.seconds:.1f} s, seed {result.seed}. Nominal impact types: "
-               + ", ".join(f"{k} {v}" for k, v in types.items())
-               + f". Configuration: {result.config.source}. Method and definitions: "
-               "docs/uncertainty.md (seed 002: +-13 % for a documented crash test, up to "
-               "+-28 % with unknown road friction)."),
-        _Block("h2", "Input distributions"),
-        _Block("table", table=inputs),
-        _Block("h2", "Band widths over the cases"),
-        _Block("p", "Per outcome the median over the cases of the relative half-width "
-               "(p95 - p5) / (2 median) and its 90th percentile (ratio outcomes), or the "
-               "median absolute half-width (coordinates and angles); groups by the nominal "
-               "impact type; last column: share of cases whose reconstruction value lies in "
-               "the 5-95 % band."),
-        _Block("table", table=_summary_display(summary)),
+        Heading("Monte-Carlo uncertainty of the collision outcomes", 1),
+        Paragraph(f"{n_cases} cases x {result.n_samples} samples = "
+                  f"{n_cases * result.n_samples} model runs (impact from the reconstruction's "
+                  f"configuration, run-out at dt = {result.config.runout_dt * 1e3:g} ms) in "
+                  f"{result.seconds:.1f} s, seed {result.seed}. Nominal impact types: "
+                  + ", ".join(f"{k} {v}" for k, v in types.items())
+                  + f". Configuration: {result.config.source}. Method and definitions: "
+                  "docs/uncertainty.md (seed 002: +-13 % for a documented crash test, up to "
+                  "+-28 % with unknown road friction)."),
+        Heading("Input distributions", 2),
+        Table.from_frame(inputs, empty="(no rows)"),
+        Heading("Band widths over the cases", 2),
+        Paragraph("Per outcome the median over the cases of the relative half-width "
+                  "(p95 - p5) / (2 median) and its 90th percentile (ratio outcomes), or the "
+                  "median absolute half-width (coordinates and angles); groups by the nominal "
+                  "impact type; last column: share of cases whose reconstruction value lies in "
+                  "the 5-95 % band."),
+        Table.from_frame(_summary_display(summary), empty="(no rows)"),
     ]
     if plots:
         blocks += [
-            _Block("img", "Relative half-width per case and outcome (seed 002's 13 % and 28 % "
-                   "dotted and dashed).", items=("figures/relative_half_width.png",)),
-            _Block("img", "Delta-v 1: 5-95 % band, median and reconstruction of the first "
-                   "cases.", items=("figures/bands_delta_v1.png",)),
-            _Block("img", "Impact-to-rest distance of vehicle 1.",
-                   items=("figures/bands_rest_distance1.png",)),
-            _Block("img", "Probability of a sliding impact per case.",
-                   items=("figures/p_sliding.png",)),
+            Figure("figures/relative_half_width.png",
+                   "Relative half-width per case and outcome (seed 002's 13 % and 28 % "
+                   "dotted and dashed)."),
+            Figure("figures/bands_delta_v1.png",
+                   "Delta-v 1: 5-95 % band, median and reconstruction of the first "
+                   "cases."),
+            Figure("figures/bands_rest_distance1.png",
+                   "Impact-to-rest distance of vehicle 1."),
+            Figure("figures/p_sliding.png",
+                   "Probability of a sliding impact per case."),
         ]
     blocks += [
-        _Block("h2", "Files"),
-        _Block("list", items=(
+        Heading("Files", 2),
+        BulletList((
             "`bands.parquet`/`.csv`: per case and outcome nominal, recorded, mean, sd, p5, "
             "p50, p95, half_width, rel_half_width (SI units)",
             "`cases.parquet`/`.csv`: impact-type probabilities per case",
@@ -330,10 +307,9 @@ def _bars(ax: Any, table: pd.DataFrame, title: str) -> None:
 def plot_sobol_ranking(result: Any, outcomes: Sequence[str], path: Path) -> Path:
     """Ranked horizontal bars of the mean Sobol indices, full and sliding impacts side by
     side, one row per outcome (bars: ST with its case-bootstrap interval; inner bars: S1)."""
-    plt = _pyplot()
     d = len(result.names)
-    fig, axes = plt.subplots(len(outcomes), 2, squeeze=False,
-                             figsize=(10, (0.22 * d + 1.0) * len(outcomes)))
+    fig = new_figure((10, (0.22 * d + 1.0) * len(outcomes)))
+    axes = fig.subplots(len(outcomes), 2, squeeze=False)
     for r, outcome in enumerate(outcomes):
         for c, group in enumerate(("full", "sliding")):
             t = result.ranking(outcome, group)
@@ -384,52 +360,53 @@ def write_sensitivity_report(result: Any, out: str | os.PathLike[str], *, plots:
     folder.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
     files["per_case"] = folder / "per_case.parquet"
-    write_table_atomic(result.per_case, files["per_case"])
+    write_table(files["per_case"], result.per_case)
     _tables(folder, {"groups": result.groups, "inputs": result.inputs}, ("groups",), files)
     outcomes = list(dict.fromkeys(result.groups["outcome"]))
     ranked = {g: {o: result.ranking(o, g)["input"].tolist() for o in outcomes}
               for g in ("all", "full", "sliding")}
-    files["json"] = write_json({
+    files["json"] = write_json(folder / "sensitivity.json", {
         "n_base": result.n_base, "n_runs": result.n_runs, "seed": result.seed,
         "seconds": result.seconds, "inputs": list(result.names),
         "n_cases": int(result.per_case["case_id"].nunique()),
         "ranking_by_total_index": ranked,
         "groups": result.groups.to_dict(orient="records"),
-    }, folder / "sensitivity.json")
+    })
     figs = folder / "figures"
     blocks = [
-        _Block("h1", "Global sensitivity: Sobol indices"),
-        _Block("p", f"{result.per_case['case_id'].nunique()} cases, {result.n_base} base "
-               f"samples, {len(result.names)} inputs (incl. the dummy) = {result.n_runs} model "
-               f"runs in {result.seconds:.1f} s, seed {result.seed}. First-order index S1 = "
-               "share of the outcome's variance due to the input alone (the main effect of "
-               "the functional ANOVA), total index ST = including all its interactions; "
-               "estimators of Saltelli (2010) and Jansen (1999), per case, then averaged over "
-               "the cases whose nominal impact is full or sliding (intervals: bootstrap over "
-               "cases). Answers seed 001's outlook (ANOVA of the most sensitive impact "
-               "parameters). Details: docs/uncertainty.md."),
-        _Block("h2", "Inputs"),
-        _Block("table", table=result.inputs[["input", "label", "distribution"]]),
+        Heading("Global sensitivity: Sobol indices", 1),
+        Paragraph(f"{result.per_case['case_id'].nunique()} cases, {result.n_base} base "
+                  f"samples, {len(result.names)} inputs (incl. the dummy) = {result.n_runs} model "
+                  f"runs in {result.seconds:.1f} s, seed {result.seed}. First-order index S1 = "
+                  "share of the outcome's variance due to the input alone (the main effect of "
+                  "the functional ANOVA), total index ST = including all its interactions; "
+                  "estimators of Saltelli (2010) and Jansen (1999), per case, then averaged over "
+                  "the cases whose nominal impact is full or sliding (intervals: bootstrap over "
+                  "cases). Answers seed 001's outlook (ANOVA of the most sensitive impact "
+                  "parameters). Details: docs/uncertainty.md."),
+        Heading("Inputs", 2),
+        Table.from_frame(result.inputs[["input", "label", "distribution"]], empty="(no rows)"),
     ]
     if plots:
         over = [o for o in OVERVIEW_OUTCOMES if o in outcomes] or outcomes[:4]
         files["fig_overview"] = plot_sobol_ranking(result, over, figs / "sobol_overview.png")
-        blocks.append(_Block("img", "Ranked Sobol indices, full (left) and sliding (right) "
-                             "nominal impacts.", items=("figures/sobol_overview.png",)))
+        blocks.append(Figure("figures/sobol_overview.png",
+                             "Ranked Sobol indices, full (left) and sliding (right) "
+                             "nominal impacts."))
     for outcome in outcomes:
-        blocks += [_Block("h2", f"{OUTCOMES_BY_NAME[outcome].label}"),
-                   _Block("table", table=_ranking_display(result, outcome, top))]
+        blocks += [Heading(f"{OUTCOMES_BY_NAME[outcome].label}", 2),
+                   Table.from_frame(_ranking_display(result, outcome, top), empty="(no rows)")]
         if plots:
             files[f"fig_{outcome}"] = plot_sobol_ranking(result, [outcome],
                                                          figs / f"sobol_{outcome}.png")
-            blocks.append(_Block("img", f"Sobol indices of {OUTCOMES_BY_NAME[outcome].label}.",
-                                 items=(f"figures/sobol_{outcome}.png",)))
+            blocks.append(Figure(f"figures/sobol_{outcome}.png",
+                                 f"Sobol indices of {OUTCOMES_BY_NAME[outcome].label}."))
     blocks += [
-        _Block("h2", "Checks"),
-        _Block("p", "Sum of the mean first-order indices (<= 1 up to estimation noise), of "
-               "the total indices (>= 1 with interactions) and the total index of the dummy "
-               "input, which enters nothing (must be ~0)."),
-        _Block("table", table=_sums_display(result)),
+        Heading("Checks", 2),
+        Paragraph("Sum of the mean first-order indices (<= 1 up to estimation noise), of "
+                  "the total indices (>= 1 with interactions) and the total index of the dummy "
+                  "input, which enters nothing (must be ~0)."),
+        Table.from_frame(_sums_display(result), empty="(no rows)"),
     ]
     _report(folder, blocks, "Sobol sensitivity", files)
     return files
@@ -444,10 +421,10 @@ def plot_reconstruction_speeds(rec: Any, path: Path, truth: Sequence[float] | No
                                ) -> Path:
     """Feasible impact speeds (speed 1 against speed 2) coloured by the road friction,
     as seed 002's Figure 11, with the optimum and the database's speeds."""
-    plt = _pyplot()
     k = DISPLAY_UNITS["speed"][1]
     f = rec.feasible
-    fig, ax = plt.subplots(figsize=(6.5, 5.2))
+    fig = new_figure((6.5, 5.2))
+    ax = fig.subplots()
     if len(f):
         sc = ax.scatter(f["speed1"] * k, f["speed2"] * k, c=f["road_friction"], s=6,
                         cmap="viridis", alpha=0.6)
@@ -473,11 +450,13 @@ def plot_reconstruction_speeds(rec: Any, path: Path, truth: Sequence[float] | No
 
 def plot_reconstruction_rest(rec: Any, path: Path) -> Path:
     """Rest positions of the feasible set against the observed ones (circles: 2 sigma)."""
-    plt = _pyplot()
+    from matplotlib.patches import Circle
+
     f = rec.feasible
     obs = dict(zip(rec.observations.names, rec.observations.observed, strict=True))
     sig = dict(zip(rec.observations.names, rec.observations.sigma, strict=True))
-    fig, ax = plt.subplots(figsize=(6.5, 5.2))
+    fig = new_figure((6.5, 5.2))
+    ax = fig.subplots()
     for i, color in ((1, "#1f77b4"), (2, "#d62728")):
         if len(f):
             ax.plot(f[f"rest_x{i}"], f[f"rest_y{i}"], ".", ms=2, alpha=0.3, color=color,
@@ -486,7 +465,7 @@ def plot_reconstruction_rest(rec: Any, path: Path) -> Path:
             x, y = obs[f"rest_x{i}"], obs[f"rest_y{i}"]
             ax.plot(x, y, "x", ms=10, color="black")
             r = 2.0 * sig[f"rest_x{i}"]
-            ax.add_patch(plt.Circle((x, y), r, fill=False, color=color, ls="--"))
+            ax.add_patch(Circle((x, y), r, fill=False, color=color, ls="--"))
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -533,13 +512,13 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
     folder.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
     files["samples"] = folder / "samples.parquet"
-    write_table_atomic(rec.samples, files["samples"])
+    write_table(files["samples"], rec.samples)
     files["feasible"] = folder / "feasible.parquet"
-    write_table_atomic(rec.feasible, files["feasible"])
+    write_table(files["feasible"], rec.feasible)
     obs = rec.observations.table()
     _tables(folder, {"band": rec.band, "observations": obs}, (), files)
     o = rec.optimum
-    files["json"] = write_json({
+    files["json"] = write_json(folder / "reconstruct.json", {
         "case_id": rec.case_id, "stats": rec.stats,
         "optimum": {"inputs": o.inputs, "outcomes": o.outcomes, "residuals": o.residuals,
                     "chi2": o.chi2, "objective": o.objective, "accepted": o.accepted,
@@ -550,7 +529,7 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
                      "chi2_level": rec.settings.chi2_level,
                      "speed1": rec.settings.speed1.describe(),
                      "speed2": rec.settings.speed2.describe()},
-    }, folder / "reconstruct.json")
+    })
     s = rec.stats
     obs_disp = obs.copy()
     scale = np.where(obs_disp["angular"], 180 / math.pi,
@@ -562,40 +541,41 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
                                          "m"))
     obs_disp["optimum residual"] = [f"{o.residuals[n]:+.2f}" for n in obs["observation"]]
     blocks = [
-        _Block("h1", f"Reconstruction of case {rec.case_id}"),
-        _Block("p", f"Unknowns: {', '.join(s['unknowns'])}; impact speed priors: "
-               f"{rec.settings.speed1.describe()} (1), {rec.settings.speed2.describe()} (2). "
-               f"Acceptance: {s['criterion']} (threshold {s['threshold']:.3g}) on the scaled "
-               "residuals (model - observed) / sigma. Method: docs/uncertainty.md (seed 002's "
-               "Monte-Carlo acceptance, a local optimiser, chains exploring the feasible "
-               "set)."),
-        _Block("h2", "Observations"),
-        _Block("table", table=obs_disp[["observation", "observed", "sigma", "unit", "sd_source",
-                                        "optimum residual"]]),
-        _Block("h2", "Feasible set"),
-        _Block("p", f"Monte-Carlo stage: {s['n_prior_accepted']} of {s['n_prior']} prior "
-               f"samples accepted ({_pct(s['acceptance_rate'])}). Feasible set: "
-               f"{s['n_feasible']} samples ({s['n_chains']} chains, move rate "
-               f"{_fmt(s['move_rate'], 2)}, median drift "
-               + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in s["drift"].items())
-               + f"); {s['n_model_runs']} model runs in {s['seconds']:.1f} s. Optimum: chi2 "
-               f"{o.chi2:.2f} ({'accepted' if o.accepted else 'not accepted'})."),
-        _Block("table", table=_band_display(rec)),
+        Heading(f"Reconstruction of case {rec.case_id}", 1),
+        Paragraph(f"Unknowns: {', '.join(s['unknowns'])}; impact speed priors: "
+                  f"{rec.settings.speed1.describe()} (1), {rec.settings.speed2.describe()} (2). "
+                  f"Acceptance: {s['criterion']} (threshold {s['threshold']:.3g}) on the scaled "
+                  "residuals (model - observed) / sigma. Method: docs/uncertainty.md (seed 002's "
+                  "Monte-Carlo acceptance, a local optimiser, chains exploring the feasible "
+                  "set)."),
+        Heading("Observations", 2),
+        Table.from_frame(obs_disp[["observation", "observed", "sigma", "unit", "sd_source",
+                                        "optimum residual"]], empty="(no rows)"),
+        Heading("Feasible set", 2),
+        Paragraph(f"Monte-Carlo stage: {s['n_prior_accepted']} of {s['n_prior']} prior "
+                  f"samples accepted ({_pct(s['acceptance_rate'])}). Feasible set: "
+                  f"{s['n_feasible']} samples ({s['n_chains']} chains, move rate "
+                  f"{_fmt(s['move_rate'], 2)}, median drift "
+                  + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in s["drift"].items())
+                  + f"); {s['n_model_runs']} model runs in {s['seconds']:.1f} s. Optimum: chi2 "
+                  f"{o.chi2:.2f} ({'accepted' if o.accepted else 'not accepted'})."),
+        Table.from_frame(_band_display(rec), empty="(no rows)"),
     ]
     if s["n_feasible"] == 0:
-        blocks.append(_Block("p", "No sample is consistent with the observations within the "
-                             "tolerances: widen the tolerances or the speed prior, or check "
-                             "the observations."))
+        blocks.append(Paragraph("No sample is consistent with the observations within the "
+                                "tolerances: widen the tolerances or the speed prior, or check "
+                                "the observations."))
     if plots:
         files["fig_speeds"] = plot_reconstruction_speeds(rec, folder / "figures" / "speeds.png",
                                                          truth)
         files["fig_rest"] = plot_reconstruction_rest(rec, folder / "figures" /
                                                      "rest_positions.png")
-        blocks += [_Block("img", "Feasible impact speeds coloured by road friction (seed 002, "
-                          "Fig. 11).", items=("figures/speeds.png",)),
-                   _Block("img", "Rest positions of the feasible set.",
-                          items=("figures/rest_positions.png",))]
-    blocks += [_Block("h2", "Files"), _Block("list", items=(
+        blocks += [Figure("figures/speeds.png",
+                          "Feasible impact speeds coloured by road friction (seed 002, "
+                          "Fig. 11)."),
+                   Figure("figures/rest_positions.png",
+                          "Rest positions of the feasible set.")]
+    blocks += [Heading("Files", 2), BulletList((
         "`feasible.parquet`: the feasible set (inputs SI, outcomes, scaled residuals)",
         "`samples.parquet`: every Monte-Carlo sample with its residuals and acceptance",
         "`band.csv` (SI), `observations.csv`, `reconstruct.json` (optimum, statistics)"))]

@@ -1,0 +1,291 @@
+"""Report of ``vfs diagnose``: tables, JSON summary, Markdown / HTML and figures.
+
+:func:`write_diagnosis_report` writes what :func:`vfs.analysis.diagnose.diagnose`
+found into a folder: the ranked candidates and the residual tables (CSV), the
+JSON summary (:func:`vfs.analysis.diagnose.summary_dict`), ``report.md`` and
+``report.html`` (:mod:`vfs.report.render`) and the figures (ranking, reduction
+per output, residuals by impact type, top views of the worst cases), every
+file atomically.  matplotlib is imported lazily (:mod:`vfs.report.figures`).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.diagnose import Diagnosis, summary_dict
+from vfs.atomic import write_json, write_table
+from vfs.report.figures import new_figure, plot_case_topview, save_figure
+from vfs.report.render import (
+    Block,
+    BulletList,
+    Figure,
+    Heading,
+    Paragraph,
+    Report,
+    Table,
+    write_report,
+)
+from vfs.simulation import SimulationParams
+
+#: Format of the floating-point cells of the report tables.
+FLOAT_FORMAT = "{:.3g}"
+
+
+def _pct(x: float) -> str:
+    return "" if not math.isfinite(x) else f"{100 * x:.1f}"
+
+
+def write_diagnosis_report(diag: Diagnosis, out: str | Path, json_path: str | Path | None = None,
+                 plots: bool = True, params: SimulationParams | None = None
+                 ) -> dict[str, Path]:
+    """Write the diagnosis into the folder ``out``.
+
+    Files: ``ranking.csv`` (ranked candidates), ``residuals_by_stratum.csv``,
+    ``associations.csv`` (default model), ``associations_after_best.csv``,
+    ``worst_cases.csv``, ``summary.json`` (and ``json_path`` if given),
+    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).
+    Returns the paths by name.
+    """
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths: dict[str, Path] = {
+        "ranking": write_table(folder / "ranking.csv", diag.ranked_table()),
+        "strata": write_table(folder / "residuals_by_stratum.csv", diag.strata),
+        "associations": write_table(folder / "associations.csv", diag.associations),
+        "remaining": write_table(folder / "associations_after_best.csv", diag.remaining),
+        "worst": write_table(folder / "worst_cases.csv", diag.worst),
+    }
+    summary = summary_dict(diag)
+    paths["summary"] = write_json(folder / "summary.json", summary)
+    if json_path is not None:
+        paths["json"] = write_json(json_path, summary)
+    figures: dict[str, str] = {}
+    if plots:
+        figures = diagnosis_figures(diag, folder / "figures", params=params)
+    written = write_report(folder, Report("Model diagnosis", tuple(report_blocks(diag, figures))))
+    paths["markdown"] = written["report_md"]
+    paths["html"] = written["report_html"]
+    return paths
+
+
+def diagnosis_figures(diag: Diagnosis, folder: str | Path,
+                      params: SimulationParams | None = None) -> dict[str, str]:
+    """Write the report figures (PNG) into ``folder``; paths relative to its parent.
+
+    ranking (overall reduction with CIs), heatmap (reduction per output),
+    strata (standardised residuals of the default model by impact type),
+    case_* (top views of the worst cases with the recorded rest positions).
+    """
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    rel = out.name
+    figs: dict[str, str] = {}
+    d = diag.data
+    cands = diag.candidates
+    if cands:
+        fig = new_figure((7, 0.45 * len(cands) + 1.5))
+        ax = fig.subplots()
+        y = np.arange(len(cands))[::-1]
+        est = np.array([100 * c.overall.estimate for c in cands])
+        lo = np.array([100 * c.overall.low for c in cands])
+        hi = np.array([100 * c.overall.high for c in cands])
+        colors = ["#2ca02c" if c.significant else "#999999" for c in cands]
+        ax.barh(y, est, color=colors)
+        ax.errorbar(est, y, xerr=[np.maximum(est - lo, 0), np.maximum(hi - est, 0)], fmt="none",
+                    ecolor="k", capsize=3, lw=1)
+        ax.set_yticks(y, [c.name for c in cands])
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_xlabel("cross-validated RMSE reduction [%] (green: helps significantly)")
+        ax.set_title("Which effect is missing", fontsize=10)
+        save_figure(fig, out / "ranking.png", dpi=110, tight=True)
+        figs["ranking"] = f"{rel}/ranking.png"
+
+        mat = np.array([[100 * c.per_output[g].estimate for g in d.group_names] for c in cands])
+        fig = new_figure((1.0 + 0.8 * len(d.group_names), 0.45 * len(cands) + 2.0))
+        ax = fig.subplots()
+        lim = max(10.0, float(np.nanmax(np.abs(np.clip(mat, -100, 100)))) if mat.size else 10.0)
+        im = ax.imshow(np.clip(mat, -lim, lim), cmap="RdYlGn", vmin=-lim, vmax=lim,
+                       aspect="auto")
+        ax.set_xticks(range(len(d.group_names)), d.group_names, rotation=45, ha="right",
+                      fontsize=8)
+        ax.set_yticks(range(len(cands)), [c.name for c in cands], fontsize=8)
+        for i in range(mat.shape[0]):
+            for j in range(mat.shape[1]):
+                if math.isfinite(mat[i, j]):
+                    ax.text(j, i, f"{mat[i, j]:.0f}", ha="center", va="center", fontsize=7)
+        fig.colorbar(im, ax=ax, label="CV RMSE reduction [%]")
+        ax.set_title("Reduction per output", fontsize=10)
+        save_figure(fig, out / "heatmap.png", dpi=110, tight=True)
+        figs["heatmap"] = f"{rel}/heatmap.png"
+
+    kinds = diag.features["impact_type"].astype(str).to_numpy()
+    z = diag.default.residuals / d.scales[d.column_group]
+    fig = new_figure((1.0 + 0.9 * len(d.groups), 4))
+    ax = fig.subplots()
+    levels = sorted(set(kinds))
+    width = 0.8 / max(len(levels), 1)
+    for li, lev in enumerate(levels):
+        data_ = []
+        for k in range(len(d.groups)):
+            v = z[kinds == lev][:, d.column_group == k].ravel()
+            data_.append(v[np.isfinite(v)])
+        pos = np.arange(len(d.groups)) + (li - (len(levels) - 1) / 2) * width
+        bp = ax.boxplot([v if v.size else [np.nan] for v in data_], positions=pos,
+                        widths=width * 0.9, showfliers=False, patch_artist=True)
+        for patch in bp["boxes"]:
+            patch.set_facecolor(("#1f77b4", "#ff7f0e", "#2ca02c")[li % 3])
+            patch.set_alpha(0.6)
+        ax.plot([], [], "s", color=("#1f77b4", "#ff7f0e", "#2ca02c")[li % 3], label=lev)
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(range(len(d.groups)), d.group_names, rotation=45, ha="right", fontsize=8)
+    ax.set_ylabel("standardised residual (model - reconstruction)")
+    ax.set_title("Default model residuals by impact type (reconstruction)", fontsize=10)
+    ax.legend(fontsize=8)
+    save_figure(fig, out / "strata.png", dpi=110, tight=True)
+    figs["strata"] = f"{rel}/strata.png"
+
+    if len(diag.worst):
+        from vfs.simulation import simulate_cases
+
+        idx = diag.worst["index"].to_numpy(int)
+        batch = d.batch.take(idx)
+        res = simulate_cases(batch, params=params or SimulationParams())
+        rec = d.reconstruction
+        for k, i in enumerate(idx):
+            row = diag.worst.iloc[k]
+            fig = plot_case_topview(
+                batch, res, k,
+                title=(f"case {d.case_ids[i]} ({row['accident_type']}, "
+                       f"{row['impact_type']} in the reconstruction): worst output "
+                       f"{row['worst_output']}"))
+            ax = fig.axes[0]
+            for j, color in ((1, "#1f77b4"), (2, "#d62728")):
+                ax.plot(rec[f"rest_x{j}"].iloc[i], rec[f"rest_y{j}"].iloc[i], "X",
+                        color=color, ms=11, mec="k",
+                        label=f"vehicle {j} at rest (reconstruction)")
+            if {"poi_x", "poi_y"} <= set(rec.columns):
+                ax.plot(rec["poi_x"].iloc[i], rec["poi_y"].iloc[i], "P", color="orange",
+                        ms=10, mec="k", label="POI (reconstruction)")
+            handles, labels = ax.get_legend_handles_labels()
+            uniq = dict(zip(labels, handles, strict=True))
+            ax.legend(uniq.values(), uniq.keys(), fontsize=6, loc="best")
+            name = f"case_{k + 1}_{d.case_ids[i]}.png"
+            save_figure(fig, out / name, dpi=100)
+            figs[f"case_{k + 1:02d}"] = f"{rel}/{name}"
+    return figs
+
+
+def _table(df: pd.DataFrame) -> Table:
+    return Table.from_frame(df, floatfmt=FLOAT_FORMAT)
+
+
+def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
+    """The blocks of the diagnosis report (``figures``: key -> path relative to the report)."""
+    d = diag.data
+    s = diag.settings
+    doc: list[Block] = [
+        Heading("Model diagnosis", 1),
+        Paragraph(f"Database: {diag.database or '(in memory)'}; {d.n} cases with a "
+                  f"reconstruction; {s['folds']}-fold cross-validation by case (seed "
+                  f"{s['seed']}); outputs: {', '.join(d.group_names)}. Errors are RMSEs of "
+                  "standardised residuals (model - reconstruction) / scale; the scale of an "
+                  "output is the RMS of its recorded standard deviations (`_sd` columns) or "
+                  "else the standard deviation of its recorded values. Ground-truth files are "
+                  "never read."),
+        Heading("Verdict", 2),
+        BulletList(tuple(diag.verdict)),
+        Heading("Which effect is missing: candidates ranked by the cross-validated RMSE "
+                "reduction", 2),
+    ]
+    rt = diag.ranked_table()
+    if len(rt):
+        doc.append(_table(pd.DataFrame({
+            "rank": rt["rank"], "effect": rt["effect"],
+            "helps": rt["significant"],
+            "reduction [%]": [_pct(v) for v in rt["reduction"]],
+            f"{100 * s['simultaneous_confidence']:.2f} % CI [%]": [
+                f"{_pct(lo)} .. {_pct(hi)}" for lo, hi in zip(rt["ci_low"], rt["ci_high"],
+                                                              strict=True)],
+            "own outputs [%]": [_pct(v) for v in rt["reduction_affected"]],
+            "added to rank 1 [%]": [_pct(v) for v in rt["reduction_given_best"]],
+            "CV RMSE": rt["cv_rmse"], "fitted on all cases": rt["fitted"],
+            "variants": rt["variants"],
+        })))
+    doc.append(Paragraph(
+        f"Default model: CV RMSE {diag.default.overall_rmse():.3g} (standardised, all "
+        f"outputs). Simultaneous CIs: Bonferroni over {len(diag.candidates)} candidates; a "
+        "candidate helps if the CI lies above 0 and the reduction reaches "
+        f"{100 * s['min_reduction']:.0f} %. Ranks 2 and below are ordered by the reduction "
+        "they add to the model with the rank-1 effect (stepwise) when that one helps; "
+        "'helps' then means 'helps on top of rank 1'."))
+    if diag.candidates:
+        per = pd.DataFrame({"output": list(d.group_names),
+                            "default CV RMSE": diag.default.rmse()})
+        for c in diag.candidates[:min(4, len(diag.candidates))]:
+            per[f"{c.name} [%]"] = [
+                f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})"
+                for r in c.per_output.values()]
+        doc += [Heading("Reduction per output (best candidates; pointwise CIs)", 3), _table(per)]
+    for key, caption in (("ranking", "Candidate ranking: cross-validated RMSE reduction with "
+                                     "simultaneous CIs (green: helps significantly)"),
+                         ("heatmap", "Reduction per output"),
+                         ("profiles", "Objective along each candidate's parameter")):
+        if key in figures:
+            doc.append(Figure(figures[key], caption))
+    doc += [
+        Heading("Where the model fails", 2),
+        _table(pd.DataFrame({"output": list(d.group_names),
+                             "CV RMSE (standardised)": diag.default.rmse(),
+                             "scale": d.scales,
+                             "scale from": list(d.scale_source),
+                             "unit": [g.unit for g in d.groups]})),
+    ]
+    if "strata" in figures:
+        doc.append(Figure(figures["strata"], "Standardised residuals of the default model by "
+                          "impact type (reconstruction)"))
+    st = diag.strata
+    if len(st):
+        piv = (st.drop_duplicates(["feature", "stratum", "output"])
+               .pivot_table(index=["feature", "stratum"], columns="output", values="rmse_std",
+                            sort=False))
+        n = st.drop_duplicates(["feature", "stratum"]).set_index(["feature", "stratum"])["n"]
+        piv.insert(0, "n", n.reindex(piv.index).to_numpy())
+        doc += [Heading("Standardised RMSE by stratum (default model)", 3),
+                _table(piv.reset_index())]
+    columns = ["residual", "feature", "test", "n", "statistic", "p_adj"]
+    a = diag.associations
+    sig = a[a["significant"]] if len(a) else a
+    doc += [
+        Heading("Residual-feature associations (default model)", 3),
+        Paragraph(f"{len(sig)} of {len(a)} tests significant ({s['correction'].upper()}, "
+                  f"alpha = {s['alpha']:g}); Spearman's rho for numeric features, "
+                  "Kruskal-Wallis epsilon^2 for categorical ones."),
+    ]
+    if len(sig):
+        doc.append(_table(sig.head(25)[columns]))
+    doc.append(Heading(f"Residual structure after {diag.remaining_model}", 3))
+    r = diag.remaining
+    rs = r[r["significant"]] if len(r) else r
+    doc.append(_table(rs.head(25)[columns]) if len(rs)
+               else Paragraph("No significant association."))
+    doc.append(Heading("Worst cases (default model)", 3))
+    if len(diag.worst):
+        doc.append(_table(diag.worst.drop(columns=["index"])))
+    for k, key in enumerate(sorted(k for k in figures if k.startswith("case_")), start=1):
+        doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model; "
+                          "X markers: the reconstruction's rest positions"))
+    st2 = diag.stats
+    doc += [
+        Heading("Cost", 2),
+        Paragraph(f"{st2.get('variants', 0)} model variants simulated "
+                  f"({st2.get('case_runs', 0)} case runs in {st2.get('calls', 0)} calls, "
+                  f"{st2.get('seconds', 0):.1f} s); total {st2.get('total_seconds', 0):.1f} s."),
+    ]
+    return doc
+
+
+__all__ = ["FLOAT_FORMAT", "diagnosis_figures", "report_blocks", "write_diagnosis_report"]

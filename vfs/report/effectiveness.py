@@ -1,0 +1,381 @@
+"""Report of an AEB effectiveness analysis: Markdown, HTML, tables and figures.
+
+:func:`write_effectiveness_report` analyses a finished study with
+:func:`vfs.analysis.effectiveness.effectiveness` and writes ``report.md``,
+``report.html`` (:mod:`vfs.report.render`), ``metrics.csv``,
+``crosstabs.csv`` and PNG figures (:func:`write_figures`) into
+``STUDY/report/``, every file atomically.  Speeds are shown in km/h.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
+from vfs.atomic import write_text
+from vfs.errors import DataError, DataProblem
+from vfs.report.figures import new_figure, save_figure
+from vfs.report.render import (
+    Block,
+    BulletList,
+    Figure,
+    Heading,
+    Paragraph,
+    Report,
+    Table,
+    write_report,
+)
+from vfs.units import KMH_PER_MS
+
+
+def _fmt(value: float, unit: str, digits: int = 1) -> str:
+    if not np.isfinite(value):
+        return "-"
+    if unit == "-":
+        return f"{100 * value:.{digits}f} %"
+    if unit == "m/s":
+        return f"{value * KMH_PER_MS:.{digits}f}"
+    if unit == "drivers":
+        return f"{value:.2f}"
+    if abs(value - round(value)) < 1e-6 * max(1.0, abs(value)):
+        return f"{value:.0f}"
+    return f"{value:.{digits}f}"
+
+
+def _fmt_ci(row: pd.Series) -> str:
+    unit = row["unit"]
+    if not np.isfinite(row["low"]):
+        return _fmt(row["estimate"], unit)
+    return (f"{_fmt(row['estimate'], unit)} [{_fmt(row['low'], unit)}, "
+            f"{_fmt(row['high'], unit)}]")
+
+
+def _metric_table(eff: Effectiveness, metrics: Sequence[str], group: object = ALL,
+                  labels: Sequence[str] | None = None) -> pd.DataFrame:
+    m = eff.metrics[eff.metrics["group"] == group].set_index(["metric", "system"])
+    systems = [p.system for p in eff.pairs]
+    data = {}
+    for name, label in zip(metrics, labels or metrics, strict=True):
+        data[label] = [_fmt_ci(m.loc[(name, s)]) if (name, s) in m.index else "-"
+                       for s in systems]
+    return pd.DataFrame(data, index=pd.Index(systems, name="system")).reset_index()
+
+
+def _figure_block(figures: dict[str, str], key: str, caption: str) -> list[Block]:
+    """The figure ``key`` as a one-block list, or no block when it was not drawn."""
+    return [Figure(figures[key], caption)] if figures.get(key) else []
+
+
+def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[str, str]
+                   ) -> list[Block]:
+    pct = int(round(100 * eff.confidence))
+    n_valid = eff.pairs[0].size
+    n_bad = int(eff.excluded["case_id"].nunique())
+    systems = manifest.get("systems") or [{"name": p.system, "description": ""}
+                                          for p in eff.pairs]
+    blocks: list[Block] = [
+        Heading(f"AEB effectiveness: {manifest.get('name') or manifest.get('path', 'study')}",
+                1),
+        Paragraph(f"Database `{manifest.get('db', '?')}` ({manifest.get('n_cases', '?')} cases"
+                  + (f", selection `{manifest['where']}`" if manifest.get("where") else "")
+                  + f"); equipped vehicles: {manifest.get('equip', '?')}; study seed "
+                  f"{manifest.get('seed', '?')}. {n_valid} cases compared (total weight "
+                  f"{eff.pairs[0].weight.sum():g}); {n_bad} case(s) excluded because a run "
+                  "failed."),
+        BulletList(tuple(f"`{s['name']}`: {s.get('description', '')}" for s in systems)),
+        Paragraph(f"Every system is compared case by case with the baseline (the recorded "
+                  f"behaviour), weighted by the cases' `weight` (frequency weights). Brackets: "
+                  f"{pct} % percentile bootstrap confidence intervals over cases ({eff.n_boot} "
+                  f"resamples, seed {eff.seed}). Speeds in km/h. Definitions and formulas: "
+                  f"docs/study.md."),
+        Heading("Crashes avoided", 2),
+        Table.from_frame(_metric_table(
+            eff, ["crashes_baseline", "crashes_treatment", "crashes_avoided", "crashes_new",
+                  "avoided_share", "crash_reduction"],
+            labels=["baseline crashes", "crashes with system", "avoided", "new crashes",
+                    "avoided share", "net crash reduction"])),
+        Paragraph("Avoided share = weighted baseline crashes without a crash in the treatment "
+                  "run / weighted baseline crashes. Net crash reduction also subtracts crashes "
+                  "that happen only with the system."),
+        Heading("Per accident type (avoided share)", 3),
+        Table.from_frame(_per_type_table(eff, "avoided_share")),
+        *_figure_block(figures, "avoided_by_type", "Avoided share per accident type"),
+        Heading("Per accident type and system", 3),
+        Paragraph("Reductions per baseline crash (a run without a crash counts 0); risk: "
+                  "relative reduction of the expected injured drivers."),
+    ]
+    group_metrics = ["avoided_share", "speed_reduction_all", "dv_reduction_all",
+                     *[f"risk_{level}_reduction" for level in eff.curves]]
+    group_labels = ["avoided share", "impact-speed reduction [km/h]", "delta-v reduction [km/h]",
+                    *[f"{level} reduction" for level in eff.curves]]
+    for pair in eff.pairs:
+        blocks += [Paragraph(f"`{pair.system}`:"),
+                   Table.from_frame(_group_table(eff, pair.system, group_metrics,
+                                                 group_labels))]
+    blocks += [
+        Heading("Impact speed", 2),
+        Paragraph("Case impact speed = the larger impact speed of the two vehicles. 'Per "
+                  "baseline crash': mean over the baseline crashes, a run without a crash counts "
+                  "0 km/h (avoided crashes count 0; crashes new with the system add their "
+                  "speed). 'Not avoided': only cases that crash in both runs."),
+        Table.from_frame(_metric_table(
+            eff, ["speed_baseline", "speed_treatment_all", "speed_reduction_all",
+                  "speed_reduction_all_rel", "speed_treatment_nav", "speed_reduction_nav",
+                  "speed_reduction_nav_rel"],
+            labels=["baseline [km/h]", "with system, per baseline crash [km/h]",
+                    "reduction per baseline crash [km/h]", "relative",
+                    "with system, not avoided [km/h]", "reduction, not avoided [km/h]",
+                    "relative, not avoided"])),
+        *_figure_block(figures, "impact_speed_cdf",
+                       "Cumulative distribution of the impact speed over the baseline crashes "
+                       f"(avoided = 0 km/h), {pct} % bootstrap bands"),
+        Heading("Delta-v", 2),
+        Paragraph("Case delta-v = the larger delta-v of the two vehicles; same two averages."),
+        Table.from_frame(_metric_table(
+            eff, ["dv_baseline", "dv_treatment_all", "dv_reduction_all", "dv_reduction_all_rel",
+                  "dv_reduction_nav", "dv_reduction_nav_rel"],
+            labels=["baseline [km/h]", "with system, per baseline crash [km/h]",
+                    "reduction per baseline crash [km/h]", "relative",
+                    "reduction, not avoided [km/h]", "relative, not avoided"])),
+        *_figure_block(figures, "delta_v_scatter",
+                       "Delta-v per case, baseline vs. with the system (0 = avoided)"),
+        Heading("Impact type", 2),
+        Paragraph("Weighted cases by impact type, baseline (rows) x with the system "
+                  "(columns); `none` = no crash, `separating` = contact without an impact "
+                  "impulse."),
+    ]
+    for system, table in eff.crosstabs.items():
+        blocks.append(Heading(system, 3))
+        shown = table.copy()
+        shown.index = [f"baseline {i}" for i in shown.index]
+        blocks.append(Table.from_frame(shown.map(lambda v: f"{v:g}").reset_index(
+            names="baseline \\ " + system)))
+    curve_lines = [f"{level}: `{c.name}`: {c.description}. Source: {c.source}."
+                   for level, c in eff.curves.items()]
+    risk_metrics, risk_labels = [], []
+    for level in eff.curves:
+        risk_metrics += [f"risk_{level}_baseline", f"risk_{level}_treatment",
+                         f"risk_{level}_avoided", f"risk_{level}_reduction"]
+        risk_labels += [f"{level} baseline", f"{level} with system", f"{level} avoided",
+                        f"{level} reduction"]
+    blocks += [
+        Heading("Injury risk", 2),
+        Paragraph("Every vehicle holds one occupant (the driver); the driver's risk is the "
+                  "curve's probability at the vehicle's delta-v (0 without a crash); a case's "
+                  "expected number of injured drivers is the sum over its two vehicles. "
+                  "Figures are weighted sums over the cases (expected injured drivers)."),
+        BulletList(tuple(curve_lines)),
+        Table.from_frame(_metric_table(eff, risk_metrics, labels=risk_labels)),
+        *_figure_block(figures, "injury_risk",
+                       f"Expected injured drivers per system with {pct} % bootstrap intervals"),
+        Heading("Excluded cases", 2),
+    ]
+    if eff.excluded.empty:
+        blocks.append(Paragraph("No run failed."))
+    else:
+        blocks.append(Paragraph(f"{n_bad} case(s) with a failed run are excluded from every "
+                                "comparison:"))
+        shown = eff.excluded.head(50).copy()
+        blocks.append(Table.from_frame(shown))
+        if len(eff.excluded) > 50:
+            blocks.append(Paragraph(f"... and {len(eff.excluded) - 50} more failed runs."))
+    return blocks
+
+
+def _group_table(eff: Effectiveness, system: str, metrics: Sequence[str],
+                 labels: Sequence[str]) -> pd.DataFrame:
+    """Rows: all cases and each accident type; columns: metrics of one system."""
+    m = eff.metrics[eff.metrics["system"] == system]
+    groups = list(pd.unique(m["group"]))
+    by = m.set_index(["group", "metric"])
+    rows = []
+    for group in groups:
+        cells = [str(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
+        cells += [_fmt_ci(by.loc[(group, name)]) for name in metrics]
+        rows.append(cells)
+    return pd.DataFrame(rows, columns=["accident type", "cases", *labels])
+
+
+def _per_type_table(eff: Effectiveness, metric: str) -> pd.DataFrame:
+    m = eff.metrics[(eff.metrics["metric"] == metric) & (eff.metrics["group"] != ALL)]
+    if m.empty:
+        return pd.DataFrame()
+    cells = m.assign(cell=m.apply(_fmt_ci, axis=1))
+    table = cells.pivot(index="group", columns="system", values="cell")
+    table = table[[p.system for p in eff.pairs if p.system in table.columns]]
+    n = m.drop_duplicates("group").set_index("group")["n_cases"]
+    table.insert(0, "cases", n.reindex(table.index).astype(int).astype(str))
+    return table.reset_index(names="accident type")
+
+
+# ----------------------------------------------------------------------------
+# Figures
+# ----------------------------------------------------------------------------
+
+
+def _figure(width: float, height: float, ncols: int = 1) -> tuple[Any, Any]:
+    fig = new_figure((width, height), layout="constrained")
+    axes = fig.subplots(1, ncols, squeeze=False)[0]
+    return fig, axes
+
+
+_COLORS = ("#444444", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+
+
+def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
+    """Write the PNG figures; return {key: file name}."""
+    files: dict[str, str] = {}
+    systems = [p.system for p in eff.pairs]
+    pct = int(round(100 * eff.confidence))
+
+    # impact-speed CDF with bands
+    fig, (ax,) = _figure(7.0, 4.5)
+    for i, name in enumerate([BASELINE, *systems]):
+        d = eff.cdf[eff.cdf["system"] == name]
+        x = d["speed"].to_numpy() * KMH_PER_MS
+        color = _COLORS[i % len(_COLORS)]
+        ax.step(x, d["share"], where="post", color=color, label=name)
+        ax.fill_between(x, d["low"], d["high"], step="post", color=color, alpha=0.2, lw=0)
+    ax.set_xlabel("impact speed (faster vehicle) [km/h]; avoided = 0")
+    ax.set_ylabel("cumulative share of baseline crashes")
+    ax.set_ylim(0, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    files["impact_speed_cdf"] = "impact_speed_cdf.png"
+    save_figure(fig, folder / files["impact_speed_cdf"], dpi=110)
+
+    # delta-v scatter per system
+    fig, axes = _figure(4.2 * len(systems), 4.2, ncols=len(systems))
+    for ax, pair, color in zip(axes, eff.pairs, _COLORS[1:] * 5, strict=False):
+        crash = pair.crash_base | pair.crash_treat
+        xb = pair.delta_v_base.max(axis=1)[crash] * KMH_PER_MS
+        yt = pair.delta_v_treat.max(axis=1)[crash] * KMH_PER_MS
+        size = 12.0 * pair.weight[crash] / max(float(pair.weight[crash].mean()), 1e-12) \
+            if crash.any() else 12.0
+        ax.scatter(xb, yt, s=size, color=color, alpha=0.5, lw=0)
+        top = max(float(np.max(xb, initial=0)), float(np.max(yt, initial=0)), 1.0) * 1.05
+        ax.plot([0, top], [0, top], "k--", lw=0.8)
+        ax.set_xlim(0, top)
+        ax.set_ylim(0, top)
+        ax.set_aspect("equal")
+        row = eff.metrics[(eff.metrics["system"] == pair.system) & (eff.metrics["group"] == ALL)
+                          & (eff.metrics["metric"] == "dv_reduction_all")].iloc[0]
+        ax.set_title(f"{pair.system}\nmean reduction {_fmt_ci(row)} km/h", fontsize=9)
+        ax.set_xlabel("baseline delta-v (max of both) [km/h]")
+        ax.set_ylabel("delta-v with system [km/h]; 0 = avoided")
+        ax.grid(alpha=0.3)
+    files["delta_v_scatter"] = "delta_v_scatter.png"
+    save_figure(fig, folder / files["delta_v_scatter"], dpi=110)
+
+    # injury risk bars
+    levels = list(eff.curves)
+    fig, axes = _figure(3.6 * len(levels) + 1.0, 4.0, ncols=len(levels))
+    m = eff.metrics[eff.metrics["group"] == ALL].set_index(["metric", "system"])
+    for ax, level in zip(axes, levels, strict=True):
+        labels, est, lo, hi = [BASELINE], [], [], []
+        base = m.loc[(f"risk_{level}_baseline", systems[0])]
+        est.append(base["estimate"])
+        lo.append(base["low"])
+        hi.append(base["high"])
+        for s in systems:
+            r = m.loc[(f"risk_{level}_treatment", s)]
+            labels.append(s)
+            est.append(r["estimate"])
+            lo.append(r["low"])
+            hi.append(r["high"])
+        est_a = np.asarray(est)
+        err = np.vstack([est_a - np.asarray(lo), np.asarray(hi) - est_a])
+        ax.bar(labels, est_a, yerr=np.nan_to_num(err), capsize=4,
+               color=[_COLORS[i % len(_COLORS)] for i in range(len(labels))], alpha=0.8)
+        ax.set_title(f"{level} ({eff.curves[level].name})", fontsize=9)
+        ax.set_ylabel(f"expected {level} injured drivers")
+        ax.tick_params(axis="x", rotation=30)
+        ax.grid(alpha=0.3, axis="y")
+    fig.suptitle(f"Injury risk, {pct} % bootstrap intervals", fontsize=10)
+    files["injury_risk"] = "injury_risk.png"
+    save_figure(fig, folder / files["injury_risk"], dpi=110)
+
+    # avoided share per accident type
+    sub = eff.metrics[eff.metrics["metric"] == "avoided_share"]
+    groups = list(pd.unique(sub["group"]))
+    fig, (ax,) = _figure(min(12.0, max(6.0, 0.45 * len(groups) * max(len(systems), 1) + 2)),
+                         4.0)
+    width = 0.8 / max(len(systems), 1)
+    for i, s in enumerate(systems):
+        d = sub[sub["system"] == s].set_index("group").reindex(groups)
+        x = np.arange(len(groups)) + (i - (len(systems) - 1) / 2) * width
+        est_v = d["estimate"].to_numpy(float) * 100
+        err = np.vstack([est_v - d["low"].to_numpy(float) * 100,
+                         d["high"].to_numpy(float) * 100 - est_v])
+        ax.bar(x, est_v, width, yerr=np.nan_to_num(np.clip(err, 0, None)), capsize=3,
+               color=_COLORS[(i + 1) % len(_COLORS)], label=s, alpha=0.85)
+    ax.set_xticks(np.arange(len(groups)), [str(g) for g in groups])
+    ax.set_xlabel("accident type")
+    ax.set_ylabel(f"baseline crashes avoided [%] ({pct} % CI)")
+    ax.set_ylim(0, 105)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend()
+    files["avoided_by_type"] = "avoided_by_type.png"
+    save_figure(fig, folder / files["avoided_by_type"], dpi=110)
+    return files
+
+
+def write_effectiveness_report(study: str | os.PathLike[str], *,
+                               risk_curves: Iterable[str] | None = None, n_boot: int = 2000,
+                               seed: int = 0, confidence: float = 0.95,
+                               out: str | os.PathLike[str] | None = None) -> Path:
+    """Analyse a finished study and write its report.
+
+    Parameters
+    ----------
+    study : path
+        Study folder (``study.json`` and ``runs.parquet``).
+    risk_curves : iterable of str, optional
+        Curves replacing the defaults of their injury level.
+    n_boot, seed, confidence
+        Bootstrap settings.
+    out : path, optional
+        Report folder; default ``STUDY/report``.
+
+    Returns
+    -------
+    Path
+        ``report.md`` (next to ``report.html``, ``metrics.csv``,
+        ``crosstabs.csv`` and the PNG figures).
+
+    Raises
+    ------
+    DataError
+        Not a study folder, or the study is not complete.
+    """
+    from vfs.study import RUNS_FILE, load_study
+
+    result = load_study(study)
+    if result.table is None:
+        raise DataError(DataProblem("study", "", None, None,
+                                    f"{study}: the study is not complete (status "
+                                    f"{result.manifest.get('status')!r}); finish it with "
+                                    f"vfs study ... --resume (no {RUNS_FILE} yet)"))
+    eff = effectiveness(result.table, risk_curves=risk_curves, n_boot=n_boot,
+                        confidence=confidence, seed=seed)
+    folder = Path(out) if out is not None else result.path / "report"
+    folder.mkdir(parents=True, exist_ok=True)
+    figures = write_figures(eff, folder)
+    manifest = {**result.manifest, "name": result.path.name}
+    blocks = _report_blocks(eff, manifest, figures)
+    write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))
+    write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
+    cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()
+             for b in table.index for t in table.columns]
+    write_text(folder / "crosstabs.csv", pd.DataFrame(
+        cross, columns=["system", "baseline_type", "treatment_type", "weight"]).to_csv(index=False))
+    return folder / "report.md"
+
+
+__all__ = ["write_effectiveness_report", "write_figures"]

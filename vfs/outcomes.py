@@ -246,7 +246,7 @@ OUTCOMES: tuple[Outcome, ...] = (
        "kinetic energy lost in the impact"),
     _o("closing_speed", "Closing speed", "speed", "case", "ratio", "value", ["closing_speed"],
        "normal approach speed of the contact points at impact (not recorded by "
-       "reconstructions)"),
+       "reconstructions)", sd=()),
     _o("sliding", "Sliding impact", "probability", "case", "indicator", "sliding",
        ["impact_type"], "1 for a sliding impact, 0 for a full impact, NaN otherwise", sd=()),
 )

@@ -23,10 +23,10 @@ from vfs.analysis.compare import (
     STATUS_MISSING,
     STATUS_OK,
     compare_database,
-    load_model_config,
     parse_margins,
     read_run_table,
 )
+from vfs.analysis.model_config import load_model_config
 from vfs.cli import main
 from vfs.errors import DataError, ParameterError
 from vfs.report.compare import write_comparison_report
@@ -58,10 +58,8 @@ def clean():
 
 
 def _run_table_from_reconstruction(rec: pd.DataFrame) -> pd.DataFrame:
-    """A baseline run table (results_table columns, angles in rad) equal to ``rec``."""
+    """A baseline run table (results_table columns, angles in rad) equal to ``rec`` (SI)."""
     run = rec.copy()
-    for c in ("pdof1", "pdof2", "velocity_angle_change1", "velocity_angle_change2"):
-        run[c] = np.radians(run[c].to_numpy(float))
     run["collided"] = True
     run["system"] = "baseline"
     run["error"] = None
@@ -409,7 +407,8 @@ def test_margins_reach_the_tost(small_db):
 
 def test_report_files(study36, tmp_path):
     _, c = study36
-    files = write_comparison_report(c, tmp_path / "cmp", top=5, sketches=2)
+    files = write_comparison_report(c, tmp_path / "cmp", database=study36[0], top=5,
+                                    sketches=2)
     for key in ("json", "report_md", "report_html", "table1", "paired", "pairs_parquet",
                 "case_errors", "contingency", "poi_distances", "rest_distances", "cases",
                 "fig_impact_types", "fig_poi", "fig_boxplots", "fig_bland_altman",

@@ -140,9 +140,14 @@ def test_model_config_round_trip(tmp_path):
     doc = json.loads(path.read_text())
     assert set(doc) == {"effects", "created_by", "fit"}
     assert read_model_config(path) == effects
-    (tmp_path / "bad.json").write_text("{}")
+    (tmp_path / "bad.json").write_text("[]")
     with pytest.raises(DataError):
         read_model_config(tmp_path / "bad.json")
+    (tmp_path / "empty.json").write_text("{}")  # the default model
+    assert read_model_config(tmp_path / "empty.json") == ()
+    (tmp_path / "typo.json").write_text('{"efects": []}')
+    with pytest.raises(ParameterError, match="unknown key"):
+        read_model_config(tmp_path / "typo.json")
 
 
 # ------------------------------------------------------------------ diagnosis

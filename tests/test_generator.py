@@ -11,6 +11,7 @@ import pytest
 from vfs.cli import main
 from vfs.database import load_csv_folder, load_database, save_csv_folder, validate_database
 from vfs.database.paths import paths_from_trajectories
+from vfs.database.schema import RECONSTRUCTION
 from vfs.effects import BUILTIN_EFFECTS
 from vfs.errors import ParameterError
 from vfs.physics.paths import find_index, pose_at_arclength, record_at_time
@@ -138,7 +139,8 @@ def test_without_effects_and_noise_the_model_equals_the_reconstruction(clean):
         "poi_x": res.poi[hit, 0], "cp_angle": res.cp_angle[hit],
         "delta_v1": imp.delta_v1[hit], "delta_v2": imp.delta_v2[hit], "ees1": imp.ees1[hit],
         "ees2": imp.ees2[hit], "energy_loss": imp.energy_loss[hit],
-        "pdof1": np.degrees(imp.pdof1[hit]), "vx2_post": imp.vx2_post[hit],
+        "pdof1": RECONSTRUCTION.column("pdof1").as_stored(imp.pdof1[hit]),
+        "vx2_post": imp.vx2_post[hit],
         "rest_x1": res.runout.result1.rest_x[hit], "rest_yaw2": res.runout.result2.rest_yaw[hit],
     }
     for col, model in checks.items():
@@ -172,7 +174,7 @@ def test_study36_mirrors_seed_001():
     assert not truth.cases["secondary_collision"].any()
     rec = db.reconstruction
     # frontal damage: PDOF within 10-2 o'clock (+-75 deg incl. the noise)
-    assert (rec[["pdof1", "pdof2"]].abs() < 80).all().all()
+    assert (rec[["pdof1", "pdof2"]].abs() < np.radians(80.0)).all().all()
 
 
 def test_bad_requests_raise_clear_errors():

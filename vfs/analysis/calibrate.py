@@ -2,19 +2,21 @@
 
 The building blocks of ``vfs diagnose`` and ``vfs calibrate``:
 
-* **Outputs** (:data:`OUTPUT_GROUPS`): the reconstruction outcomes compared
-  with the model (delta-v, EES, energy loss, post-impact speed, change of
-  velocity angle, PDOF, rest position and yaw, run-out distance, impact
-  type), their residuals ``model - reconstruction`` and one scale per output
-  (the RMS of the recorded ``<column>_sd`` where the database has them,
-  else the standard deviation of the recorded values) so that outputs of
-  different units are never mixed: every error is an RMSE of *standardised*
-  residuals.
-* **Many model variants in one simulation** (:class:`VariantSimulator`):
-  the cases are stacked once per variant and one effect dispatches every
-  hook to the variant a row belongs to, so that a grid of parameter values
-  costs one vectorised :func:`vfs.simulation.simulate_cases` call;
-  results are cached by parameter vector.
+* **Outputs** (:data:`vfs.outcomes.OUTPUT_GROUPS`, values derived by
+  :mod:`vfs.outcomes`): the reconstruction outcomes compared with the model
+  (delta-v, EES, energy loss, post-impact speed, change of velocity angle,
+  PDOF, rest position and yaw, run-out distance, impact type), their
+  residuals ``model - reconstruction`` and one scale per output (the RMS of
+  the recorded ``<column>_sd`` where the database has them, else the
+  standard deviation of the recorded values) so that outputs of different
+  units are never mixed: every error is an RMSE of *standardised* residuals.
+* **Many model variants in one simulation**
+  (:class:`vfs.analysis.variants.VariantSimulator`): the cases are stacked
+  once per variant and one effect dispatches every hook to the variant a row
+  belongs to, so that a grid of parameter values costs one vectorised
+  :func:`vfs.simulation.simulate_cases` call; residuals are cached by
+  parameter vector.  Simulation results go to residual arrays directly
+  (:func:`vfs.outcomes.from_results`), never through a table.
 * **Fitting** (:func:`fit_folds`): bounded coordinate search per parameter: a
   coarse grid over the bounds evaluated on *all* cases once (folds only
   change which cases enter the objective), zoom rounds halving the spacing
@@ -22,150 +24,36 @@ The building blocks of ``vfs diagnose`` and ``vfs calibrate``:
   in the same simulation calls.
 * **Cross-validation** (:func:`cross_validate`): k-fold by case (seeded), each
   fold's parameters fitted on the other folds, the held-out residuals scored.
-* **Calibration** (:func:`calibrate`) on all cases and the model
-  configuration file (:func:`write_model_config`, :func:`read_model_config`)
-  that ``vfs compare --model`` reads.
+* **Calibration** (:func:`calibrate`) on all cases; the fitted effects go to
+  a model configuration file (:mod:`vfs.analysis.model_config`) that
+  ``vfs compare --model`` reads.
 
-All quantities are SI inside (angles of the reconstruction table in its
-units: PDOF and change of velocity angle in degrees, yaw in rad).
+All quantities are SI inside (m/s, rad, m, J); reports convert with the
+display factors of :mod:`vfs.outcomes`.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import time
 from collections.abc import Callable, Generator, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from vfs.effects import STAGES, Effect, VelocityChange, effects_from_dicts, get_effect, hooks
+from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
+from vfs.analysis.variants import Model, VariantSimulator, stacked_effect
+from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError
-from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
-
-# ----------------------------------------------------------------------------
-# Outputs
-# ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class OutputGroup:
-    """One compared output (a group of reconstruction columns).
-
-    Attributes
-    ----------
-    name : str
-        Output name (the vocabulary of :attr:`vfs.effects.Effect.outputs`).
-    columns : tuple of str
-        Names of its residual columns (one per vehicle or coordinate).
-    unit : str
-        Unit of the residuals (SI or the reconstruction's degrees).
-    kind : {"linear", "angle_deg", "angle_rad", "indicator"}
-        How a residual is formed (angles wrapped to +-180 deg / +-pi).
-    sd_columns : tuple of str
-        Reconstruction ``_sd`` columns whose RMS gives the scale.
-    report_unit : str
-        Unit shown in reports.
-    report_factor : float
-        Residual [unit] x factor = residual [report_unit].
-    description : str
-    """
-
-    name: str
-    columns: tuple[str, ...]
-    unit: str
-    kind: str
-    sd_columns: tuple[str, ...]
-    report_unit: str
-    report_factor: float
-    description: str
-
-
-def _g(name: str, columns: Sequence[str], unit: str, kind: str, sd: Sequence[str],
-       report_unit: str, factor: float, description: str) -> OutputGroup:
-    return OutputGroup(name, tuple(columns), unit, kind, tuple(sd), report_unit, factor,
-                       description)
-
-
-#: The outputs the diagnosis can compare, by name (docs/diagnosis.md).
-OUTPUT_GROUPS: dict[str, OutputGroup] = {g.name: g for g in (
-    _g("delta_v", ["delta_v1", "delta_v2"], "m/s", "linear", ["delta_v1_sd", "delta_v2_sd"],
-       "km/h", 3.6, "magnitude of the CG velocity change"),
-    _g("ees", ["ees1", "ees2"], "m/s", "linear", ["ees1_sd", "ees2_sd"], "km/h", 3.6,
-       "energy equivalent speed"),
-    _g("energy_loss", ["energy_loss"], "J", "linear", ["energy_loss_sd"], "kJ", 1e-3,
-       "kinetic energy lost in the impact"),
-    _g("post_speed", ["post_speed1", "post_speed2"], "m/s", "linear",
-       ["vx1_post_sd", "vy1_post_sd", "vx2_post_sd", "vy2_post_sd"], "km/h", 3.6,
-       "CG speed right after the impact"),
-    _g("velocity_angle_change", ["velocity_angle_change1", "velocity_angle_change2"], "deg",
-       "linear", ["velocity_angle_change1_sd", "velocity_angle_change2_sd"], "deg", 1.0,
-       "angle between the CG velocities before and after the impact"),
-    _g("pdof", ["pdof1", "pdof2"], "deg", "angle_deg", ["pdof1_sd", "pdof2_sd"], "deg", 1.0,
-       "principal direction of force"),
-    _g("rest_position", ["rest_x1", "rest_y1", "rest_x2", "rest_y2"], "m", "linear",
-       ["rest_x1_sd", "rest_y1_sd", "rest_x2_sd", "rest_y2_sd"], "m", 1.0,
-       "CG position at rest (x and y of both vehicles)"),
-    _g("rest_yaw", ["rest_yaw1", "rest_yaw2"], "rad", "angle_rad",
-       ["rest_yaw1_sd", "rest_yaw2_sd"], "deg", 180.0 / math.pi, "yaw angle at rest"),
-    _g("runout_distance", ["runout_distance1", "runout_distance2"], "m", "linear",
-       ["rest_x1_sd", "rest_y1_sd", "rest_x2_sd", "rest_y2_sd"], "m", 1.0,
-       "straight-line distance from the impact position to the rest position"),
-    _g("impact_type", ["sliding"], "-", "indicator", [], "-", 1.0,
-       "impact type (1 = sliding, 0 = full); residual in {-1, 0, 1}"),
-)}
-
-
-def _outcome_values(df: pd.DataFrame, source: str) -> dict[str, np.ndarray]:
-    """Output columns from a reconstruction table (``source="reconstruction"``) or a
-    :func:`vfs.simulation.results_table` (``"model"``), in the reconstruction's units."""
-    out: dict[str, np.ndarray] = {}
-
-    def col(name: str) -> np.ndarray:
-        if name in df.columns:
-            return pd.to_numeric(df[name], errors="coerce").to_numpy(float)
-        return np.full(len(df), np.nan)
-
-    model = source == "model"
-    for i in (1, 2):
-        out[f"delta_v{i}"] = col(f"delta_v{i}")
-        out[f"ees{i}"] = col(f"ees{i}")
-        out[f"post_speed{i}"] = np.hypot(col(f"vx{i}_post"), col(f"vy{i}_post"))
-        vac = col(f"velocity_angle_change{i}")
-        pdof = col(f"pdof{i}")
-        out[f"velocity_angle_change{i}"] = np.degrees(vac) if model else vac
-        out[f"pdof{i}"] = np.degrees(pdof) if model else pdof
-        for c in ("rest_x", "rest_y", "rest_yaw"):
-            out[f"{c}{i}"] = col(f"{c}{i}")
-        out[f"runout_distance{i}"] = np.hypot(col(f"rest_x{i}") - col(f"x{i}"),
-                                              col(f"rest_y{i}") - col(f"y{i}"))
-    out["energy_loss"] = col("energy_loss")
-    if "impact_type" in df.columns:
-        kind = df["impact_type"].astype(str).to_numpy()
-        out["sliding"] = np.where(kind == "sliding", 1.0,
-                                  np.where(kind == "full", 0.0, np.nan))
-    else:
-        out["sliding"] = np.full(len(df), np.nan)
-    return out
-
-
-def _residual(kind: str, model: np.ndarray, rec: np.ndarray) -> np.ndarray:
-    d = model - rec
-    if kind == "angle_deg":
-        return (d + 180.0) % 360.0 - 180.0
-    if kind == "angle_rad":
-        return (d + math.pi) % (2.0 * math.pi) - math.pi
-    return d
+from vfs.outcomes import OUTPUT_GROUPS, OutputGroup, difference, from_reconstruction, from_results
+from vfs.simulation import CaseBatch
 
 
 def parse_outputs(spec: str | Iterable[str] | None) -> tuple[str, ...] | None:
-    """Output names from ``"delta_v,ees"`` or a list; None = all available."""
+    """Output names (:data:`vfs.outcomes.OUTPUT_GROUPS`) from ``"delta_v,ees"`` or a
+    list; None = all available."""
     if spec is None:
         return None
     names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec)]
@@ -176,6 +64,20 @@ def parse_outputs(spec: str | Iterable[str] | None) -> tuple[str, ...] | None:
     if unknown:
         raise ParameterError(f"unknown output(s) {unknown}; known: {', '.join(OUTPUT_GROUPS)}")
     return tuple(dict.fromkeys(names))
+
+
+def _value_columns(values: Mapping[str, np.ndarray], groups: Iterable[OutputGroup]
+                   ) -> np.ndarray:
+    """The single values of ``groups`` (columns, vehicle by vehicle) from outcome arrays."""
+    cols = []
+    for g in groups:
+        members = g.members
+        for i in range(len(members[0].vehicles)):
+            for o in members:
+                v = values.get(o.name)
+                cols.append(v[:, i] if v is not None else None)
+    n = next((c.shape[0] for c in cols if c is not None), 0)
+    return np.stack([np.full(n, np.nan) if c is None else c for c in cols], axis=1)
 
 
 # ----------------------------------------------------------------------------
@@ -268,24 +170,24 @@ class CalibrationData:
             raise DataError(DataProblem("reconstruction", "case_id", None, None,
                                         "no case with a reconstruction selected"))
         rec = rec.set_index("case_id").loc[ids].reset_index()
-        values = _outcome_values(rec, "reconstruction")
+        values = from_reconstruction(rec)
         requested = parse_outputs(outputs)
         names = requested or tuple(OUTPUT_GROUPS)
         groups: list[OutputGroup] = []
         for name in names:
             g = OUTPUT_GROUPS[name]
-            have = np.isfinite(np.stack([values[c] for c in g.columns], axis=1)).any(axis=1)
+            have = np.isfinite(_value_columns(values, [g])).any(axis=1)
             if have.sum() >= 2:
                 groups.append(g)
             elif requested:
-                raise DataError(DataProblem("reconstruction", g.columns[0], None, None,
+                raise DataError(DataProblem("reconstruction", g.value_names[0], None, None,
                                             f"output {name!r} has no recorded values"))
         if not groups:
             raise DataError(DataProblem("reconstruction", "", None, None,
                                         "no output with recorded values"))
-        columns = tuple(c for g in groups for c in g.columns)
-        column_group = np.array([k for k, g in enumerate(groups) for _ in g.columns])
-        observed = np.stack([values[c] for c in columns], axis=1)
+        columns = tuple(c for g in groups for c in g.value_names)
+        column_group = np.array([k for k, g in enumerate(groups) for _ in g.value_names])
+        observed = _value_columns(values, groups)
         scales, sources = [], []
         for k, g in enumerate(groups):
             scale, src = _group_scale(g, rec, observed[:, column_group == k])
@@ -296,14 +198,28 @@ class CalibrationData:
                    np.asarray(scales, float), tuple(sources))
 
     # ------------------------------------------------------------ residuals
-    def residuals(self, table: pd.DataFrame) -> np.ndarray:
-        """Residuals model - reconstruction (n, n_columns) from a results table of the
-        cases in :attr:`case_ids` order."""
-        values = _outcome_values(table, "model")
-        out = np.empty_like(self.observed)
-        for j, c in enumerate(self.columns):
-            kind = self.groups[self.column_group[j]].kind
-            out[:, j] = _residual(kind, values[c], self.observed[:, j])
+    def residuals(self, results: Any) -> np.ndarray:
+        """Residuals model - reconstruction (m, n_columns) [SI] of simulated cases.
+
+        Parameters
+        ----------
+        results : CaseResults, DataFrame or mapping of arrays
+            Results of the cases in :attr:`case_ids` order, or of ``k`` stacked
+            copies of them (m = k n rows): anything
+            :func:`vfs.outcomes.from_results` reads.
+
+        Returns
+        -------
+        ndarray (m, n_columns)
+            Angles wrapped to (-pi, pi] where the outcome wraps.
+        """
+        names = {o.name for g in self.groups for o in g.members}
+        model = _value_columns(from_results(results, names), self.groups)
+        observed = self.observed[np.arange(model.shape[0]) % self.n]
+        out = np.empty_like(model)
+        for j in range(model.shape[1]):
+            member = self.groups[self.column_group[j]].members[0]
+            out[:, j] = difference(member, model[:, j], observed[:, j])
         return out
 
     def case_errors(self, residuals: np.ndarray) -> np.ndarray:
@@ -335,7 +251,7 @@ class CalibrationData:
 def _group_scale(group: OutputGroup, rec: pd.DataFrame, observed: np.ndarray
                  ) -> tuple[float, str]:
     """RMS of the recorded standard deviations, else the spread of the recorded values."""
-    if group.sd_columns and all(c in rec.columns for c in group.sd_columns):
+    if group.sd_columns and all(c in rec.columns for c in group.sd_columns):  # SI like rec
         sd = np.concatenate([pd.to_numeric(rec[c], errors="coerce").to_numpy(float)
                              for c in group.sd_columns])
         sd = sd[np.isfinite(sd)]
@@ -367,240 +283,6 @@ def overall_mse(errors: np.ndarray, rows: np.ndarray | None = None,
     if w.sum() <= 0:
         return float("nan")
     return float(np.sum(np.where(ok, g, 0.0) * w) / w.sum())
-
-
-# ----------------------------------------------------------------------------
-# Many model variants in one simulation
-# ----------------------------------------------------------------------------
-
-Model = tuple[Effect, ...]
-
-
-def _merge(old: Any, new: Any, sel: np.ndarray) -> Any:
-    """Rows ``sel`` from ``new``, the others from ``old`` (arrays, NamedTuples)."""
-    if old is new:
-        return old
-    if isinstance(old, tuple) and hasattr(old, "_fields"):
-        return type(old)(*(_merge(a, b, sel) for a, b in zip(old, new, strict=True)))
-    if isinstance(old, np.ndarray):
-        m = sel.shape[0]
-        if old.shape[:1] == (m,):
-            s = sel
-        elif old.shape[:1] == (2 * m,):
-            s = np.concatenate([sel, sel])
-        else:
-            raise ParameterError(f"cannot merge an effect's output of shape {old.shape}")
-        return np.where(s.reshape(s.shape + (1,) * (old.ndim - 1)), new, old)
-    if old is None and new is None:
-        return None
-    raise ParameterError(f"cannot merge an effect's output of type {type(old).__name__}")
-
-
-class _StackedVariants(Effect):
-    """Dispatches every hook to the model variant a row belongs to (row // n)."""
-
-    name = "stacked_variants"
-    summary = "internal: several model variants in one simulation"
-
-    def _setup(self, models: Sequence[Model], n: int, penetration_time: float) -> None:
-        object.__setattr__(self, "_models", tuple(models))
-        object.__setattr__(self, "_n", int(n))
-        object.__setattr__(self, "_t_pen", float(penetration_time))
-
-    def _active(self, stage: str) -> list[tuple[int, list[Callable[..., Any]]]]:
-        out = []
-        for g, model in enumerate(self._models):  # type: ignore[attr-defined]
-            h = hooks(model, stage)
-            if h:
-                out.append((g, h))
-        return out
-
-    def _replica(self, rows: np.ndarray) -> np.ndarray:
-        return np.asarray(rows) // self._n  # type: ignore[attr-defined]
-
-
-def _s_vehicles(self: _StackedVariants, batch: CaseBatch) -> CaseBatch:
-    rep = self._replica(np.arange(batch.size))
-    out = batch
-    for g, hs in self._active("vehicles"):
-        b = batch
-        for h in hs:
-            b = h(b)
-        out = _merge(out, b, rep == g)
-    return out
-
-
-def _s_penetration(self: _StackedVariants, ctx: Any, t: np.ndarray) -> np.ndarray:
-    rep = self._replica(ctx.rows)
-    out = np.where(np.isnan(t), self._t_pen, t)  # type: ignore[attr-defined]
-    for g, hs in self._active("penetration"):
-        tt = np.array(t, float, copy=True)
-        for h in hs:
-            tt = np.asarray(h(ctx, tt), float)
-        sel = rep == g
-        out[sel] = tt[sel]
-    return out
-
-
-def _s_config(stage: str) -> Callable[..., Any]:
-    def hook(self: _StackedVariants, ctx: Any, config: Any) -> Any:
-        rep = self._replica(ctx.rows)
-        out = config
-        for g, hs in self._active(stage):
-            c = config
-            for h in hs:
-                c = h(ctx, c)
-            out = _merge(out, c, rep == g)
-        return out
-
-    hook.__name__ = stage
-    return hook
-
-
-def _s_contact_impulse(self: _StackedVariants, ctx: Any, config: Any,
-                       result: Any) -> VelocityChange:
-    rep = self._replica(ctx.rows)
-    out = VelocityChange.zeros(config.size)
-    for g, hs in self._active("contact_impulse"):
-        ch = VelocityChange.zeros(config.size)
-        for h in hs:
-            ch = ch + h(ctx, config, result)
-        out = _merge(out, ch, rep == g)
-    return out
-
-
-def _s_pair(stage: str) -> Callable[..., Any]:
-    """Stacked hook of a stage that maps a pair of arrays (energy_split, post_impact)."""
-
-    def hook(self: _StackedVariants, ctx: Any, config: Any, result: Any, v1: np.ndarray,
-             v2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rep = self._replica(ctx.rows)
-        o1, o2 = np.array(v1, float, copy=True), np.array(v2, float, copy=True)
-        for g, hs in self._active(stage):
-            a, b = v1, v2
-            for h in hs:
-                a, b = h(ctx, config, result, a, b)
-            sel = rep == g
-            o1[sel], o2[sel] = np.asarray(a)[sel], np.asarray(b)[sel]
-        return o1, o2
-
-    return hook
-
-
-_STAGE_IMPL: dict[str, Callable[..., Any]] = {
-    "vehicles": _s_vehicles,
-    "penetration": _s_penetration,
-    "impact_configuration": _s_config("impact_configuration"),
-    "impact_parameters": _s_config("impact_parameters"),
-    "contact_impulse": _s_contact_impulse,
-    "energy_split": _s_pair("energy_split"),
-    "post_impact": _s_pair("post_impact"),
-}
-_STACKED_CLASSES: dict[tuple[str, ...], type[_StackedVariants]] = {}
-
-
-def stacked_effect(models: Sequence[Model], n: int,
-                   penetration_time: float = 0.030) -> Effect | None:
-    """One effect running ``len(models)`` variants on a batch stacked as many times.
-
-    Row ``r`` of the stacked batch belongs to variant ``r // n``; each hook of
-    the returned effect applies that variant's hooks (in its order) and keeps
-    its rows.  Hooks must be row-wise (the output of a row depends only on
-    that row), as every vectorised effect is.  None if no variant has effects.
-    """
-    stages = tuple(s for s in STAGES if any(hooks(m, s) for m in models))
-    if not stages:
-        return None
-    cls = _STACKED_CLASSES.get(stages)
-    if cls is None:
-        cls = type("_StackedVariants_" + "_".join(stages), (_StackedVariants,),
-                   {s: _STAGE_IMPL[s] for s in stages})
-        _STACKED_CLASSES[stages] = cls
-    eff = cls()
-    eff._setup(models, n, penetration_time)
-    return eff
-
-
-def _model_key(model: Model) -> tuple[Any, ...]:
-    return tuple((e.name, tuple(round(float(v), 10) for v in e.vector())) for e in model)
-
-
-class VariantSimulator:
-    """Simulate model variants of a :class:`CalibrationData`, with a cache.
-
-    Parameters
-    ----------
-    data : CalibrationData
-    params : SimulationParams, optional
-        Base parameters (their effects are prepended to every variant).
-    max_cases : int
-        Cases per :func:`simulate_cases` call (variants x n); larger calls
-        amortise the Python overhead better but need more memory.
-
-    Attributes
-    ----------
-    n_variants : int
-        Variants simulated so far (cache misses).
-    n_case_runs : int
-        Case simulations so far (variants x cases).
-    seconds : float
-        Time spent simulating.
-    """
-
-    def __init__(self, data: CalibrationData, params: SimulationParams | None = None,
-                 max_cases: int = 6000) -> None:
-        self.data = data
-        self.params = params or SimulationParams()
-        self.max_cases = max(int(max_cases), data.n)
-        self._cache: dict[tuple[Any, ...], np.ndarray] = {}
-        self.n_variants = 0
-        self.n_case_runs = 0
-        self.n_calls = 0
-        self.seconds = 0.0
-
-    def residuals(self, models: Sequence[Model]) -> list[np.ndarray]:
-        """Residual arrays (n, n_columns) of each model (cached)."""
-        keys = [_model_key(m) for m in models]
-        todo: dict[tuple[Any, ...], Model] = {}
-        for k, m in zip(keys, models, strict=True):
-            if k not in self._cache and k not in todo:
-                todo[k] = tuple(m)
-        items = list(todo.items())
-        per_call = max(1, self.max_cases // self.data.n)
-        for start in range(0, len(items), per_call):
-            chunk = items[start:start + per_call]
-            for (k, _), r in zip(chunk, self._simulate([m for _, m in chunk]), strict=True):
-                self._cache[k] = r
-        return [self._cache[k] for k in keys]
-
-    def _simulate(self, models: Sequence[Model]) -> list[np.ndarray]:
-        t0 = time.perf_counter()
-        data = self.data
-        n, g = data.n, len(models)
-        base = tuple(self.params.effects)
-        full = [base + tuple(m) for m in models]
-        batch = data.batch if g == 1 else data.batch.take(np.tile(np.arange(n), g))
-        if g == 1:
-            effects: tuple[Effect, ...] = full[0]
-        else:
-            st = stacked_effect(full, n, self.params.precrash.penetration_time)
-            effects = () if st is None else (st,)
-        params = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
-                                  runout=self.params.runout, effects=effects)
-        res = simulate_cases(batch, params=params)
-        table = results_table(batch, res)
-        out = [data.residuals(table.iloc[i * n:(i + 1) * n].reset_index(drop=True))
-               for i in range(g)]
-        self.n_variants += g
-        self.n_case_runs += g * n
-        self.n_calls += 1
-        self.seconds += time.perf_counter() - t0
-        return out
-
-    def stats(self) -> dict[str, float]:
-        """Simulation counters: variants, case runs, calls, seconds."""
-        return {"variants": self.n_variants, "case_runs": self.n_case_runs,
-                "calls": self.n_calls, "seconds": round(self.seconds, 3)}
 
 
 # ----------------------------------------------------------------------------
@@ -1032,7 +714,7 @@ def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
 
 
 # ----------------------------------------------------------------------------
-# Calibration and model configuration files
+# Calibration
 # ----------------------------------------------------------------------------
 
 
@@ -1110,67 +792,9 @@ def calibrate(data: CalibrationData, effects: Sequence[Effect | type[Effect] | s
     return Calibration(model, steps, rmse, overall_mse(errors), stats)
 
 
-#: Format tag of model configuration files.
-MODEL_CONFIG_FORMAT = "vfs-model/1"
-
-
-def write_model_config(path: str | os.PathLike[str], effects: Iterable[Effect],
-                       created_by: str = "vfs calibrate",
-                       fit: Mapping[str, Any] | None = None) -> Path:
-    """Write a model configuration file ``{"effects": [...], "created_by", "fit"}``.
-
-    ``effects`` is the list of ``{"name", "parameters"}`` records that
-    ``vfs compare --model`` and :func:`read_model_config` read; ``fit`` holds
-    how they were obtained (database, outputs, errors, format tag, date).
-    Written atomically.
-    """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    doc = {
-        "effects": [e.to_dict() for e in effects],
-        "created_by": created_by,
-        "fit": {"format": MODEL_CONFIG_FORMAT,
-                "created": datetime.now(UTC).isoformat(timespec="seconds"), **dict(fit or {})},
-    }
-    tmp = target.with_name(f".{target.name}.tmp")
-    tmp.write_text(json.dumps(doc, indent=2, default=_json_default) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
-    return target
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
-    """The effects of a model configuration file (:func:`write_model_config`).
-
-    Raises
-    ------
-    DataError
-        If the file is not valid JSON or has no ``effects`` list.
-    ParameterError
-        If an effect is unknown or a parameter out of range.
-    """
-    p = Path(path)
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise DataError(DataProblem(p.name, "", None, None,
-                                    f"cannot read the model configuration: {exc}")) from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("effects"), list):
-        raise DataError(DataProblem(p.name, "effects", None, None,
-                                    'expected {"effects": [{"name", "parameters"}, ...]}'))
-    return effects_from_dicts(doc["effects"])
-
-
 __all__ = [
     "MODEL_CONFIG_FORMAT", "OUTPUT_GROUPS", "CVResult", "Calibration", "CalibrationData",
-    "FitResult", "FitSpace", "OutputGroup", "VariantSimulator", "calibrate",
+    "FitResult", "FitSpace", "VariantSimulator", "calibrate",
     "cross_validate", "cross_validate_many", "fit_folds", "fit_steps", "group_mse",
     "kfold_indices", "run_fits",
     "overall_mse", "parse_outputs", "read_model_config", "reduction_ci", "rmse_reduction",

@@ -21,12 +21,11 @@ only in the report (:mod:`vfs.report.compare`).  Formulas and conventions:
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -34,6 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.analysis.model_config import load_model_config
 from vfs.analysis.stats import (
     MIN_PAIRS_FOR_TESTS,
     ContingencyComparison,
@@ -43,7 +43,9 @@ from vfs.analysis.stats import (
     holm_bonferroni,
     paired_comparison,
 )
+from vfs.database.schema import RECONSTRUCTION
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.outcomes import Outcome, from_reconstruction, from_results, get_outcome, unit_factors
 from vfs.physics.geometry import to_vehicle_frame
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 from vfs.units import KMH_PER_MS, wrap_angle
@@ -83,105 +85,92 @@ RUN_REQUIRED_COLUMNS: tuple[str, ...] = (
     "case_id", "impact_type", "x1", "y1", "yaw1", "x2", "y2", "yaw2", "poi_x", "poi_y",
 )
 
-#: Reconstruction columns stored in degrees (docs/data-format.md); converted to rad.
-_RECONSTRUCTION_DEGREE_COLUMNS: tuple[str, ...] = (
-    "pdof1", "pdof2", "velocity_angle_change1", "velocity_angle_change2",
-)
-
-#: Display units of the report: quantity -> (unit, factor from SI).
-DISPLAY_UNITS: Mapping[str, tuple[str, float]] = MappingProxyType({
-    "speed": ("km/h", KMH_PER_MS),
-    "angle": ("deg", 180.0 / math.pi),
-    "length": ("m", 1.0),
-    "rate": ("deg/s", 180.0 / math.pi),
-    "energy": ("kJ", 1e-3),
-})
-
-#: SI unit of each quantity.
-SI_UNITS: Mapping[str, str] = MappingProxyType({
-    "speed": "m/s", "angle": "rad", "length": "m", "rate": "rad/s", "energy": "J",
-})
-
-
 @dataclass(frozen=True)
-class Outcome:
-    """A compared outcome.
+class ComparedOutcome:
+    """An outcome of :mod:`vfs.outcomes` as ``vfs compare`` compares it.
 
     Attributes
     ----------
+    outcome : vfs.outcomes.Outcome
+        Quantity, units and derivation.
     name : str
-        Identifier (column stem, margin key).
+        Key in the comparison's tables and margins: the outcome's name, except
+        ``runout_displacement`` for :data:`runout_distance
+        <vfs.outcomes.OUTCOMES_BY_NAME>` (the name of the output files).
     label : str
         Name in reports.
-    quantity : str
-        Key of :data:`DISPLAY_UNITS` / :data:`SI_UNITS`.
-    level : str
-        ``"vehicle"`` (one value per vehicle, stacked: n = 2 x cases) or
-        ``"case"`` (one value per case).
-    columns : tuple of str
-        Columns needed in both tables (``{i}`` = vehicle number).
-    derive : str
-        ``"value"`` (the first column), ``"hypot"`` (magnitude of two columns)
-        or ``"displacement"`` (distance from the CG at impact to the rest
-        position: columns rest_x, rest_y, x, y).
     default_margin : float
         Default TOST equivalence margin [SI unit of the quantity].
-    angular : bool
-        Differences are wrapped to (-pi, pi] (directions, not magnitudes).
     """
 
+    outcome: Outcome
     name: str
     label: str
-    quantity: str
-    level: str
-    columns: tuple[str, ...]
-    derive: str
     default_margin: float
-    angular: bool = False
+
+    @property
+    def quantity(self) -> str:
+        """Quantity kind (key of :data:`vfs.outcomes.QUANTITIES`)."""
+        return self.outcome.quantity
+
+    @property
+    def level(self) -> str:
+        """``"vehicle"`` (stacked: n = 2 x cases) or ``"case"``."""
+        return self.outcome.level
+
+    @property
+    def angular(self) -> bool:
+        """Differences are wrapped to (-pi, pi] (directions, not magnitudes)."""
+        return self.outcome.wrap
 
     @property
     def unit(self) -> str:
         """SI unit."""
-        return SI_UNITS[self.quantity]
+        return self.outcome.unit
 
     @property
     def display_unit(self) -> str:
         """Unit in reports."""
-        return DISPLAY_UNITS[self.quantity][0]
+        return self.outcome.display_unit
 
     @property
     def display_factor(self) -> float:
         """Factor from the SI unit to :attr:`display_unit`."""
-        return DISPLAY_UNITS[self.quantity][1]
+        return self.outcome.display_factor
 
 
 _KMH = 1.0 / KMH_PER_MS  # 1 km/h in m/s
 
+
+def _c(name: str, margin: float, key: str | None = None, label: str | None = None
+       ) -> ComparedOutcome:
+    o = get_outcome(name)
+    return ComparedOutcome(o, key or name, label or o.label, margin)
+
+
 #: Every outcome vfs compare knows, in report order.  An outcome is compared
 #: when its columns are present in both the reconstruction and the VFS table.
 #: Default margins (SI) are justified in docs/compare.md.
-OUTCOMES: tuple[Outcome, ...] = (
-    Outcome("delta_v", "Delta-v", "speed", "vehicle", ("delta_v{i}",), "value", 5.0 * _KMH),
-    Outcome("ees", "EES", "speed", "vehicle", ("ees{i}",), "value", 5.0 * _KMH),
-    Outcome("velocity_angle_change", "Change of velocity angle", "angle", "vehicle",
-            ("velocity_angle_change{i}",), "value", math.radians(5.0)),
-    Outcome("post_speed", "Post-impact speed", "speed", "vehicle",
-            ("vx{i}_post", "vy{i}_post"), "hypot", 5.0 * _KMH),
-    Outcome("runout_displacement", "Run-out displacement (impact to rest)", "length", "vehicle",
-            ("rest_x{i}", "rest_y{i}", "x{i}", "y{i}"), "displacement", 1.0),
-    Outcome("rest_x", "Rest position x", "length", "vehicle", ("rest_x{i}",), "value", 1.0),
-    Outcome("rest_y", "Rest position y", "length", "vehicle", ("rest_y{i}",), "value", 1.0),
-    Outcome("pdof", "PDOF", "angle", "vehicle", ("pdof{i}",), "value", math.radians(10.0),
-            angular=True),
-    Outcome("rest_yaw", "Rest yaw angle", "angle", "vehicle", ("rest_yaw{i}",), "value",
-            math.radians(10.0), angular=True),
-    Outcome("yaw_rate_post", "Post-impact yaw rate", "rate", "vehicle", ("yaw_rate{i}_post",),
-            "value", math.radians(10.0)),
-    Outcome("energy_loss", "Energy loss", "energy", "case", ("energy_loss",), "value", 25e3),
+OUTCOMES: tuple[ComparedOutcome, ...] = (
+    _c("delta_v", 5.0 * _KMH),
+    _c("ees", 5.0 * _KMH),
+    _c("velocity_angle_change", math.radians(5.0)),
+    _c("post_speed", 5.0 * _KMH),
+    # the output files keep their name and label (one release)
+    _c("runout_distance", 1.0, "runout_displacement", "Run-out displacement (impact to rest)"),
+    _c("rest_x", 1.0),
+    _c("rest_y", 1.0),
+    _c("pdof", math.radians(10.0)),
+    _c("rest_yaw", math.radians(10.0)),
+    _c("yaw_rate_post", math.radians(10.0)),
+    _c("energy_loss", 25e3),
 )
 
-#: Outcomes by name.
-OUTCOMES_BY_NAME: Mapping[str, Outcome] = MappingProxyType({o.name: o for o in OUTCOMES})
+#: Outcomes by name (the keys of the comparison's tables).
+OUTCOMES_BY_NAME: Mapping[str, ComparedOutcome] = MappingProxyType({o.name: o for o in OUTCOMES})
+#: Other accepted names of outcomes in margins: the vocabulary's name -> key.
+_ALIASES: Mapping[str, str] = MappingProxyType(
+    {o.outcome.name: o.name for o in OUTCOMES if o.outcome.name != o.name})
 
 #: The three parameters of seed 001's Table 1 and Figure 6.
 TABLE1_OUTCOMES: tuple[str, ...] = ("delta_v", "ees", "velocity_angle_change")
@@ -204,60 +193,6 @@ BOOTSTRAP_SAMPLES = 2000
 # ----------------------------------------------------------------------------
 # Inputs: model configuration, run tables, margins
 # ----------------------------------------------------------------------------
-
-#: Keys of a model configuration file; "name", "description", "comment",
-#: "created_by" and "fit" (what `vfs calibrate` records about the fit) are
-#: informational, everything else must be handled in :func:`load_model_config`.
-MODEL_CONFIG_KEYS: tuple[str, ...] = ("effects", "name", "description", "comment", "created_by",
-                                     "fit")
-
-
-def load_model_config(path: str | os.PathLike[str]) -> SimulationParams:
-    """Simulation parameters from a model configuration file (JSON).
-
-    Parameters
-    ----------
-    path : path
-        JSON file ``{"effects": [{"name": ..., "parameters": {...}}, ...]}``;
-        optional free-text keys ``name``, ``description``, ``comment``.
-
-    Returns
-    -------
-    SimulationParams
-        Default parameters with the listed effects
-        (:func:`vfs.effects.effects_from_dicts`).
-
-    Raises
-    ------
-    DataError
-        If the file does not exist or is not a JSON object.
-    ParameterError
-        If a key is unknown, ``effects`` is not a list of objects with a
-        ``name``, or an effect or parameter is unknown or out of range.
-    """
-    from vfs.effects import effects_from_dicts
-
-    file = Path(path)
-    if not file.is_file():
-        raise DataError(DataProblem(str(file), "", None, None, "model configuration not found"))
-    try:
-        cfg = json.loads(file.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(DataProblem(str(file), "", None, None, f"invalid JSON: {exc}")) from exc
-    if not isinstance(cfg, dict):
-        raise DataError(DataProblem(str(file), "", None, None,
-                                    "must hold a JSON object {\"effects\": [...]}"))
-    unknown = sorted(set(cfg) - set(MODEL_CONFIG_KEYS))
-    if unknown:
-        raise ParameterError(f"{file}: unknown key(s) {unknown}; known: {list(MODEL_CONFIG_KEYS)}")
-    items = cfg.get("effects", [])
-    if not isinstance(items, list) or not all(
-            isinstance(d, dict) and "name" in d and isinstance(d.get("parameters", {}), dict)
-            for d in items):
-        raise ParameterError(f"{file}: 'effects' must be a list of objects "
-                             "{\"name\": ..., \"parameters\": {...}}")
-    return SimulationParams(effects=effects_from_dicts(items))
-
 
 def read_run_table(run: str | os.PathLike[str] | pd.DataFrame) -> pd.DataFrame:
     """The baseline rows of a run table written by ``vfs study``.
@@ -315,13 +250,17 @@ def read_run_table(run: str | os.PathLike[str] | pd.DataFrame) -> pd.DataFrame:
 def resolve_margins(margins: Mapping[str, float | None] | None) -> dict[str, float | None]:
     """The default margins updated by ``margins`` (SI units; None = no TOST).
 
+    Keys are names of :data:`OUTCOMES` (``runout_distance`` is accepted for
+    ``runout_displacement``).
+
     Raises
     ------
     ParameterError
         For an unknown outcome or a margin that is not a positive finite number.
     """
     out: dict[str, float | None] = dict(DEFAULT_MARGINS)
-    for key, value in (margins or {}).items():
+    for name, value in (margins or {}).items():
+        key = _ALIASES.get(name, name)
         if key not in OUTCOMES_BY_NAME:
             raise ParameterError(f"margin for unknown outcome {key!r}; known: {list(out)}")
         if value is None:
@@ -401,8 +340,6 @@ class Comparison:
         vehicles).
     params : SimulationParams or None
         Model parameters of the simulation (None: default model).
-    database : Database or None
-        The database (for re-simulating cases in the report); not compared.
     """
 
     source: str
@@ -420,7 +357,6 @@ class Comparison:
     table1: pd.DataFrame
     case_errors: pd.DataFrame
     params: SimulationParams | None = None
-    database: Any = field(default=None, repr=False, compare=False)
 
     @property
     def status_counts(self) -> dict[str, int]:
@@ -590,26 +526,7 @@ def compare_database(
         source = "run table" if isinstance(run, pd.DataFrame) else f"run {run}"
     return compare_tables(rec, vfs, participants=getattr(db, "participants", None),
                           margins=margins, alpha=alpha, confidence=confidence, source=source,
-                          params=params, database=db)
-
-
-def _vehicle_values(table: pd.DataFrame, outcome: Outcome) -> np.ndarray | None:
-    """Values (n, 2) of a vehicle-level outcome, or (n, 1) of a case-level one;
-    None if a column is missing."""
-    vehicles = (1, 2) if outcome.level == "vehicle" else (0,)
-    out = []
-    for i in vehicles:
-        cols = [c.format(i=i) for c in outcome.columns]
-        if any(c not in table.columns for c in cols):
-            return None
-        arr = [pd.to_numeric(table[c], errors="coerce").to_numpy(float) for c in cols]
-        if outcome.derive == "value":
-            out.append(arr[0])
-        elif outcome.derive == "hypot":
-            out.append(np.hypot(arr[0], arr[1]))
-        else:  # displacement: rest position minus CG at impact
-            out.append(np.hypot(arr[0] - arr[2], arr[1] - arr[3]))
-    return np.stack(out, axis=1)
+                          params=params)
 
 
 def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -677,21 +594,13 @@ def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:
     })
 
 
-def _normalise_reconstruction(rec: pd.DataFrame) -> pd.DataFrame:
-    """Reconstruction with the degree columns in rad (every column SI)."""
-    out = rec.copy()
-    for c in _RECONSTRUCTION_DEGREE_COLUMNS:
-        if c in out.columns:
-            out[c] = np.radians(pd.to_numeric(out[c], errors="coerce").to_numpy(float))
-    return out
-
-
 def _normalise_vfs(vfs: pd.DataFrame, ok: np.ndarray) -> pd.DataFrame:
     """VFS table aligned with the cases, numbers of cases not compared set to NaN.
 
-    The angle columns the reconstruction stores in degrees go through the same
-    representation (rad -> deg -> rad): identical values then compare exactly
-    equal (the round trip changes a value by at most one unit in the last place).
+    The columns the reconstruction files store in another unit (angles in
+    degrees) are rounded as the files round them
+    (:meth:`vfs.database.schema.ColumnSpec.as_stored`): identical values then
+    compare exactly equal.
     """
     out = vfs.copy()
     for c in out.columns:
@@ -700,8 +609,8 @@ def _normalise_vfs(vfs: pd.DataFrame, ok: np.ndarray) -> pd.DataFrame:
         if pd.api.types.is_bool_dtype(out[c]):
             continue
         values = out[c].to_numpy(float, na_value=np.nan)
-        if c in _RECONSTRUCTION_DEGREE_COLUMNS:
-            values = np.radians(np.degrees(values))
+        if c in RECONSTRUCTION.column_names:
+            values = RECONSTRUCTION.column(c).as_stored(values)
         out[c] = np.where(ok, values, np.nan)
     return out
 
@@ -756,7 +665,6 @@ def compare_tables(
     confidence: float = 0.95,
     source: str = "",
     params: SimulationParams | None = None,
-    database: Any = None,
 ) -> Comparison:
     """Compare a VFS results table with a reconstruction table (the work of
     :func:`compare_database`).
@@ -764,8 +672,9 @@ def compare_tables(
     Parameters
     ----------
     reconstruction : pandas.DataFrame
-        Reconstruction table (schema of ``docs/data-format.md``; PDOF and
-        change of velocity angle in degrees), one row per case.
+        Reconstruction table (schema of ``docs/data-format.md``, SI units as
+        :attr:`vfs.database.Database.reconstruction` holds it: angles in rad),
+        one row per case.
     vfs : pandas.DataFrame
         Results table of the VFS (columns of
         :func:`vfs.simulation.results_table`, angles in rad), optionally with
@@ -778,9 +687,7 @@ def compare_tables(
     source : str
         Description of the VFS source.
     params : SimulationParams, optional
-        Model parameters (recorded; used to re-simulate cases for the report).
-    database : Database, optional
-        Kept for the report.
+        Model parameters (recorded; the report re-simulates cases with them).
 
     Returns
     -------
@@ -801,7 +708,7 @@ def compare_tables(
     cases = _case_status(rec, aligned)
     ok = (cases["status"] == STATUS_OK).to_numpy()
     vfs_n = _normalise_vfs(aligned, ok)
-    rec_n = _normalise_reconstruction(rec)
+    rec_n = rec
 
     # ---- stacked per vehicle (case-major: case 1 vehicle 1, case 1 vehicle 2, ...)
     case_index = np.repeat(np.arange(n_cases), 2)
@@ -815,9 +722,11 @@ def compare_tables(
         "vfs_type": cases["vfs_type"].to_numpy(object)[case_index],
     }
     values: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    recorded = from_reconstruction(rec_n, [o.outcome for o in OUTCOMES])
+    modelled = from_results(vfs_n, [o.outcome for o in OUTCOMES])
     for o in OUTCOMES:
-        ref = _vehicle_values(rec_n, o)
-        mod = _vehicle_values(vfs_n, o)
+        ref = recorded.get(o.outcome.name)
+        mod = modelled.get(o.outcome.name)
         if ref is None or mod is None:
             continue
         if o.angular:
@@ -870,7 +779,7 @@ def compare_tables(
         cases=cases, pairs=pairs_df, contingency=contingency,
         contingency_impacts=contingency_impacts, poi_distances=poi_stats,
         rest_distances=rest_stats, paired=paired, table1=table1, case_errors=errors,
-        params=params, database=database,
+        params=params,
     )
 
 
@@ -1022,16 +931,11 @@ def parse_margins(text: str) -> dict[str, float]:
         For an unknown outcome, a unit that does not fit the outcome or a value
         that is not a positive number.
     """
-    factors = {  # unit -> (quantity, factor to SI)
-        "km/h": ("speed", _KMH), "kmh": ("speed", _KMH), "m/s": ("speed", 1.0),
-        "deg": ("angle", math.pi / 180.0), "rad": ("angle", 1.0), "m": ("length", 1.0),
-        "deg/s": ("rate", math.pi / 180.0), "rad/s": ("rate", 1.0),
-        "kj": ("energy", 1e3), "j": ("energy", 1.0),
-    }
+    factors = unit_factors()  # unit -> (quantity, factor to SI)
     out: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
         key, sep, value = item.partition("=")
-        key, value = key.strip(), value.strip()
+        key, value = _ALIASES.get(key.strip(), key.strip()), value.strip()
         if not sep or key not in OUTCOMES_BY_NAME:
             raise ParameterError(f"margin {item!r}: expected OUTCOME=VALUE[UNIT] with OUTCOME "
                                  f"one of {list(OUTCOMES_BY_NAME)}")
@@ -1066,8 +970,8 @@ __all__ = [
     "GROUP_SLIDING",
     "OUTCOMES",
     "TABLE1_OUTCOMES",
+    "ComparedOutcome",
     "Comparison",
-    "Outcome",
     "compare_database",
     "compare_tables",
     "contingency_to_dict",

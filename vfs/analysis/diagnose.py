@@ -4,7 +4,7 @@
 database (never with a ground-truth file):
 
 1. **Where it fails.**  Residuals ``model - reconstruction`` of every output
-   (:data:`vfs.analysis.calibrate.OUTPUT_GROUPS`), stratified by impact type, accident
+   (:data:`vfs.outcomes.OUTPUT_GROUPS`), stratified by impact type, accident
    type, overlap (:func:`vfs.physics.geometry.swept_overlap` at the reconstruction's
    impact configuration), closing speed, mass ratio and impact angle
    (:func:`stratified_residuals`); associations of each signed residual with
@@ -23,25 +23,25 @@ database (never with a ground-truth file):
    after the best effect (significant associations of its held-out
    residuals) is reported with the strata it points to.
 
-:func:`vfs.report.diagnose.write_report` writes the ranked table (CSV), a
-JSON summary, and Markdown and HTML reports with figures.  Reports show km/h and degrees; all
-computations are SI (angles of the reconstruction table in its units).
+:func:`vfs.report.diagnose.write_diagnosis_report` writes the ranked table (CSV), a
+JSON summary, and Markdown and HTML reports with figures.  Reports show km/h and degrees
+(display units of :mod:`vfs.outcomes`); all computations are SI.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from vfs.analysis.calibrate import (
-    OUTPUT_GROUPS,
     CalibrationData,
     CVResult,
     FitSpace,
@@ -55,21 +55,22 @@ from vfs.analysis.calibrate import (
 )
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
+from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
 from vfs.physics.geometry import swept_overlap, vehicle_outline
 from vfs.simulation import SimulationParams
 
-#: Numeric case features (name -> (unit for reports, factor SI -> report unit)).
-NUMERIC_FEATURES: dict[str, tuple[str, float]] = {
-    "closing_speed": ("km/h", 3.6),
-    "overlap": ("%", 100.0),
-    "mass_ratio": ("-", 1.0),
-    "impact_angle": ("deg", 1.0),
-    "impact_speed1": ("km/h", 3.6),
-    "impact_speed2": ("km/h", 3.6),
-    "road_friction": ("-", 1.0),
-    "restitution": ("-", 1.0),
-    "contact_friction": ("-", 1.0),
-}
+#: Numeric case features (name -> quantity kind: SI unit, report unit and factor).
+NUMERIC_FEATURES: Mapping[str, Quantity] = MappingProxyType({
+    "closing_speed": QUANTITIES["speed"],
+    "overlap": QUANTITIES["fraction"],
+    "mass_ratio": QUANTITIES["dimensionless"],
+    "impact_angle": QUANTITIES["angle"],
+    "impact_speed1": QUANTITIES["speed"],
+    "impact_speed2": QUANTITIES["speed"],
+    "road_friction": QUANTITIES["dimensionless"],
+    "restitution": QUANTITIES["dimensionless"],
+    "contact_friction": QUANTITIES["dimensionless"],
+})
 #: Categorical case features.
 CATEGORICAL_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "road_surface")
 
@@ -99,8 +100,8 @@ def case_features(data: CalibrationData) -> pd.DataFrame:
     road_surface, closing_speed [m/s] (|v1 - v2| at impact), overlap [-]
     (:func:`vfs.physics.geometry.swept_overlap` of the outlines at the recorded
     impact configuration along v1 - v2), mass_ratio m1 / m2 [-],
-    impact_angle [deg] (angle between the headings, 0 = same direction,
-    180 = head-on), impact_speed1/2 [m/s], road_friction, restitution,
+    impact_angle [rad] (angle between the headings, 0 = same direction,
+    pi = head-on), impact_speed1/2 [m/s], road_friction, restitution,
     contact_friction (recorded).
     """
     rec = data.reconstruction
@@ -125,7 +126,7 @@ def case_features(data: CalibrationData) -> pd.DataFrame:
         "closing_speed": np.hypot(rel[:, 0], rel[:, 1]),
         "overlap": swept_overlap(o1, o2, rel),
         "mass_ratio": b.vehicle1.mass / b.vehicle2.mass,
-        "impact_angle": np.degrees(np.abs((yaw2 - yaw1 + np.pi) % (2 * np.pi) - np.pi)),
+        "impact_angle": np.abs((yaw2 - yaw1 + np.pi) % (2 * np.pi) - np.pi),
         "impact_speed1": np.hypot(vx1, vy1),
         "impact_speed2": np.hypot(vx2, vy2),
         "road_friction": b.road_friction,
@@ -139,7 +140,7 @@ def _strata_labels(features: pd.DataFrame, feature: str) -> pd.Series:
     if feature in CATEGORICAL_FEATURES:
         return features[feature].astype(str)
     edges, labels = STRATA_BINS[feature]
-    factor = NUMERIC_FEATURES[feature][1]
+    factor = NUMERIC_FEATURES[feature].display_factor
     values = features[feature].to_numpy(float) * factor
     cut = pd.Series(pd.cut(values, bins=list(edges), labels=list(labels), right=False))
     return pd.Series(cut.astype(object).fillna("unknown").to_numpy(), index=features.index)
@@ -164,14 +165,14 @@ def stratified_residuals(data: CalibrationData, residuals: np.ndarray,
                 rmse_std = math.sqrt(group_mse(errors, np.flatnonzero(sel))[k]) \
                     if np.isfinite(errors[sel, k]).any() else float("nan")
                 for j in np.flatnonzero(data.column_group == k):
-                    r = residuals[sel, j] * g.report_factor
+                    r = residuals[sel, j] * g.quantity.display_factor
                     r = r[np.isfinite(r)]
                     rows.append({
                         "feature": feature, "stratum": stratum, "output": g.name,
                         "column": data.columns[j], "n": int(r.size),
                         "bias": float(r.mean()) if r.size else float("nan"),
                         "rmse": float(np.sqrt(np.mean(r ** 2))) if r.size else float("nan"),
-                        "unit": g.report_unit, "rmse_std": rmse_std,
+                        "unit": g.quantity.display_unit, "rmse_std": rmse_std,
                     })
     return pd.DataFrame(rows)
 
@@ -413,7 +414,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     db : Database
         Analysed blind: only its tables (never a ground-truth file).
     outputs : str or list, optional
-        Compared outputs (names of :data:`vfs.analysis.calibrate.OUTPUT_GROUPS`;
+        Compared outputs (names of :data:`vfs.outcomes.OUTPUT_GROUPS`;
         default all available).
     effects : "all" or names
         Candidate effects (default every registered effect).
@@ -554,7 +555,8 @@ def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.nda
     else:
         values = diag.features[feature].to_numpy(float)
         q = np.nanquantile(values, [0, 1 / 3, 2 / 3, 1])
-        unit, factor = NUMERIC_FEATURES[feature]
+        unit = NUMERIC_FEATURES[feature].display_unit
+        factor = NUMERIC_FEATURES[feature].display_factor
         names = ["low", "middle", "high"]
         idx = np.clip(np.searchsorted(q[1:-1], values, side="right"), 0, 2)
         labels = pd.Series([f"{names[i]} third ({q[i] * factor:.3g}-{q[i + 1] * factor:.3g}"
@@ -564,12 +566,13 @@ def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.nda
         sel = (labels == s).to_numpy() & np.isfinite(residuals[:, j])
         if sel.sum() < 5:
             continue
-        b = float(residuals[sel, j].mean() * g.report_factor)
+        b = float(residuals[sel, j].mean() * g.quantity.display_factor)
         if abs(b) > abs(best_bias):
             best, best_bias, best_n = str(s), b, int(sel.sum())
     if not best:
         return ""
-    return f"largest bias in {feature} {best}: {best_bias:+.3g} {g.report_unit} (n = {best_n})"
+    unit = g.quantity.display_unit
+    return f"largest bias in {feature} {best}: {best_bias:+.3g} {unit} (n = {best_n})"
 
 
 def _verdict(diag: Diagnosis) -> list[str]:

@@ -44,7 +44,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
 def run_compare(args: argparse.Namespace) -> int:
     """Run ``vfs compare`` (exit code 0)."""
-    from vfs.analysis.compare import compare_database, load_model_config, parse_margins
+    from vfs.analysis.compare import compare_database, parse_margins
+    from vfs.analysis.model_config import load_model_config
     from vfs.cli.common import open_db
     from vfs.report.compare import write_comparison_report
 
@@ -52,7 +53,8 @@ def run_compare(args: argparse.Namespace) -> int:
     params = load_model_config(args.model) if args.model else None
     comparison = compare_database(db, run=args.run, params=params,
                                   margins=parse_margins(args.margins), alpha=args.alpha)
-    files = write_comparison_report(comparison, args.out, top=args.top, sketches=args.sketches)
+    files = write_comparison_report(comparison, args.out, database=db, top=args.top,
+                                    sketches=args.sketches)
     print(comparison.summary())
     print(f"report -> {files['report_md']} and {files['report_html']} ({len(files)} files)")
     return 0

@@ -64,7 +64,10 @@ class Database:
         Pre-crash samples (``case_id``, ``participant``, ``t`` [s], ``x``,
         ``y`` [m], ``yaw`` [rad], ``speed`` [m/s], ``accel`` [m/s^2]).
     reconstruction : pandas.DataFrame
-        The expert's reconstruction, one row per colliding case.
+        The expert's reconstruction, one row per colliding case, SI units
+        (PDOF and change of velocity angle in rad, although the files store
+        them in degrees: :mod:`vfs.database.io` converts on reading and
+        writing).
     meta : dict
         Contents of ``meta.json`` (``schema_version``, ``name``,
         ``created_by``, ``description``, optional ``has_reconstruction``).

@@ -22,7 +22,14 @@ import pyarrow.parquet as pq
 
 from vfs.atomic import write_folder
 from vfs.database.database import Database
-from vfs.database.schema import SCHEMA_VERSION, TABLE_NAMES, TABLES, empty_table
+from vfs.database.schema import (
+    SCHEMA_VERSION,
+    TABLE_NAMES,
+    TABLES,
+    empty_table,
+    table_from_file_units,
+    table_to_file_units,
+)
 from vfs.database.validation import validate_database
 from vfs.errors import DataError, DataProblem
 
@@ -93,6 +100,9 @@ def write_folder_atomically(
 def check_before_write(db: Database, validate: bool) -> Database:
     """The normalised database to write; with ``validate``, refuse an invalid one.
 
+    The returned tables are SI; :func:`tables_for_writing` converts them to
+    the units of the files.
+
     Raises
     ------
     DataError
@@ -104,6 +114,12 @@ def check_before_write(db: Database, validate: bool) -> Database:
             raise DataError(problems, header=f"not writing an invalid database: "
                                              f"{len(problems)} problem(s):")
     return db.normalised()
+
+
+def tables_for_writing(db: Database) -> dict[str, pd.DataFrame]:
+    """The tables of a (normalised, SI) database in the units of the files
+    (:func:`vfs.database.schema.table_to_file_units`: angles stored in degrees)."""
+    return {name: table_to_file_units(df, name) for name, df in db.tables().items()}
 
 
 # ----------------------------------------------------------------------------
@@ -132,7 +148,7 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
     norm = check_before_write(db, validate)
 
     def write(folder: Path) -> None:
-        for name, df in norm.tables().items():
+        for name, df in tables_for_writing(norm).items():
             table = pa.Table.from_pandas(df, preserve_index=False)
             pq.write_table(table, folder / f"{name}.parquet")
         (folder / META_FILE).write_text(_meta_for_writing(norm.meta), encoding="utf-8")
@@ -215,6 +231,8 @@ def _finish_loading(
     validate: bool,
 ) -> Database:
     db = Database(**frames, meta=meta).normalised()
+    db = Database(**{name: table_from_file_units(df, name) for name, df in db.tables().items()},
+                  meta=db.meta)
     if validate:
         found = validate_database(db)
         if any(p.table == "meta" for p in problems):  # supersedes "meta.json missing"
@@ -244,7 +262,8 @@ def load_database(
     Returns
     -------
     Database
-        Normalised database (schema dtypes and column order).
+        Normalised database in SI units (schema dtypes and column order;
+        columns stored in degrees converted to rad).
 
     Raises
     ------
@@ -321,7 +340,7 @@ def save_csv_folder(db: Database, path: str | os.PathLike[str], *, validate: boo
     norm = check_before_write(db, validate)
 
     def write(folder: Path) -> None:
-        for name, df in norm.tables().items():
+        for name, df in tables_for_writing(norm).items():
             df.to_csv(folder / f"{name}.csv", index=False, lineterminator="\n")
         (folder / META_FILE).write_text(_meta_for_writing(norm.meta), encoding="utf-8")
 
@@ -366,8 +385,9 @@ def load_csv_folder(path: str | os.PathLike[str], *, validate: bool = True) -> D
     Returns
     -------
     Database
-        Normalised database; identical (dtypes included) to the database the
-        folder was written from.
+        Normalised database in SI units; identical (dtypes included) to the
+        database the folder was written from, except that the columns stored
+        in degrees went through one rounded conversion each way.
     """
     folder = Path(path)
     if not folder.is_dir():

@@ -6,22 +6,29 @@ dtype normalisation after reading (:func:`normalise_table`) and the column
 tables of ``docs/data-format.md`` (:func:`schema_markdown`) are all generated
 from :data:`TABLES`; nothing else lists columns, units or ranges.
 
-Units are SI (m, s, kg, rad, m/s) except where a column says otherwise (the
-PDOF and velocity-angle-change columns are in degrees, as in accident
-databases).  The vehicle-parameter ranges are those of
+Values in memory are SI (m, s, kg, rad, m/s).  A column may be stored in
+files in another unit (:attr:`ColumnSpec.file_unit`: the PDOF and
+velocity-angle-change columns are stored in degrees, as in accident
+databases); the readers of :mod:`vfs.database.io` convert such columns to SI
+once, on loading (:func:`table_from_file_units`), and the writers convert
+them back (:func:`table_to_file_units`).  Ranges (:attr:`ColumnSpec.lo`,
+:attr:`ColumnSpec.hi`) are SI; the documentation shows them in the file unit.
+The vehicle-parameter ranges are those of
 :data:`vfs.physics.vehicle.PARAMETER_RANGES`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
+from vfs.errors import ParameterError
 from vfs.physics.vehicle import PARAMETER_RANGES
 
 #: The schema version written to and expected in ``meta.json``.
@@ -49,6 +56,34 @@ PANDAS_DTYPES: dict[str, object] = {
 #: Names of the column kinds in the documentation.
 KIND_NAMES: dict[str, str] = {"int": "int64", "float": "float64", "bool": "bool", "str": "string"}
 
+#: Units a file column may use instead of its SI unit:
+#: file unit -> (SI unit, file -> SI, SI -> file rounded to the nearest value).
+FILE_UNITS: Mapping[str, tuple[str, Callable[[npt.ArrayLike], np.ndarray],
+                               Callable[[npt.ArrayLike], np.ndarray]]] = {
+    "deg": ("rad", np.radians, np.degrees),
+}
+
+
+def _exact_inverse(values: np.ndarray, to_si: Callable[[npt.ArrayLike], np.ndarray],
+                   nearest: np.ndarray) -> np.ndarray:
+    """File values that convert back to exactly ``values`` where one exists.
+
+    ``nearest`` (the rounded conversion) misses for about 5 % of the angles;
+    one of its neighbours (one unit in the last place either way) then hits
+    whenever ``values`` came from a file, so that reading what was written
+    gives the same SI values bit for bit.
+    """
+    out = nearest.copy()
+    miss = to_si(out) != values
+    for direction in (np.inf, -np.inf):
+        if not miss.any():
+            break
+        step = np.nextafter(nearest, direction)
+        hit = miss & (to_si(step) == values)
+        out[hit] = step[hit]
+        miss &= ~hit
+    return out
+
 
 @dataclass(frozen=True)
 class ColumnSpec:
@@ -61,7 +96,8 @@ class ColumnSpec:
     kind : {"int", "float", "bool", "str"}
         Value kind; see :data:`PANDAS_DTYPES` for the pandas dtype.
     unit : str
-        Unit of the values (``"-"`` for dimensionless, ``""`` for non-numeric).
+        SI unit of the values in memory (``"-"`` for dimensionless, ``""``
+        for non-numeric).
     description : str
         One-line meaning of the column.
     required : bool
@@ -70,8 +106,8 @@ class ColumnSpec:
     nullable : bool
         Missing values (NaN) are allowed.
     lo, hi : float
-        Allowed range of numeric values (``-inf``/``inf`` = unbounded; finite
-        values are always required).
+        Allowed range of numeric values [SI unit] (``-inf``/``inf`` =
+        unbounded; finite values are always required).
     lo_open, hi_open : bool
         The bound itself is excluded.
     allowed : tuple
@@ -81,6 +117,9 @@ class ColumnSpec:
     uncertainty : bool
         An optional ``<name>_sd`` column (standard deviation, same unit, >= 0)
         may accompany this column.
+    file_unit : str
+        Unit of the column in files when it differs from :attr:`unit` (a key
+        of :data:`FILE_UNITS`, e.g. ``"deg"``); ``""`` = stored in SI.
     """
 
     name: str
@@ -96,6 +135,51 @@ class ColumnSpec:
     allowed: tuple[object, ...] = ()
     default: object = None
     uncertainty: bool = False
+    file_unit: str = ""
+
+    def __post_init__(self) -> None:
+        if self.file_unit and FILE_UNITS[self.file_unit][0] != self.unit:
+            raise ParameterError(f"column {self.name}: file unit {self.file_unit!r} does not "
+                             f"convert to {self.unit!r}")
+
+    @property
+    def stored_unit(self) -> str:
+        """Unit of the column in files (the documented unit)."""
+        return self.file_unit or self.unit
+
+    def from_file(self, values: npt.ArrayLike) -> np.ndarray:
+        """Values as stored in files -> SI values (the identity for SI columns)."""
+        if not self.file_unit:
+            return np.asarray(values, dtype=float)
+        return FILE_UNITS[self.file_unit][1](np.asarray(values, dtype=float))
+
+    def to_file(self, values: npt.ArrayLike) -> np.ndarray:
+        """SI values -> values as stored in files (the identity for SI columns).
+
+        ``from_file(to_file(v)) == v`` bit for bit for every ``v`` that
+        came from a file or from :meth:`as_stored`, so that writing and
+        reading a database changes nothing.
+        """
+        v = np.asarray(values, dtype=float)
+        if not self.file_unit:
+            return v
+        _, to_si, from_si = FILE_UNITS[self.file_unit]
+        return _exact_inverse(v, to_si, from_si(v))
+
+    def as_stored(self, values: npt.ArrayLike) -> np.ndarray:
+        """SI values rounded to what the file unit can hold (the identity for SI columns).
+
+        ``v`` converted to the file unit, rounded to the nearest double, and
+        back (for degrees: ``radians(degrees(v))``, a change of at most one
+        unit in the last place).  A value computed in SI compares exactly
+        equal with the same value written to a file in the file unit and read
+        back; the result is unchanged by writing and reading.
+        """
+        v = np.asarray(values, dtype=float)
+        if not self.file_unit:
+            return v
+        _, to_si, from_si = FILE_UNITS[self.file_unit]
+        return to_si(from_si(v))
 
     @property
     def dtype(self) -> object:
@@ -108,7 +192,8 @@ class ColumnSpec:
         return math.isfinite(self.lo) or math.isfinite(self.hi)
 
     def allowed_text(self) -> str:
-        """Human-readable allowed values, e.g. ``"[0.05, 1.5]"`` or ``"{dry, wet}"``."""
+        """Human-readable allowed values in the file unit, e.g. ``"[0.05, 1.5]"`` or
+        ``"{dry, wet}"``."""
         if self.allowed:
             return "{" + ", ".join(str(v) for v in self.allowed) + "}"
         if self.kind == "bool":
@@ -119,14 +204,15 @@ class ColumnSpec:
             return "any finite value"
         left = "(" if self.lo_open or not math.isfinite(self.lo) else "["
         right = ")" if self.hi_open or not math.isfinite(self.hi) else "]"
-        return f"{left}{_fmt(self.lo)}, {_fmt(self.hi)}{right}"
+        lo, hi = (float(v) for v in self.to_file([self.lo, self.hi]))
+        return f"{left}{_fmt(lo)}, {_fmt(hi)}{right}"
 
     def uncertainty_spec(self) -> ColumnSpec:
         """Specification of the ``<name>_sd`` column of this column."""
         return ColumnSpec(
             name=self.name + UNCERTAINTY_SUFFIX, kind="float", unit=self.unit,
             description=f"standard deviation of {self.name}", required=False,
-            nullable=True, lo=0.0,
+            nullable=True, lo=0.0, file_unit=self.file_unit,
         )
 
 
@@ -311,12 +397,14 @@ _OUTCOMES += _per_vehicle("delta_v", "m/s", "magnitude of the CG velocity change
 _OUTCOMES += _per_vehicle("ees", "m/s", "energy equivalent speed of participant {i}", lo=0.0)
 _OUTCOMES.append(_rec("energy_loss", "J", "kinetic energy lost in the impact", lo=0.0))
 _OUTCOMES += _per_vehicle(
-    "pdof", "deg", "principal direction of force on participant {i} in its vehicle frame "
-    "(0 = frontal, clockwise positive seen from above)", lo=-180.0, hi=180.0, lo_open=True,
+    "pdof", "rad", "principal direction of force on participant {i} in its vehicle frame "
+    "(0 = frontal, clockwise positive seen from above)", lo=-math.pi, hi=math.pi,
+    lo_open=True, file_unit="deg",
 )
 _OUTCOMES += _per_vehicle(
-    "velocity_angle_change", "deg", "angle between the CG velocity of participant {i} "
-    "before and after impact; NaN if a speed is zero", lo=0.0, hi=180.0, nullable=True,
+    "velocity_angle_change", "rad", "angle between the CG velocity of participant {i} "
+    "before and after impact; NaN if a speed is zero", lo=0.0, hi=math.pi, nullable=True,
+    file_unit="deg",
 )
 for _i in (1, 2):
     _OUTCOMES += [
@@ -455,6 +543,59 @@ def normalise_table(df: pd.DataFrame, table: str) -> pd.DataFrame:
     return out[table_column_order(table, list(out.columns))]
 
 
+def _convert_units(df: pd.DataFrame, table: str, to_file: bool) -> pd.DataFrame:
+    spec = TABLES[table]
+    out = df
+    for col in spec.known_columns(list(df.columns)):
+        if not col.file_unit or col.name not in df.columns:
+            continue
+        series = df[col.name]
+        if series.dtype == bool or not pd.api.types.is_numeric_dtype(series.dtype):
+            continue  # not numeric: left for validation to report
+        values = series.to_numpy(dtype=float, na_value=np.nan)
+        if out is df:
+            out = df.copy()
+        out[col.name] = col.to_file(values) if to_file else col.from_file(values)
+    return out
+
+
+def table_from_file_units(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    """A table as read from a file with every column in SI units.
+
+    Columns with a :attr:`ColumnSpec.file_unit` (and their ``_sd`` columns)
+    are converted once (degrees -> rad); non-numeric columns are left for
+    validation to report.  Returns ``df`` itself when nothing is converted.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Normalised table (:func:`normalise_table`) in file units.
+    table : str
+        Table name, a key of :data:`TABLES`.
+    """
+    return _convert_units(df, table, to_file=False)
+
+
+def table_as_stored(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    """A table in SI units with every column rounded to what its file unit can hold
+    (:meth:`ColumnSpec.as_stored`); writing and reading it changes nothing."""
+    spec = TABLES[table]
+    out = df.copy()
+    for col in spec.known_columns(list(df.columns)):
+        if col.file_unit and col.name in df.columns:
+            out[col.name] = col.as_stored(df[col.name].to_numpy(dtype=float, na_value=np.nan))
+    return out
+
+
+def table_to_file_units(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    """A table in SI units with its columns converted to the units of the files.
+
+    The inverse of :func:`table_from_file_units` (rad -> degrees), used by the
+    writers so that files keep the documented format.
+    """
+    return _convert_units(df, table, to_file=True)
+
+
 def empty_table(table: str) -> pd.DataFrame:
     """An empty table with all schema columns and their dtypes."""
     spec = TABLES[table]
@@ -494,7 +635,7 @@ def schema_markdown(tables: Mapping[str, TableSpec] | None = None) -> str:
             required = "yes" if c.required else f"no (default {c.default!r})" if (
                 c.default is not None) else "no"
             allowed = c.allowed_text() + (", NaN allowed" if c.nullable else "")
-            unit = c.unit or ""
+            unit = c.stored_unit
             name = f"`{c.name}`" + (" (+`_sd`)" if c.uncertainty else "")
             lines.append(
                 f"| {name} | {KIND_NAMES[c.kind]} | {_md_escape(unit)} | {required} | "

@@ -150,7 +150,7 @@ def _check_numeric(report: _Report, table: str, df: pd.DataFrame, col: ColumnSpe
             above = (values > col.hi) | ((values == col.hi) & col.hi_open)
         bad = finite & (below | above)
         messages = []
-        for v in values[bad][:MAX_REPORTED_ROWS]:
+        for v in col.to_file(values[bad][:MAX_REPORTED_ROWS]):  # as in the files
             if v < 0 <= col.lo:
                 messages.append(f"negative value {col.name}={v:g} (allowed range {allowed})")
             else:
@@ -195,7 +195,7 @@ def _check_columns(report: _Report, spec: TableSpec, df: pd.DataFrame) -> None:
         if col.name not in df.columns:
             if col.required:
                 report.add(spec.name, col.name, None, None,
-                           f"required column missing ({col.kind}, unit {col.unit or '-'}, "
+                           f"required column missing ({col.kind}, unit {col.stored_unit or '-'}, "
                            f"allowed {col.allowed_text()})")
             continue
         if col.kind in ("int", "float"):

@@ -191,6 +191,11 @@ class Effect:
         """Stages whose hook this effect overrides, in :data:`STAGES` order."""
         return tuple(s for s in STAGES if getattr(cls, s) is not getattr(Effect, s))
 
+    def active_stages(self) -> tuple[str, ...]:
+        """Stages whose hook this instance runs (:meth:`stages`; an effect that
+        dispatches to other effects may run fewer)."""
+        return type(self).stages()
+
     def replace(self, **values: float) -> Effect:
         """A copy with some parameter values changed."""
         return type(self)(**{**self._values, **values})
@@ -372,7 +377,8 @@ def check_effects(effects: Iterable[Effect]) -> tuple[Effect, ...]:
 
 
 def hooks(effects: Iterable[Effect], stage: str) -> list[Callable[..., Any]]:
-    """Bound hook methods of ``stage`` of the effects that override it, in order."""
+    """Bound hook methods of ``stage`` of the effects that run it
+    (:meth:`Effect.active_stages`), in order."""
     if stage not in STAGES:
         raise ParameterError(f"unknown stage {stage!r}; stages: {STAGES}")
-    return [getattr(e, stage) for e in effects if stage in type(e).stages()]
+    return [getattr(e, stage) for e in effects if stage in e.active_stages()]

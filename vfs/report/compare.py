@@ -17,7 +17,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -47,6 +47,9 @@ from vfs.report.render import (
     write_report,
 )
 from vfs.units import KMH_PER_MS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from vfs.database import Database
 
 #: Colours of seed 001's Figure 5: reconstruction full / sliding (circles),
 #: VFS full / sliding (triangles).
@@ -356,15 +359,17 @@ def plot_scatter(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     _save(fig, path)
 
 
-def plot_worst_cases(comparison: Comparison, folder: Path, count: int) -> list[tuple[Path, str]]:
-    """Top views of the ``count`` worst cases, re-simulated with the comparison's model.
+def plot_worst_cases(comparison: Comparison, folder: Path, count: int,
+                     database: Database | None = None) -> list[tuple[Path, str]]:
+    """Top views of the ``count`` worst cases of ``database``, re-simulated with the
+    comparison's model.
 
     The VFS is drawn by :func:`vfs.report.figures.plot_case_topview`; the
     reconstruction's POI (open circle), contact plane (grey line) and rest
     positions (grey dashed outlines) are added.  Returns (file, caption) pairs;
     none without a database.
     """
-    db = comparison.database
+    db = database
     worst = comparison.case_errors.head(count)
     if db is None or worst.empty:
         return []
@@ -546,7 +551,8 @@ def _margins_text(comparison: Comparison) -> str:
 
 
 def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str], *,
-                            top: int = 10, sketches: int = 4) -> dict[str, Path]:
+                            database: Database | None = None, top: int = 10,
+                            sketches: int = 4) -> dict[str, Path]:
     """Write every table, figure and the Markdown / HTML report into a folder.
 
     Parameters
@@ -555,11 +561,13 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         Result of :func:`vfs.analysis.compare.compare_database`.
     out : path
         Output folder (created; existing files of the same names are replaced).
+    database : Database, optional
+        The compared database, for the top views of the worst cases.
     top : int
         Number of worst cases listed in the report.
     sketches : int
         Number of worst cases re-simulated and drawn as top views (0: none;
-        needs ``comparison.database``).
+        needs ``database``).
 
     Returns
     -------
@@ -599,7 +607,7 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     for key, (file, func) in figure_jobs.items():
         files[key] = figs / file
         func(comparison, files[key])
-    worst = plot_worst_cases(comparison, figs, max(0, int(sketches)))
+    worst = plot_worst_cases(comparison, figs, max(0, int(sketches)), database)
     for k, (file, _) in enumerate(worst):
         files[f"fig_worst_{k + 1}"] = file
 

@@ -242,7 +242,7 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                              "CV RMSE (standardised)": diag.default.rmse(),
                              "scale": d.scales,
                              "scale from": list(d.scale_source),
-                             "unit": [g.unit for g in d.groups]})),
+                             "unit": [g.quantity.si_unit for g in d.groups]})),
     ]
     if "strata" in figures:
         doc.append(Figure(figures["strata"], "Standardised residuals of the default model by "

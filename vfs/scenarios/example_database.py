@@ -20,6 +20,8 @@ d = u'^2 / (2 mu g).  Nothing here is real accident data.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 
@@ -61,11 +63,11 @@ def _surface(mu: float) -> str:
     return "dry" if mu >= 0.7 else "wet" if mu >= 0.4 else "snow"
 
 
-def _angle_change_deg(before: float, after: float) -> float:
-    """Angle between collinear velocities u and u' [deg]; NaN if one is zero."""
+def _angle_change(before: float, after: float) -> float:
+    """Angle between collinear velocities u and u' [rad]; NaN if one is zero."""
     if before == 0.0 or after == 0.0:
         return float("nan")
-    return 0.0 if np.sign(before) == np.sign(after) else 180.0
+    return 0.0 if np.sign(before) == np.sign(after) else math.pi
 
 
 def make_example_database(n_cases: int = 4, seed: int = 0) -> Database:
@@ -120,7 +122,7 @@ def make_example_database(n_cases: int = 4, seed: int = 0) -> Database:
             u1, u2 = speed1, speed2
             yaw1, yaw2 = 0.0, 0.0
             x1_imp, x2_imp = -cg_front1, cg_rear2  # front of 1 against rear of 2
-            pdof1, pdof2 = 0.0, 180.0
+            pdof1, pdof2 = 0.0, math.pi
         y1_imp, y2_imp = 0.0, lateral_offset
         cases.append({
             "case_id": case_id,
@@ -171,8 +173,8 @@ def make_example_database(n_cases: int = 4, seed: int = 0) -> Database:
             "ees1": np.sqrt(2.0 * e1 / m1), "ees2": np.sqrt(2.0 * e2 / m2),
             "energy_loss": energy_loss,
             "pdof1": pdof1, "pdof2": pdof2,
-            "velocity_angle_change1": _angle_change_deg(u1, u1_post),
-            "velocity_angle_change2": _angle_change_deg(u2, u2_post),
+            "velocity_angle_change1": _angle_change(u1, u1_post),
+            "velocity_angle_change2": _angle_change(u2, u2_post),
         }
         for number, u_post, x_imp, y_imp, yaw in ((1, u1_post, x1_imp, y1_imp, yaw1),
                                                   (2, u2_post, x2_imp, y2_imp, yaw2)):

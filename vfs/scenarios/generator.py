@@ -42,15 +42,15 @@ import numpy as np
 import pandas as pd
 
 from vfs.database import Database, default_meta, save_csv_folder, save_database
-from vfs.database.schema import empty_table, normalise_table
+from vfs.database.schema import empty_table, normalise_table, table_as_stored
 from vfs.effects import Effect, check_effects, parse_effect
 from vfs.errors import ParameterError
 from vfs.physics.impact import angle_between
 from vfs.scenarios.kinematics import SCENARIO_TYPES, ScenarioSpec, generate_scenes
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
-from vfs.units import wrap_angle
+from vfs.units import KMH_PER_MS, wrap_angle
 
-_KMH = 1.0 / 3.6  # km/h -> m/s
+_KMH = 1.0 / KMH_PER_MS  # km/h -> m/s
 
 #: Version of the generator; written to meta.json and the ground truth.
 GENERATOR_VERSION = "1.0"
@@ -290,8 +290,9 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
     The configuration is the one the simulation solved (poses and velocities
     at impact, POI and contact plane after effects); restitution and contact
     friction are the *recorded* values (the expert's choice, not any value an
-    effect derived from them).  Angles in the schema's units (PDOF and
-    change of velocity angle in degrees).
+    effect derived from them).  SI units (angles in rad; the files store
+    PDOF and change of velocity angle in degrees, see
+    :func:`vfs.database.schema.table_as_stored`).
     """
     pre, imp, ro = res.precrash, res.impact, res.runout
     st = pre.impact_state
@@ -312,10 +313,9 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
             cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")[rows]
     cols["energy_loss"] = imp.energy_loss[rows]
     for i in (1, 2):
-        cols[f"pdof{i}"] = np.degrees(getattr(imp, f"pdof{i}")[rows])
+        cols[f"pdof{i}"] = getattr(imp, f"pdof{i}")[rows]
     for i in (1, 2):
-        cols[f"velocity_angle_change{i}"] = np.degrees(
-            getattr(imp, f"velocity_angle_change{i}")[rows])
+        cols[f"velocity_angle_change{i}"] = getattr(imp, f"velocity_angle_change{i}")[rows]
     for i, r in ((1, ro.result1), (2, ro.result2)):
         cols[f"rest_x{i}"], cols[f"rest_y{i}"] = r.rest_x[rows], r.rest_y[rows]
         cols[f"rest_yaw{i}"] = r.rest_yaw[rows]
@@ -350,16 +350,14 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         out[f"yaw_rate{i}_post_sd"] = sd_w
         out[f"delta_v{i}"] = np.hypot(vxp - vx, vyp - vy)
         out[f"delta_v{i}_sd"] = sd_v
-        out[f"velocity_angle_change{i}"] = np.degrees(angle_between(vx, vy, vxp, vyp))
+        out[f"velocity_angle_change{i}"] = angle_between(vx, vy, vxp, vyp)
         ees = rec[f"ees{i}"].to_numpy(float)
         sd_e = k * noise.ees * ees
         ees_n = np.maximum(ees + sd_e * z[:, j + 3], 0.0)
         ees_new.append(ees_n)
         out[f"ees{i}"], out[f"ees{i}_sd"] = ees_n, sd_e
-        sd_p = k * noise.pdof
-        pdof = rec[f"pdof{i}"].to_numpy(float) + sd_p * z[:, j + 4]
-        pdof = np.degrees(wrap_angle(np.radians(pdof)))
-        out[f"pdof{i}"] = np.where(pdof <= -180.0, pdof + 360.0, pdof)
+        sd_p = math.radians(k * noise.pdof)
+        out[f"pdof{i}"] = wrap_angle(rec[f"pdof{i}"].to_numpy(float) + sd_p * z[:, j + 4])
         out[f"pdof{i}_sd"] = sd_p
         sd_r = k * noise.rest_position
         out[f"rest_x{i}"] = rec[f"rest_x{i}"].to_numpy(float) + sd_r * z[:, j + 5]
@@ -460,7 +458,7 @@ def generate_database(preset: str | Preset = "default", n_cases: int | None = No
     rec = reconstruction_rows(batch, res, crash_rows, eps, mu)
     masses = np.stack([batch.vehicle1.mass[crash_rows], batch.vehicle2.mass[crash_rows]], axis=1)
     rec = add_noise(rec, masses, noise, noise_rng)
-    rec = renumber(rec)
+    rec = renumber(table_as_stored(rec, "reconstruction"))  # as if read from the files
     meta = {
         **default_meta(
             name=f"synthetic-{p.name}",

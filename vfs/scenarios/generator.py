@@ -3,7 +3,7 @@
 Real in-depth accident data cannot be shipped, so the platform generates
 databases that look like them (``vfs generate``):
 
-1. **Scenes** (:mod:`vfs.scenarios.kinematics`): accident types, a passenger-car
+1. **Scenes** (:mod:`vfs.scenarios.scenes`): accident types, a passenger-car
    fleet, road friction, pre-crash trajectories of at least 5 s leading into
    the collision (or a near miss), drivers braking or steering late.
 2. **Reconstructions** as an expert would record them.  The expert chooses
@@ -46,7 +46,8 @@ from vfs.database.schema import empty_table, normalise_table
 from vfs.effects import Effect, check_effects, parse_effect
 from vfs.errors import ParameterError
 from vfs.physics.impact import angle_between
-from vfs.scenarios.kinematics import SCENARIO_TYPES, ScenarioSpec, generate_scenes
+from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
+from vfs.scenarios.scenes import generate_scenes
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
 from vfs.units import wrap_angle
 
@@ -142,7 +143,7 @@ class Preset:
     type_shares : mapping
         Accident-type code -> share of the cases.
     specs : mapping
-        Overrides of :data:`vfs.scenarios.kinematics.SCENARIO_TYPES`.
+        Overrides of :data:`vfs.scenarios.catalogue.SCENARIO_TYPES`.
     near_miss_share : float
         Share of near misses (recorded paths that do not collide).
     wet_share : float
@@ -241,7 +242,7 @@ class GroundTruth:
     noise : NoiseModel
     expert : ExpertChoice
     cases : pandas.DataFrame
-        Per case: the scene design (:func:`vfs.scenarios.kinematics.generate_scenes`)
+        Per case: the scene design (:func:`vfs.scenarios.scenes.generate_scenes`)
         and the values the truth physics used (restitution, penetration time,
         POI, contact plane, wheel brake factors, yaw inertias).
     """

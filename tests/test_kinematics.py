@@ -16,9 +16,9 @@ import vfs.scenarios.scenes as sm
 from vfs.database import Database, validate_database
 from vfs.database.schema import TABLES, empty_table, normalise_table
 from vfs.errors import ParameterError, SimulationError
-from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, overlap
+from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, outline_distance, overlap
 from vfs.physics.paths import concat_paths, paths_from_trajectories
-from vfs.physics.precrash import PrecrashParams, outline_distance, simulate_precrash
+from vfs.physics.precrash import PrecrashParams, simulate_precrash
 from vfs.physics.vehicle import validate_vehicle_values
 from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
 from vfs.scenarios.fleet import FLEET, FleetClass, sample_fleet

@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 
 from vfs.physics.geometry import vehicle_outline
+from vfs.physics.impact import IMPACT_TYPE_NAMES
+from vfs.units import KMH_PER_MS
 
 COLORS = ("#1f77b4", "#d62728")
 
@@ -86,10 +88,11 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
         ax.plot([poi[0] - d[0], poi[0] + d[0]], [poi[1] - d[1], poi[1] + d[1]], "k-", lw=1.2,
                 label="contact plane")
         ax.plot(*poi, "k*", ms=12, label="POI")
-        kind = ("none", "full", "sliding")[int(imp.impact_type[index])]
-        info = (f"{kind} impact, delta-v {imp.delta_v1[index] * 3.6:.1f} / "
-                f"{imp.delta_v2[index] * 3.6:.1f} km/h, EES {imp.ees1[index] * 3.6:.1f} / "
-                f"{imp.ees2[index] * 3.6:.1f} km/h")
+        kind = IMPACT_TYPE_NAMES[int(imp.impact_type[index])]
+        info = (f"{kind} impact, delta-v {imp.delta_v1[index] * KMH_PER_MS:.1f} / "
+                f"{imp.delta_v2[index] * KMH_PER_MS:.1f} km/h, "
+                f"EES {imp.ees1[index] * KMH_PER_MS:.1f} / "
+                f"{imp.ees2[index] * KMH_PER_MS:.1f} km/h")
     else:
         info = f"no collision, closest approach {pre.min_distance[index]:.2f} m"
     ax.set_title(title or f"case {batch.case_id[index]}: {info}", fontsize=10)

@@ -45,13 +45,18 @@ from vfs.database import Database, default_meta, save_csv_folder, save_database
 from vfs.database.schema import empty_table, normalise_table
 from vfs.effects import Effect, check_effects, parse_effect
 from vfs.errors import ParameterError
-from vfs.physics.impact import angle_between
+from vfs.physics.impact import (
+    angle_between,
+    deformation_energy,
+    impact_type_names,
+    velocity_change,
+)
 from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
 from vfs.scenarios.scenes import generate_scenes
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
-from vfs.units import wrap_angle
+from vfs.units import KMH_PER_MS, wrap_angle
 
-_KMH = 1.0 / 3.6  # km/h -> m/s
+_KMH = 1.0 / KMH_PER_MS  # km/h -> m/s
 
 #: Version of the generator; written to meta.json and the ground truth.
 GENERATOR_VERSION = "1.0"
@@ -304,7 +309,7 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
     cols["poi_x"], cols["poi_y"] = res.poi[rows, 0], res.poi[rows, 1]
     cols["cp_angle"] = res.cp_angle[rows]
     cols["restitution"], cols["contact_friction"] = recorded_eps[rows], recorded_mu[rows]
-    cols["impact_type"] = np.array(["none", "full", "sliding"])[imp.impact_type[rows]]
+    cols["impact_type"] = impact_type_names(imp.impact_type[rows])
     for i in (1, 2):
         for name in ("vx", "vy", "yaw_rate"):
             cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")[rows]
@@ -349,7 +354,7 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         sd_w = k * noise.yaw_rate
         out[f"yaw_rate{i}_post"] = rec[f"yaw_rate{i}_post"].to_numpy(float) + sd_w * z[:, j + 2]
         out[f"yaw_rate{i}_post_sd"] = sd_w
-        out[f"delta_v{i}"] = np.hypot(vxp - vx, vyp - vy)
+        out[f"delta_v{i}"] = velocity_change(vxp - vx, vyp - vy)
         out[f"delta_v{i}_sd"] = sd_v
         out[f"velocity_angle_change{i}"] = np.degrees(angle_between(vx, vy, vxp, vyp))
         ees = rec[f"ees{i}"].to_numpy(float)
@@ -359,8 +364,7 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         out[f"ees{i}"], out[f"ees{i}_sd"] = ees_n, sd_e
         sd_p = k * noise.pdof
         pdof = rec[f"pdof{i}"].to_numpy(float) + sd_p * z[:, j + 4]
-        pdof = np.degrees(wrap_angle(np.radians(pdof)))
-        out[f"pdof{i}"] = np.where(pdof <= -180.0, pdof + 360.0, pdof)
+        out[f"pdof{i}"] = np.degrees(wrap_angle(np.radians(pdof)))  # (-180, 180]
         out[f"pdof{i}_sd"] = sd_p
         sd_r = k * noise.rest_position
         out[f"rest_x{i}"] = rec[f"rest_x{i}"].to_numpy(float) + sd_r * z[:, j + 5]
@@ -369,7 +373,8 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         sd_y = math.radians(k * noise.rest_yaw)
         out[f"rest_yaw{i}"] = rec[f"rest_yaw{i}"].to_numpy(float) + sd_y * z[:, j + 7]
         out[f"rest_yaw{i}_sd"] = sd_y
-    out["energy_loss"] = 0.5 * masses[:, 0] * ees_new[0] ** 2 + 0.5 * masses[:, 1] * ees_new[1] ** 2
+    out["energy_loss"] = (deformation_energy(masses[:, 0], ees_new[0])
+                          + deformation_energy(masses[:, 1], ees_new[1]))
     return out
 
 

@@ -64,6 +64,14 @@ def slide_to_contact(fixed: np.ndarray, moving: np.ndarray,
     -------
     ndarray (n,)
         lam [m] (may be negative); NaN where the rectangles never touch along the line.
+
+    Notes
+    -----
+    The first-contact kernel of vfs is :func:`vfs.physics.geometry.first_contact`
+    (swept separating axes).  It gives the same contacts up to rounding, but not bit for
+    bit: placing participant 2 with it moved the x positions of 0.5-1.8 % of the rows
+    of ``vfs generate --preset default --seed 0`` in the last digits, and the bundled
+    database must stay reproducible, so the scenes keep this ray casting.
     """
     lam = np.concatenate([_ray_hits(moving, direction, fixed).reshape(len(fixed), -1),
                           _ray_hits(fixed, -direction, moving).reshape(len(fixed), -1)],

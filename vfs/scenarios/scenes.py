@@ -102,7 +102,7 @@ from vfs.database.schema import normalise_table
 from vfs.errors import ParameterError, SimulationError
 from vfs.physics.paths import pack_paths
 from vfs.physics.precrash import PrecrashParams, simulate_precrash
-from vfs.physics.vehicle import VehicleArrays, vehicle_arrays
+from vfs.physics.vehicle import VehicleArrays, corner_radius, vehicle_arrays
 from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
 from vfs.scenarios.designs import DESIGNERS, DesignContext
 from vfs.scenarios.fleet import FLEET, FLEET_COLUMNS, sample_fleet_arrays
@@ -303,8 +303,8 @@ def _replay_start(batch: _Batch, rows: np.ndarray, dt: float) -> np.ndarray:
     for lo in range(0, rows.shape[0], CHUNK):
         block = rows[lo:lo + CHUNK]
         d1, d2 = batch.dims(block, 0), batch.dims(block, 1)
-        reach = (np.hypot(np.maximum(d1.front, d1.rear), 0.5 * d1.width)
-                 + np.hypot(np.maximum(d2.front, d2.rear), 0.5 * d2.width))
+        reach = (corner_radius(d1.front, d1.rear, d1.width)
+                 + corner_radius(d2.front, d2.rear, d2.width))
         x, y, v = (batch.samples[f][block] for f in ("x", "y", "speed"))
         distance = np.hypot(x[:, 0] - x[:, 1], y[:, 0] - y[:, 1])
         margin = MIN_NEAR_MISS_DISTANCE + 0.05 + (v[:, 0] + v[:, 1]) * dt

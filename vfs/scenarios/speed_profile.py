@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from vfs.units import G
+from vfs.physics.precrash import friction_limited_deceleration
 
 if TYPE_CHECKING:
     from vfs.scenarios.catalogue import ScenarioSpec
@@ -108,7 +108,7 @@ def draw_speed_profile(rng: np.random.Generator, n: int, speed: tuple[float, flo
     brake = rng.random(n) < brake_prob
     lead = rng.uniform(*spec.brake_lead_time, n)
     jerk = rng.uniform(*spec.brake_jerk, n)
-    decel = np.minimum(rng.uniform(*spec.brake_deceleration, n), mu * G)
+    decel = friction_limited_deceleration(mu, rng.uniform(*spec.brake_deceleration, n))
     # a late brake leaves at least min_share of the travel speed at t*
     lead = np.minimum(lead, brake_time_for_drop(v * (1.0 - min_share), jerk, decel))
     brake &= (v > 0.0) & (lead > 1e-3)

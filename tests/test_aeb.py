@@ -32,13 +32,12 @@ from vfs.adas import (
 from vfs.adas.sensor import sector_distance
 from vfs.adas.threat import Motion, braked_contact, time_to_collision, ttc_cv
 from vfs.errors import ParameterError
-from vfs.physics.geometry import outline_corners, overlap
+from vfs.physics.geometry import outline_corners, outline_distance, overlap
 from vfs.physics.paths import concat_paths, pack_paths
 from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
-    outline_distance,
 )
 from vfs.physics.vehicle import vehicle_arrays
 from vfs.simulation import CaseBatch, SimulationParams, simulate_cases

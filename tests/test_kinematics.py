@@ -1,4 +1,5 @@
-"""Synthetic accident scenes (vfs.scenarios.kinematics): tables, fleet, paths, replay, placement."""
+"""Synthetic accident scenes (vfs.scenarios.scenes and its parts): tables, fleet, paths, replay,
+placement."""
 
 from __future__ import annotations
 
@@ -11,24 +12,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import vfs.scenarios.kinematics as kin
+import vfs.scenarios.scenes as sm
 from vfs.database import Database, validate_database
 from vfs.database.paths import paths_from_trajectories
 from vfs.database.schema import TABLES, empty_table, normalise_table
 from vfs.errors import ParameterError, SimulationError
-from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, overlap
+from vfs.physics.geometry import AREA_TOLERANCE, outline_corners, outline_distance, overlap
 from vfs.physics.paths import concat_paths
-from vfs.physics.precrash import PrecrashParams, outline_distance, simulate_precrash
+from vfs.physics.precrash import PrecrashParams, simulate_precrash
 from vfs.physics.vehicle import validate_vehicle_values
-from vfs.scenarios.kinematics import (
-    FLEET,
-    SCENARIO_TYPES,
-    FleetClass,
-    ScenarioSpec,
-    SceneTables,
-    generate_scenes,
-    sample_fleet,
-)
+from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
+from vfs.scenarios.fleet import FLEET, FleetClass, sample_fleet
+from vfs.scenarios.placement import slide_to_contact
+from vfs.scenarios.scenes import SceneTables, generate_scenes
 from vfs.units import G
 
 ALL_TYPES = {code: 1.0 for code in SCENARIO_TYPES}
@@ -108,9 +104,9 @@ def test_type_counts_follow_the_shares_and_the_order_is_shuffled():
     out = generate_scenes(10, np.random.default_rng(1), {241: 0.5, 601: 0.3, 321: 0.2})
     assert out.cases["accident_type"].value_counts().to_dict() == {241: 5, 601: 3, 321: 2}
     # largest remainder, ties by code: 7 cases over 3 equal shares -> 3, 2, 2
-    counts = kin._largest_remainder(7, np.array([1.0, 1.0, 1.0]))
+    counts = sm._largest_remainder(7, np.array([1.0, 1.0, 1.0]))
     assert counts.tolist() == [3, 2, 2]
-    assert kin._largest_remainder(100, np.array([0.2, 0.0, 0.8])).tolist() == [20, 0, 80]
+    assert sm._largest_remainder(100, np.array([0.2, 0.0, 0.8])).tolist() == [20, 0, 80]
 
 
 def test_every_type_with_its_share_and_near_misses(scenes):
@@ -399,25 +395,25 @@ def test_bad_specs_and_fleet_arguments_raise():
 
 def test_cases_failing_the_replay_are_redrawn_then_reported(monkeypatch):
     calls = []
-    real = kin._replay
+    real = sm._replay
 
     def flaky(batch, rows, dt):  # the first replay rejects every case
         res = real(batch, rows, dt)
         calls.append(rows.size)
         if len(calls) == 1:
-            return kin._Replay(np.zeros_like(res.collided), res.contact_time, res.min_distance)
+            return sm._Replay(np.zeros_like(res.collided), res.contact_time, res.min_distance)
         return res
 
-    monkeypatch.setattr(kin, "_replay", flaky)
+    monkeypatch.setattr(sm, "_replay", flaky)
     out = generate_scenes(4, np.random.default_rng(8), {601: 1.0})
     assert calls == [4, 4]
     assert (out.design["attempts"] == 2).all()
 
     def never(batch, rows, dt):
         res = real(batch, rows, dt)
-        return kin._Replay(np.zeros_like(res.collided), res.contact_time, res.min_distance)
+        return sm._Replay(np.zeros_like(res.collided), res.contact_time, res.min_distance)
 
-    monkeypatch.setattr(kin, "_replay", never)
+    monkeypatch.setattr(sm, "_replay", never)
     with pytest.raises(SimulationError, match=r"case_id \[7, 8, 9\]"):
         generate_scenes(3, np.random.default_rng(8), {601: 1.0}, first_case_id=7)
 
@@ -440,7 +436,7 @@ def test_slide_to_contact_makes_rectangles_touch(x, y, yaw1, yaw2, direction, l1
     fixed = outline_corners([0.0], [0.0], [yaw1], [f1 * l1], [(1 - f1) * l1], [w1])
     moving = outline_corners([x], [y], [yaw2], [f2 * l2], [(1 - f2) * l2], [w2])
     d = np.array([[math.cos(direction), math.sin(direction)]])
-    lam = kin._slide_to_contact(fixed, moving, d)[0]
+    lam = slide_to_contact(fixed, moving, d)[0]
     e = np.array([-d[0, 1], d[0, 0]])
     p1, p2 = fixed[0] @ e, moving[0] @ e
     common = min(p1.max(), p2.max()) - max(p1.min(), p2.min())  # overlap across the path

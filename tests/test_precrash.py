@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 
 from vfs.errors import ParameterError
-from vfs.physics.geometry import outline_corners
+from vfs.physics.geometry import outline_corners, outline_distance
 from vfs.physics.paths import concat_paths, pack_paths
 from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
-    outline_distance,
     simulate_precrash,
 )
 from vfs.physics.vehicle import VehicleParams, stack_vehicles

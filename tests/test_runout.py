@@ -19,7 +19,6 @@ from vfs.physics.runout import (
     RunoutParams,
     RunoutResult,
     RunoutState,
-    corner_radius,
     kinetic_energy,
     run_out,
     run_out_pair,
@@ -360,7 +359,7 @@ def test_secondary_collisions_match_brute_force_overlap():
     v1, v2 = random_vehicles(rng, n), random_vehicles(rng, n)
     s1 = random_states(rng, n)
     gap = rng.uniform(-1.0, 4.0, n)  # start overlapping or a few metres apart
-    ahead = corner_radius(v1) * 0.5 + corner_radius(v2) * 0.5 + gap
+    ahead = v1.corner_radius * 0.5 + v2.corner_radius * 0.5 + gap
     side = rng.uniform(-np.pi, np.pi, n)
     s1 = s1._replace(x=np.zeros(n), y=np.zeros(n))
     s2 = random_states(rng, n)._replace(x=ahead * np.cos(side), y=ahead * np.sin(side))

@@ -19,6 +19,13 @@ def ms_to_kmh(speed_ms: npt.ArrayLike) -> np.ndarray:
     return np.asarray(speed_ms, dtype=float) * KMH_PER_MS
 
 
+def wrap_axial(angle_rad: npt.ArrayLike) -> np.ndarray:
+    """Wrap an axial angle [rad] (a direction modulo pi, e.g. a difference of
+    contact-plane angles) to the interval [-pi/2, pi/2)."""
+    a = np.asarray(angle_rad, dtype=float)
+    return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
+
+
 def wrap_angle(angle_rad: npt.ArrayLike) -> np.ndarray:
     """Wrap an angle [rad] to the interval (-pi, pi]."""
     a = np.asarray(angle_rad, dtype=float)

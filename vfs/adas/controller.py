@@ -37,8 +37,11 @@ from vfs.adas.params import STANDSTILL_SPEED, AEBParams, DriverParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, braked_contact, earliest_contact, time_to_collision
 from vfs.errors import ParameterError
-from vfs.physics.precrash import BrakeActuatorParams, PrecrashObservation
-from vfs.units import G
+from vfs.physics.precrash import (
+    BrakeActuatorParams,
+    PrecrashObservation,
+    friction_limited_deceleration,
+)
 
 if TYPE_CHECKING:
     from vfs.simulation import CaseBatch
@@ -185,7 +188,7 @@ class AEBController:
         self._act(t)
         rows = obs.rows
         acting = self._acting[rows]
-        full = np.minimum(self.aeb.full_deceleration, obs.road_friction * G)[:, None]
+        full = friction_limited_deceleration(obs.road_friction, self.aeb.full_deceleration)[:, None]
         out = np.where(acting[..., 2], full, 0.0)
         out = np.maximum(out, np.where(acting[..., 1], self.aeb.partial_deceleration, 0.0))
         if self.driver is not None:
@@ -333,7 +336,8 @@ class AEBController:
             return out
         aeb = self.aeb
         e, o = ego.take(check), obj.take(check)
-        available = np.minimum(np.minimum(aeb.full_deceleration, friction[check] * G),
+        available = np.minimum(friction_limited_deceleration(friction[check],
+                                                             aeb.full_deceleration),
                                self.brake.max_deceleration)
         now = aeb.sensor.latency + actuator_delay(self.brake, available, self._dt)
         cycle = max(aeb.sensor.cycle_time, self._dt)

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from vfs.errors import ParameterError
+from vfs.units import KMH_PER_MS
 
 #: Prediction models of the threat assessment (docs/aeb.md, section 3).
 PREDICTION_MODELS = ("cv", "ctrv", "ca", "ctra")
@@ -154,8 +155,8 @@ class AEBParams:
         each side (openPASS "CollisionDetection...Boundary").  Default 0.
     min_speed, max_speed : float
         Activation window of the own speed [m/s]: stages trigger only inside
-        it (active stages are held outside it).  Defaults 5/3.6 and 250/3.6
-        m/s (no firm source: below walking pace no AEB acts, no upper limit).
+        it (active stages are held outside it).  Defaults 5 and 250 km/h
+        (no firm source: below walking pace no AEB acts, no upper limit).
     """
 
     sensor: SensorParams = field(default_factory=SensorParams)
@@ -173,8 +174,8 @@ class AEBParams:
     release_factor: float = 1.5
     box_margin_longitudinal: float = 0.0
     box_margin_lateral: float = 0.0
-    min_speed: float = 5.0 / 3.6
-    max_speed: float = 250.0 / 3.6
+    min_speed: float = 5.0 / KMH_PER_MS
+    max_speed: float = 250.0 / KMH_PER_MS
 
     def __post_init__(self) -> None:
         if self.prediction not in PREDICTION_MODELS:

@@ -15,8 +15,9 @@ centre offset).  Prediction models (docs/aeb.md, section 3):
 
 The kernels:
 
-* :func:`swept_contact` -- first contact of two rectangles that translate
-  linearly over an interval, by the swept separating-axis theorem (exact);
+* :func:`vfs.physics.geometry.first_contact` (used here) -- first contact of two
+  rectangles that translate linearly over an interval, by the swept
+  separating-axis theorem (exact);
 * :func:`ttc_cv` -- TTC under constant velocity (one swept interval, exact);
 * :func:`ttc_sampled` -- TTC under the other models (a sweep of short
   intervals, orientation frozen at each interval's middle);
@@ -33,8 +34,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-#: Relative displacements below this [m] count as no relative motion along an axis.
-STILL_DISPLACEMENT = 1e-12
+from vfs.physics.geometry import first_contact
+from vfs.physics.vehicle import corner_radius
 
 #: Smallest sampling step of the sampled sweep [s] (bounds the cost of sharp turns).
 MIN_STEP = 0.01
@@ -72,60 +73,8 @@ class Motion(NamedTuple):
     @property
     def circumradius(self) -> np.ndarray:
         """Largest distance [m] from the CG to a corner of the outline."""
-        return np.hypot(np.abs(self.centre_offset) + self.half_length, self.half_width)
-
-
-def swept_contact(dx: np.ndarray, dy: np.ndarray, ddx: np.ndarray, ddy: np.ndarray,
-                  yaw_a: np.ndarray, hl_a: np.ndarray, hw_a: np.ndarray,
-                  yaw_b: np.ndarray, hl_b: np.ndarray, hw_b: np.ndarray) -> np.ndarray:
-    """First contact of two rectangles in relative linear motion (swept SAT).
-
-    Rectangle A (centre at the origin) and rectangle B (centre (dx, dy) [m]
-    from A's) keep their orientations; B moves by (ddx, ddy) [m] relative to
-    A over the interval, parameterised by s in [0, 1].  On each of the four
-    separating axes n (the edge normals of both rectangles) the projections
-    overlap while |n.(d + s dd)| <= rho_n (rho_n: sum of the projected half
-    extents); the rectangles touch where all four hold, i.e. for s in
-    [max_n s_in, min_n s_out] (docs/aeb.md, eq. 3.1).  Exact for translation.
-
-    Parameters
-    ----------
-    dx, dy : ndarray
-        Centre of B minus centre of A at s = 0 [m]; any common shape.
-    ddx, ddy : ndarray
-        Displacement of B relative to A over the interval [m].
-    yaw_a, yaw_b : ndarray
-        Orientations [rad].
-    hl_a, hw_a, hl_b, hw_b : ndarray
-        Half lengths and half widths [m].
-
-    Returns
-    -------
-    ndarray
-        First-contact fraction s in [0, 1] (0 if they overlap at the start);
-        ``inf`` where they do not touch within the interval.
-    """
-    ca, sa, cb, sb = np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)
-    cos_d = np.abs(ca * cb + sa * sb)  # |cos(yaw_a - yaw_b)|
-    sin_d = np.abs(sa * cb - ca * sb)  # |sin(yaw_a - yaw_b)|
-    # axes: A's x and y, B's x and y; projections of the centre distance,
-    # of the relative displacement and the summed projected half extents
-    p = np.stack([ca * dx + sa * dy, ca * dy - sa * dx, cb * dx + sb * dy, cb * dy - sb * dx])
-    w = np.stack([ca * ddx + sa * ddy, ca * ddy - sa * ddx,
-                  cb * ddx + sb * ddy, cb * ddy - sb * ddx])
-    rho = np.stack([hl_a + hl_b * cos_d + hw_b * sin_d, hw_a + hl_b * sin_d + hw_b * cos_d,
-                    hl_b + hl_a * cos_d + hw_a * sin_d, hw_b + hl_a * sin_d + hw_a * cos_d])
-    still = np.abs(w) < STILL_DISPLACEMENT
-    w_safe = np.where(still, 1.0, w)
-    s1 = (-rho - p) / w_safe  # docs/aeb.md eq. 3.1
-    s2 = (rho - p) / w_safe
-    inside = np.abs(p) <= rho
-    lo = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(s1, s2))
-    hi = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(s1, s2))
-    enter = lo.max(axis=0)
-    leave = hi.min(axis=0)
-    hit = (enter <= leave) & (enter <= 1.0) & (leave >= 0.0)
-    return np.where(hit, np.maximum(enter, 0.0), np.inf)
+        return corner_radius(self.half_length + self.centre_offset,
+                             self.half_length - self.centre_offset, 2.0 * self.half_width)
 
 
 def ttc_cv(a: Motion, b: Motion, horizon: float | np.ndarray) -> np.ndarray:
@@ -141,7 +90,7 @@ def ttc_cv(a: Motion, b: Motion, horizon: float | np.ndarray) -> np.ndarray:
     dy = b.y + b.centre_offset * sb - a.y - a.centre_offset * sa
     rvx = b.speed * np.cos(b.heading) - a.speed * np.cos(a.heading)
     rvy = b.speed * np.sin(b.heading) - a.speed * np.sin(a.heading)
-    s = swept_contact(dx, dy, rvx * horizon, rvy * horizon,
+    s = first_contact(dx, dy, rvx * horizon, rvy * horizon,
                       a.yaw, a.half_length, a.half_width, b.yaw, b.half_length, b.half_width)
     return s * horizon
 
@@ -214,7 +163,7 @@ def sampled_contact(a: Motion, b: Motion, t: np.ndarray, xa: np.ndarray, ya: np.
     Between the sample times ``t`` ((K + 1,) or (n, K + 1)) [s] each CG moves
     on the chord between its samples ``xa, ya`` / ``xb, yb`` (n, K + 1) [m]
     and each outline keeps the orientation ``yaw_a`` / ``yaw_b`` (n, K)
-    [rad] of that interval; :func:`swept_contact` finds the first contact
+    [rad] of that interval; :func:`vfs.physics.geometry.first_contact` finds the first contact
     in each interval.  Broad phase: within an interval of length h the CG
     distance shrinks by at most ``speed_bound`` (n,) [m/s] (the sum of both
     top speeds) times h, so an interval can only hold a contact if the CG
@@ -244,7 +193,7 @@ def sampled_contact(a: Motion, b: Motion, t: np.ndarray, xa: np.ndarray, ya: np.
     dy = sep_y[i, k] + off_b * np.sin(yb_k) - off_a * np.sin(ya_k)
     ddx = (xb[i, k + 1] - xb[i, k]) - (xa[i, k + 1] - xa[i, k])
     ddy = (yb[i, k + 1] - yb[i, k]) - (ya[i, k + 1] - ya[i, k])
-    s = swept_contact(dx, dy, ddx, ddy, ya_k, a.half_length[i], a.half_width[i],
+    s = first_contact(dx, dy, ddx, ddy, ya_k, a.half_length[i], a.half_width[i],
                       yb_k, b.half_length[i], b.half_width[i])
     hit = np.isfinite(s)
     i, k = i[hit], k[hit]

@@ -6,6 +6,7 @@ import argparse
 import math
 from typing import Any
 
+from vfs.physics.precrash import PrecrashParams
 from vfs.units import KMH_PER_MS
 
 
@@ -27,7 +28,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="demanded deceleration for --brake-at-s [m/s^2] (default 9.0)")
     p.add_argument("--penetration-ms", type=float, metavar="MS",
                    help="penetration time after first contact [ms] (default: the model's, "
-                   "30 ms)")
+                   f"{PrecrashParams().penetration_time * 1e3:g} ms)")
     p.set_defaults(func=cmd_run_case)
 
 

@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 from vfs.errors import ParameterError
+from vfs.units import KMH_PER_MS
 
 
 def parse_case_list(text: str | None) -> list[str] | None:
@@ -161,10 +162,12 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     def prior(flag_kmh: str | None, flag_name: str) -> Distribution:
         if flag_kmh:
             lo, hi = parse_range(flag_kmh, flag_name)
-            return Distribution("uniform", "absolute", low=lo / 3.6, high=hi / 3.6, unit="km/h")
+            return Distribution("uniform", "absolute", low=lo / KMH_PER_MS,
+                                high=hi / KMH_PER_MS, unit="km/h")
         if args.speed_range_kmh:
             lo, hi = parse_range(args.speed_range_kmh, "--speed-range-kmh")
-            return Distribution("uniform", "absolute", low=lo / 3.6, high=hi / 3.6, unit="km/h")
+            return Distribution("uniform", "absolute", low=lo / KMH_PER_MS,
+                                high=hi / KMH_PER_MS, unit="km/h")
         lo, hi = parse_range(args.speed_factor_range or "0.5,1.5", "--speed-factor-range")
         return Distribution("uniform", "factor", low=lo, high=hi)
 
@@ -179,7 +182,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         rest_position_sd=_positive(args.rest_position_sd_m, "--rest-position-sd-m"),
         rest_yaw_sd=rad(args.rest_yaw_sd_deg, "--rest-yaw-sd-deg"),
         ees_sd=None if args.ees_sd_kmh is None else _positive(args.ees_sd_kmh,
-                                                                "--ees-sd-kmh") / 3.6,
+                                                                "--ees-sd-kmh") / KMH_PER_MS,
         direction_sd=rad(args.direction_sd_deg, "--direction-sd-deg"))
     settings = ReconstructSettings(
         speed1=prior(args.speed1_range_kmh, "--speed1-range-kmh"),

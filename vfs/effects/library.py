@@ -20,10 +20,11 @@ from vfs.physics.impact import (
     ImpactConfig,
     ImpactResult,
     contact_frame,
+    energy_split,
     poi_relative_velocity,
 )
 from vfs.physics.vehicle import VehicleArrays
-from vfs.units import G
+from vfs.units import G, wrap_axial
 
 #: Closing speed [m/s] below which the restitution law is held constant.
 _MIN_CLOSING_SPEED = 2.0
@@ -172,11 +173,6 @@ def _axial_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 0.5 * np.arctan2(np.sin(2 * a) + np.sin(2 * b), np.cos(2 * a) + np.cos(2 * b))
 
 
-def _wrap_half(a: np.ndarray) -> np.ndarray:
-    """Wrap an axial angle difference to [-pi/2, pi/2)."""
-    return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
-
-
 #: Lateral position of the longitudinal rails, as a share of the half width.
 RAIL_POSITION = 0.6
 
@@ -267,7 +263,7 @@ class StructurePOI(Effect):
         poi_y = np.where(ok, config.poi_y + share * (target[:, 1] - config.poi_y), config.poi_y)
         face_dir = _axial_mean(_face_tangent(st.yaw[:, 0], faces[:, 0]),
                                _face_tangent(st.yaw[:, 1], faces[:, 1]))
-        cp = config.cp_angle + s * _wrap_half(face_dir - config.cp_angle)
+        cp = config.cp_angle + s * wrap_axial(face_dir - config.cp_angle)
         cp = np.where(ok, cp, config.cp_angle)
         return config._replace(poi_x=poi_x, poi_y=poi_y, cp_angle=cp)
 
@@ -340,9 +336,7 @@ class EESStiffness(Effect):
         f = np.where(side, self["side_factor"], 1.0)
         k1 = config.m1 ** self["mass_exponent"] * f[:, 0]
         k2 = config.m2 ** self["mass_exponent"] * f[:, 1]
-        total = e1 + e2
-        share1 = k2 / (k1 + k2)
-        return total * share1, total * (1.0 - share1)
+        return energy_split(e1 + e2, config.m1, config.m2, stiffness_ratio=k1 / k2)
 
 
 @register_effect

@@ -34,10 +34,11 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from vfs.adas.params import SensorParams
-from vfs.adas.sensor import outline_visible, rectangle_gap
+from vfs.adas.sensor import outline_visible
 from vfs.analysis.risk import default_risk_curve, get_risk_curve
 from vfs.effects.base import hooks, parse_effect
 from vfs.errors import ParameterError
+from vfs.physics.geometry import rectangle_distance
 from vfs.physics.impact import IMPACT_TYPE_NAMES
 from vfs.physics.precrash import (
     BrakeActuatorParams,
@@ -408,7 +409,7 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndar
     ecx, ecy = e_c * ce, e_c * se  # geometric centres, relative to the ego CG
     ocx, ocy = ox + o_c * co, oy + o_c * so
     ehl, ohl = 0.5 * (ef + er), 0.5 * (of + orr)
-    gap = rectangle_gap(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
+    gap = rectangle_distance(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
     # object centre relative to the ego's front-bumper centre, ego frame
     dx, dy = ocx - ef * ce, ocy - ef * se
     dvx, dvy = vx[:, o] - vx[:, e], vy[:, o] - vy[:, e]

@@ -32,8 +32,11 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 
 from vfs.errors import ParameterError
-from vfs.physics.precrash import PrecrashObservation, PrecrashParams
-from vfs.units import G
+from vfs.physics.precrash import (
+    PrecrashObservation,
+    PrecrashParams,
+    friction_limited_deceleration,
+)
 
 if TYPE_CHECKING:
     from vfs.gym.env import EnvConfig
@@ -167,7 +170,7 @@ class PolicyController:
         if share.shape[0] != obs.rows.shape[0]:
             raise ParameterError(f"policy {self.policy.name!r} returned {share.shape[0]} "
                                  f"actions for {obs.rows.shape[0]} observations")
-        limit = np.minimum(obs.road_friction * G, self.limit_max)
+        limit = friction_limited_deceleration(obs.road_friction, self.limit_max)
         d = np.zeros((obs.rows.shape[0], 2))
         d[:, self.config.ego - 1] = share * limit
         return d

@@ -44,6 +44,7 @@ the tangent's orientation).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -51,11 +52,18 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.units import wrap_angle
 
 #: Impact type codes of :attr:`ImpactResult.impact_type`.
 IMPACT_NONE, IMPACT_FULL, IMPACT_SLIDING = 0, 1, 2
 IMPACT_TYPE_NAMES: dict[int, str] = {IMPACT_NONE: "none", IMPACT_FULL: "full",
                                      IMPACT_SLIDING: "sliding"}
+_NAME_OF_CODE = np.array([IMPACT_TYPE_NAMES[k] for k in range(len(IMPACT_TYPE_NAMES))])
+
+
+def impact_type_names(codes: npt.ArrayLike) -> np.ndarray:
+    """Impact type codes (0, 1, 2) as the strings of :data:`IMPACT_TYPE_NAMES`."""
+    return _NAME_OF_CODE[np.asarray(codes)]
 
 
 @dataclass(frozen=True)
@@ -73,22 +81,33 @@ class ImpactParams:
         friction cone, seed 002), >= 0.  Default 0.6; there is no firm
         source for a universal value (openPASS hard-codes 0.3), so studies
         should vary it (see `vfs uncertainty`).
-    penetration_time : float
-        Time the outlines move on after first contact before the impact is
-        solved [s].  Default 0.030 s (seed 001).
+
+    The time the outlines move on after first contact before the impact is
+    solved is :attr:`vfs.physics.precrash.PrecrashParams.penetration_time`.
     """
 
     restitution: float = 0.1
     contact_friction: float = 0.6
-    penetration_time: float = 0.030
+
+    @property
+    def penetration_time(self) -> float:
+        """Deprecated: the default of ``PrecrashParams.penetration_time`` [s].
+
+        The impact model never used a penetration time; the pre-crash stage
+        (:class:`vfs.physics.precrash.PrecrashParams`) owns it.
+        """
+        warnings.warn("ImpactParams.penetration_time is deprecated: use "
+                      "vfs.physics.precrash.PrecrashParams().penetration_time",
+                      DeprecationWarning, stacklevel=2)
+        from vfs.physics.precrash import PrecrashParams  # lazy: no import-time coupling
+
+        return PrecrashParams().penetration_time
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.restitution <= 1.0:
             raise ParameterError(f"restitution={self.restitution} outside [0, 1]")
         if not (self.contact_friction >= 0.0 and np.isfinite(self.contact_friction)):
             raise ParameterError(f"contact_friction={self.contact_friction} must be >= 0")
-        if not 0.0 <= self.penetration_time <= 0.5:
-            raise ParameterError(f"penetration_time={self.penetration_time} s outside [0, 0.5]")
 
 
 class ImpactConfig(NamedTuple):
@@ -242,7 +261,7 @@ class ImpactResult(NamedTuple):
     @property
     def impact_type_name(self) -> np.ndarray:
         """Impact type as strings 'none', 'full', 'sliding'."""
-        return np.array(["none", "full", "sliding"])[self.impact_type]
+        return impact_type_names(self.impact_type)
 
 
 # ----------------------------------------------------------------------------
@@ -325,6 +344,18 @@ def energy_split(
     return e * share1, e * (1.0 - share1)
 
 
+def deformation_energy(mass: npt.ArrayLike, ees: npt.ArrayLike) -> np.ndarray:
+    """Deformation energy [J] of a vehicle of ``mass`` [kg] with an EES [m/s]:
+    E = m EES^2 / 2 (seed 004)."""
+    return 0.5 * np.asarray(mass) * np.asarray(ees) ** 2
+
+
+def velocity_change(dvx: npt.ArrayLike, dvy: npt.ArrayLike) -> np.ndarray:
+    """Delta-v [m/s]: magnitude |v' - v| of a CG velocity change (dvx, dvy) [m/s]."""
+    dvx, dvy = np.asarray(dvx), np.asarray(dvy)
+    return np.sqrt(dvx**2 + dvy**2)
+
+
 def ees_from_energy(energy: npt.ArrayLike, mass: npt.ArrayLike) -> np.ndarray:
     """EES [m/s] from a deformation energy [J]: E = m EES^2 / 2 (seed 004)."""
     return np.sqrt(2.0 * np.maximum(np.asarray(energy, float), 0.0) / np.asarray(mass, float))
@@ -339,8 +370,7 @@ def _pdof(ix: np.ndarray, iy: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, 
     """PDOF [rad] and clock direction of an impulse (ix, iy) on a vehicle with heading yaw."""
     # direction the force comes from (-impulse), relative to the heading,
     # measured clockwise: pdof = -(atan2(-iy, -ix) - yaw)
-    pdof = np.mod(yaw - np.arctan2(-iy, -ix) + np.pi, 2.0 * np.pi) - np.pi
-    pdof = np.where(pdof <= -np.pi, pdof + 2.0 * np.pi, pdof)
+    pdof = wrap_angle(yaw - np.arctan2(-iy, -ix))
     clock = np.mod(np.rint(pdof * (6.0 / np.pi)).astype(np.int64), 12)
     clock = np.where(clock == 0, 12, clock)
     return pdof, clock
@@ -420,7 +450,7 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
     keep.update(
         vx1_post=vx1, vy1_post=vy1, yaw_rate1_post=w1, vx2_post=vx2, vy2_post=vy2,
         yaw_rate2_post=w2, delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=np.sqrt(dvx1**2 + dvy1**2), delta_v2=np.sqrt(dvx2**2 + dvy2**2),
+        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
         velocity_angle_change1=angle_between(config.vx1, config.vy1, vx1, vy1),
         velocity_angle_change2=angle_between(config.vx2, config.vy2, vx2, vy2),
     )
@@ -433,7 +463,7 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
 def deformation_energies(config: ImpactConfig,
                          result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
     """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
-    return 0.5 * config.m1 * result.ees1**2, 0.5 * config.m2 * result.ees2**2
+    return deformation_energy(config.m1, result.ees1), deformation_energy(config.m2, result.ees2)
 
 
 def solve_impact(config: ImpactConfig,
@@ -535,7 +565,7 @@ def _solve_block(config: ImpactConfig,
         vx1_post=vx1p, vy1_post=vy1p, yaw_rate1_post=w1p,
         vx2_post=vx2p, vy2_post=vy2p, yaw_rate2_post=w2p,
         delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=np.sqrt(dvx1**2 + dvy1**2), delta_v2=np.sqrt(dvx2**2 + dvy2**2),
+        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
         energy_loss=loss, ees1=ees_from_energy(e1, m1), ees2=ees_from_energy(e2, m2),
         velocity_angle_change1=angle_between(c.vx1, c.vy1, vx1p, vy1p),
         velocity_angle_change2=angle_between(c.vx2, c.vy2, vx2p, vy2p),

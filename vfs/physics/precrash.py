@@ -41,8 +41,8 @@ from vfs.errors import ParameterError
 from vfs.physics.geometry import (
     AREA_TOLERANCE,
     contact_geometry,
+    outline_distance,
     overlap,
-    rectangle_frame,
     vehicle_outline,
 )
 from vfs.physics.paths import (
@@ -295,36 +295,21 @@ class PrecrashResult(NamedTuple):
 # Helpers
 # ----------------------------------------------------------------------------
 
+def friction_limited_deceleration(road_friction: npt.ArrayLike,
+                                  max_deceleration: npt.ArrayLike) -> np.ndarray:
+    """Largest braking deceleration [m/s^2]: min(mu g, a_max).
+
+    The tyre-road friction coefficient ``road_friction`` [-] bounds the
+    deceleration by mu g; ``max_deceleration`` [m/s^2] is the limit of the
+    brake system or of the driver (broadcast against each other).
+    """
+    return np.minimum(np.asarray(road_friction) * G, max_deceleration)
+
+
 #: Outline distances are tracked exactly every step while the outlines may be
 #: closer than this [m]; farther passes are measured at the moment of minimal
 #: CG distance.
 CLOSE_RANGE = 5.0
-
-
-def circumradius(vehicles: VehicleArrays) -> np.ndarray:
-    """Largest distance from the CG to an outline corner [m]."""
-    half = 0.5 * vehicles.width
-    return np.hypot(np.maximum(vehicles.cg_to_front, vehicles.cg_to_rear), half)
-
-
-def outline_distance(o1: np.ndarray, o2: np.ndarray) -> np.ndarray:
-    """Distance between non-overlapping outline rectangles (n, 4, 2) [m].
-
-    The closest points of two disjoint convex polygons include a vertex of
-    one of them, so the distance is the smallest distance of a corner of
-    either outline to the other rectangle; a point's distance to a rectangle
-    is computed in the rectangle's frame, sqrt(max(|x| - l/2, 0)^2 +
-    max(|y| - w/2, 0)^2).  Overlapping outlines give 0.
-    """
-
-    def corners_to_box(points: np.ndarray, box: np.ndarray) -> np.ndarray:
-        frame = rectangle_frame(box)
-        x, y = frame.to_local(points)
-        gx = np.maximum(np.abs(x) - frame.half_length[:, None], 0.0)
-        gy = np.maximum(np.abs(y) - frame.half_width[:, None], 0.0)
-        return np.sqrt(gx * gx + gy * gy).min(axis=1)
-
-    return np.minimum(corners_to_box(o1, o2), corners_to_box(o2, o1))
 
 
 class _Track:
@@ -584,8 +569,8 @@ class PrecrashRun:
         self.open_ended = bool(open_ended)
         mu = np.broadcast_to(np.asarray(road_friction, float), (n_data,))
         self.mu = mu[self._d(np.arange(n))].copy()
-        self.limit = np.minimum(self.mu * G, params.brake.max_deceleration)[:, None]
-        self.reach = (circumradius(vehicle1) + circumradius(vehicle2))[self._d(np.arange(n))]
+        self.limit = friction_limited_deceleration(self.mu, params.brake.max_deceleration)[:, None]
+        self.reach = (vehicle1.corner_radius + vehicle2.corner_radius)[self._d(np.arange(n))]
         # per case: its longer record + extra_time (so a case's result never depends
         # on the other cases of the batch)
         duration = paths.duration

@@ -120,7 +120,8 @@ class RunoutParams:
     v_stop : float
         Stop speed [m/s], in (0, 1].  A vehicle is at rest when its CG speed
         and |yaw rate| times the distance from the CG to its farthest outline
-        corner (the "half diagonal", :func:`corner_radius`) are both below
+        corner (the "half diagonal",
+        :func:`vfs.physics.vehicle.corner_radius`) are both below
         v_stop; it is then frozen with zero velocity.  Default 0.05 m/s.
     max_time : float
         Longest simulated run-out [s], in (0, 3600], rounded up to a whole
@@ -302,16 +303,6 @@ def static_wheel_loads(vehicles: VehicleArrays) -> np.ndarray:
     return np.stack([front, front, rear, rear], axis=-1)
 
 
-def corner_radius(vehicles: VehicleArrays) -> np.ndarray:
-    """Distance (N,) [m] from the CG to the farthest outline corner.
-
-    The "half diagonal" of the stop criterion and of the broad phase; it
-    equals half the outline diagonal when the CG sits in the outline centre.
-    """
-    reach = np.maximum(vehicles.cg_to_front, vehicles.cg_to_rear)
-    return np.sqrt(reach**2 + (0.5 * vehicles.width) ** 2)
-
-
 def kinetic_energy(vehicles: VehicleArrays, state: RunoutState) -> np.ndarray:
     """Kinetic energy (N,) [J]: m (vx^2 + vy^2) / 2 + I yaw_rate^2 / 2."""
     return 0.5 * vehicles.mass * (state.vx**2 + state.vy**2) + 0.5 * (
@@ -448,7 +439,7 @@ def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
         front_share=lr / wb, rear_share=lf / wb,
         lon_transfer=vehicles.mass * vehicles.cg_height / wb,
         lat_transfer=vehicles.mass * vehicles.cg_height / vehicles.track_width,
-        radius=corner_radius(vehicles), mu=mu.copy(), brake_coef=coef,
+        radius=vehicles.corner_radius, mu=mu.copy(), brake_coef=coef,
         locked=(brake >= 1.0).T.copy(), static_load=static, brake_load=coef * static,
         stiff_load=params.cornering_stiffness * static, limit_load=mu * static,
         scratch=np.empty((6, 4, n)),
@@ -821,7 +812,7 @@ class _SecondaryCollisions:
     """Tracks separation and renewed overlap of the pairs (k, k + N) of a 2N batch.
 
     A pair is tested in three phases: the distance of the CGs against the sum
-    of the corner radii (:func:`corner_radius`); for the near pairs the
+    of the corner radii (:func:`vfs.physics.vehicle.corner_radius`); for the near pairs the
     separating-axis test of the two rectangles (disjoint or touching -> no
     overlap) and the depth of the deepest corner inside the other outline
     (deeper than :data:`_CORNER_DEPTH` -> overlap); only the remaining pairs go
@@ -831,7 +822,7 @@ class _SecondaryCollisions:
     def __init__(self, vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray,
                  yaw: np.ndarray) -> None:
         n = x.shape[0] // 2
-        radius = corner_radius(vehicles)
+        radius = vehicles.corner_radius
         self.vehicles = vehicles
         self.n = n
         self.radius_sum = radius[:n] + radius[n:]

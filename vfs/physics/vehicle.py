@@ -247,6 +247,11 @@ class VehicleArrays(NamedTuple):
         return self.length - self.cg_to_front
 
     @property
+    def corner_radius(self) -> np.ndarray:
+        """Distance [m] from the CG to the farthest outline corner (:func:`corner_radius`)."""
+        return corner_radius(self.cg_to_front, self.cg_to_rear, self.width)
+
+    @property
     def size(self) -> int:
         """Number of vehicles N."""
         return int(self.mass.shape[0])
@@ -254,6 +259,20 @@ class VehicleArrays(NamedTuple):
     def take(self, index: npt.ArrayLike) -> VehicleArrays:
         """Select vehicles by integer index or boolean mask."""
         return VehicleArrays(*(np.asarray(a)[index] for a in self))
+
+
+def corner_radius(cg_to_front: npt.ArrayLike, cg_to_rear: npt.ArrayLike,
+                  width: npt.ArrayLike) -> np.ndarray:
+    """Distance [m] from the CG to the farthest corner of the outline rectangle.
+
+    sqrt(max(l_f, l_r)^2 + (w / 2)^2) with l_f, l_r the distances [m] from the CG to
+    the front and rear bumper and w the width [m] (:func:`numpy.hypot`).  Every
+    point of the outline lies within this radius of the CG (the "half diagonal"
+    of broad phases and stop criteria; half the diagonal when the CG sits in the
+    outline centre).  For a rectangle given by its half length h and the offset
+    c of its centre ahead of the CG, l_f = h + c and l_r = h - c.
+    """
+    return np.hypot(np.maximum(cg_to_front, cg_to_rear), 0.5 * np.asarray(width))
 
 
 def stack_vehicles(vehicles: Sequence[VehicleParams]) -> VehicleArrays:

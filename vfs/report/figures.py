@@ -18,6 +18,7 @@ import numpy as np
 
 from vfs.atomic import write_figure
 from vfs.physics.geometry import vehicle_outline
+from vfs.physics.impact import IMPACT_TYPE_NAMES
 from vfs.units import KMH_PER_MS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -155,7 +156,7 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
         ax.plot([poi[0] - d[0], poi[0] + d[0]], [poi[1] - d[1], poi[1] + d[1]], "k-", lw=1.2,
                 label="contact plane")
         ax.plot(*poi, "k*", ms=12, label="POI")
-        kind = ("none", "full", "sliding")[int(imp.impact_type[index])]
+        kind = IMPACT_TYPE_NAMES[int(imp.impact_type[index])]
         info = (f"{kind} impact, delta-v {imp.delta_v1[index] * KMH_PER_MS:.1f} / "
                 f"{imp.delta_v2[index] * KMH_PER_MS:.1f} km/h, "
                 f"EES {imp.ees1[index] * KMH_PER_MS:.1f} / "

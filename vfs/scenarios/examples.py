@@ -17,6 +17,7 @@ import pandas as pd
 from vfs.database.source import data_path
 from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import ImpactParams
+from vfs.physics.precrash import PrecrashParams
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.units import kmh_to_ms
 
@@ -44,6 +45,7 @@ LARGE_CAR = VehicleParams(mass=1750.0, length=4.8, width=1.85, wheelbase=2.85,
 def example_impact_table(params: ImpactParams | None = None) -> pd.DataFrame:
     """Impact configurations (SI) for the examples above, ready for ``vfs impact``."""
     params = ImpactParams() if params is None else params
+    penetration_time = PrecrashParams().penetration_time  # [s]
     rows = []
     v1p, v2p = stack_vehicles([LARGE_CAR]), stack_vehicles([SMALL_CAR])
     for case_id, _, kmh1, kmh2, offset, angle_deg, yaw_rate1 in _EXAMPLES:
@@ -51,7 +53,7 @@ def example_impact_table(params: ImpactParams | None = None) -> pd.DataFrame:
         yaw2 = np.pi + np.radians(angle_deg)
         # closing along x: place the fronts so that they overlap by the
         # distance the closing speed covers in the penetration time
-        depth = (speed1 + speed2 * np.cos(np.radians(angle_deg))) * params.penetration_time
+        depth = (speed1 + speed2 * np.cos(np.radians(angle_deg))) * penetration_time
         x2 = LARGE_CAR.cg_to_front + SMALL_CAR.cg_to_front * np.cos(np.radians(angle_deg)) - depth
         y2 = offset
         o1 = vehicle_outline(v1p, [0.0], [0.0], [0.0])

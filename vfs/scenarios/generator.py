@@ -3,7 +3,7 @@
 Real in-depth accident data cannot be shipped, so the platform generates
 databases that look like them (``vfs generate``):
 
-1. **Scenes** (:mod:`vfs.scenarios.kinematics`): accident types, a passenger-car
+1. **Scenes** (:mod:`vfs.scenarios.scenes`): accident types, a passenger-car
    fleet, road friction, pre-crash trajectories of at least 5 s leading into
    the collision (or a near miss), drivers braking or steering late.
 2. **Reconstructions** as an expert would record them.  The expert chooses
@@ -45,8 +45,14 @@ from vfs.database import Database, default_meta, save_csv_folder, save_database
 from vfs.database.schema import empty_table, normalise_table, table_as_stored
 from vfs.effects import Effect, check_effects, parse_effect
 from vfs.errors import ParameterError
-from vfs.physics.impact import angle_between
-from vfs.scenarios.kinematics import SCENARIO_TYPES, ScenarioSpec, generate_scenes
+from vfs.physics.impact import (
+    angle_between,
+    deformation_energy,
+    impact_type_names,
+    velocity_change,
+)
+from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
+from vfs.scenarios.scenes import generate_scenes
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
 from vfs.units import KMH_PER_MS, wrap_angle
 
@@ -142,7 +148,7 @@ class Preset:
     type_shares : mapping
         Accident-type code -> share of the cases.
     specs : mapping
-        Overrides of :data:`vfs.scenarios.kinematics.SCENARIO_TYPES`.
+        Overrides of :data:`vfs.scenarios.catalogue.SCENARIO_TYPES`.
     near_miss_share : float
         Share of near misses (recorded paths that do not collide).
     wet_share : float
@@ -241,7 +247,7 @@ class GroundTruth:
     noise : NoiseModel
     expert : ExpertChoice
     cases : pandas.DataFrame
-        Per case: the scene design (:func:`vfs.scenarios.kinematics.generate_scenes`)
+        Per case: the scene design (:func:`vfs.scenarios.scenes.generate_scenes`)
         and the values the truth physics used (restitution, penetration time,
         POI, contact plane, wheel brake factors, yaw inertias).
     """
@@ -304,7 +310,7 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
     cols["poi_x"], cols["poi_y"] = res.poi[rows, 0], res.poi[rows, 1]
     cols["cp_angle"] = res.cp_angle[rows]
     cols["restitution"], cols["contact_friction"] = recorded_eps[rows], recorded_mu[rows]
-    cols["impact_type"] = np.array(["none", "full", "sliding"])[imp.impact_type[rows]]
+    cols["impact_type"] = impact_type_names(imp.impact_type[rows])
     for i in (1, 2):
         for name in ("vx", "vy", "yaw_rate"):
             cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")[rows]
@@ -348,7 +354,7 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         sd_w = k * noise.yaw_rate
         out[f"yaw_rate{i}_post"] = rec[f"yaw_rate{i}_post"].to_numpy(float) + sd_w * z[:, j + 2]
         out[f"yaw_rate{i}_post_sd"] = sd_w
-        out[f"delta_v{i}"] = np.hypot(vxp - vx, vyp - vy)
+        out[f"delta_v{i}"] = velocity_change(vxp - vx, vyp - vy)
         out[f"delta_v{i}_sd"] = sd_v
         out[f"velocity_angle_change{i}"] = angle_between(vx, vy, vxp, vyp)
         ees = rec[f"ees{i}"].to_numpy(float)
@@ -366,7 +372,8 @@ def add_noise(rec: pd.DataFrame, masses: np.ndarray, noise: NoiseModel,
         sd_y = math.radians(k * noise.rest_yaw)
         out[f"rest_yaw{i}"] = rec[f"rest_yaw{i}"].to_numpy(float) + sd_y * z[:, j + 7]
         out[f"rest_yaw{i}_sd"] = sd_y
-    out["energy_loss"] = 0.5 * masses[:, 0] * ees_new[0] ** 2 + 0.5 * masses[:, 1] * ees_new[1] ** 2
+    out["energy_loss"] = (deformation_energy(masses[:, 0], ees_new[0])
+                          + deformation_energy(masses[:, 1], ees_new[1]))
     return out
 
 

@@ -66,6 +66,7 @@ from scipy.special import ndtr, ndtri
 from scipy.stats import chi2
 
 from vfs.errors import ParameterError
+from vfs.physics.impact import impact_type_names
 from vfs.uncertainty.core import (
     INPUT_NAMES,
     CaseSet,
@@ -463,7 +464,7 @@ class _Batch(NamedTuple):
         df = pd.DataFrame(self.x, columns=list(INPUT_NAMES))
         for name in KEPT_OUTCOMES:
             df[name] = self.out[name]
-        df["impact_type"] = np.array(["none", "full", "sliding"])[self.impact_type]
+        df["impact_type"] = impact_type_names(self.impact_type)
         for j, name in enumerate(obs.names):
             df[f"r_{name}"] = self.res[:, j]
         df["chi2"] = np.sum(self.res * self.res, axis=1)

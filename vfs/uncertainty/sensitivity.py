@@ -45,6 +45,7 @@ import pandas as pd
 from scipy.stats import qmc
 
 from vfs.errors import ParameterError
+from vfs.physics.impact import impact_type_names
 from vfs.uncertainty.core import (
     INPUT_NAMES,
     INPUTS_BY_NAME,
@@ -447,7 +448,7 @@ def sensitivity_analysis(cases: CaseSet, config: UncertaintyConfig | None = None
         # NaN (e.g. change of velocity angle of a standing vehicle) -> 0: no variance
         y[:, :, k] = np.where(np.isfinite(v), v, 0.0)
     idx = sobol_indices(y, d, n_boot=n_boot, confidence=confidence, rng=rng)
-    group = np.array(["none", "full", "sliding"])[nom.impact_type]
+    group = impact_type_names(nom.impact_type)
     per_case = _per_case_table(idx, cases.case_id, group, names, names_out)
     tables = []
     for g in GROUPS:

@@ -52,7 +52,7 @@ def strict_json(obj: Any) -> Any:
     return obj
 
 
-def write_atomic(path: PathLike, write: Callable[[Path], None]) -> Path:
+def write_atomic(path: PathLike, write: Callable[[Path], object]) -> Path:
     """Call ``write(tmp)`` on a temporary sibling of ``path``, then rename it to ``path``.
 
     Parameters

@@ -63,7 +63,7 @@ _DEFAULT_DT = 0.01
 class _Decision(NamedTuple):
     """A decision waiting for its latency to pass."""
 
-    t_act: float  # time from which it acts [s]
+    t_act: float | np.ndarray  # time from which it acts [s] (scalar or per case)
     stage: np.ndarray  # (N, 2, 3) bool, stages active
     ttc: np.ndarray  # (N, 2) TTC measured [s]
 

@@ -342,7 +342,7 @@ class FitSpace:
         return [f"{self.effects[i].name}.{type(self.effects[i]).parameters[j].name}"
                 for i, j in self.free]
 
-    def model(self, x: Sequence[float]) -> Model:
+    def model(self, x: Sequence[float] | np.ndarray) -> Model:
         """The effects with the free parameters set to ``x`` (clipped to the bounds);
         no effect at all (the default model) if ``x`` holds NaN ("switched off")."""
         if np.isnan(np.asarray(x, float)).any():

@@ -543,7 +543,7 @@ def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 def _as_labels(values: pd.Series) -> np.ndarray:
     """String labels with missing values as None."""
     arr = values.astype(object).to_numpy()
-    return np.where(pd.isna(arr), None, arr).astype(object)
+    return np.asarray(np.where(pd.isna(arr), None, arr), dtype=object)
 
 
 def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:
@@ -585,7 +585,7 @@ def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:
     group = np.select(
         [~ok, (ref_type == "full") & (vfs_label == "full"),
          (ref_type == "sliding") & (vfs_label == "sliding")],
-        [None, GROUP_FULL, GROUP_SLIDING], GROUP_CHANGED,
+        [np.full(len(ok), None), GROUP_FULL, GROUP_SLIDING], GROUP_CHANGED,
     ).astype(object)
     group = np.where(ok, group, None)
     return pd.DataFrame({
@@ -904,7 +904,8 @@ def _case_errors(cases: pd.DataFrame, values: Mapping[str, tuple[np.ndarray, np.
         worst = np.argmax(filled, axis=1)
         score = filled[np.arange(n), worst]
         score = np.where(np.isinf(score), np.nan, score)
-        worst_label = np.where(np.isnan(score), None, np.array(labels, dtype=object)[worst])
+        worst_label = np.asarray(np.where(np.isnan(score), None,
+                                          np.array(labels, dtype=object)[worst]), dtype=object)
     else:
         score = np.full(n, np.nan)
         worst_label = np.full(n, None, dtype=object)

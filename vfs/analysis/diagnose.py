@@ -467,7 +467,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                                   correction, alpha)
     level = 1.0 - (1.0 - confidence) / max(len(names), 1)
     cands: list[CandidateResult] = []
-    fit_opts = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
+    fit_opts: dict[str, Any] = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
     classes = [get_effect(name) for name in names]
     t1, v1 = time.perf_counter(), sim.n_variants
     cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters) for cls in classes], held,
@@ -496,7 +496,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     cands.sort(key=lambda c: (-np.nan_to_num(c.overall.estimate, nan=-np.inf), c.name))
     best = cands[0] if cands and cands[0].significant else None
     best_model = best.cv.fitted_model() if best is not None else ()
-    if stepwise and best_model and len(cands) > 1:
+    if stepwise and best is not None and best_model and len(cands) > 1:
         rest = cands[1:]
         p0 = params or SimulationParams()
         sim2 = VariantSimulator(data, SimulationParams(

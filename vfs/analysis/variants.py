@@ -83,6 +83,10 @@ class StackedVariants(Effect):
     name = "stacked_variants"
     summary = "internal: several model variants in one simulation"
     __slots__ = ("_models", "_n", "_stages", "_t_pen")
+    _models: tuple[tuple[Effect, ...], ...]
+    _n: int
+    _stages: tuple[str, ...]
+    _t_pen: float
 
     def __init__(self, models: Sequence[Model], n: int,
                  penetration_time: float = PrecrashParams.penetration_time) -> None:
@@ -95,7 +99,7 @@ class StackedVariants(Effect):
 
     def active_stages(self) -> tuple[str, ...]:
         """The stages some variant has a hook for."""
-        return self._stages  # type: ignore[no-any-return]
+        return self._stages
 
     def _active(self, stage: str) -> list[tuple[int, list[Any]]]:
         return [(g, h) for g, model in enumerate(self._models) if (h := hooks(model, stage))]

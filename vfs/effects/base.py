@@ -129,7 +129,7 @@ class VelocityChange(NamedTuple):
         """No change for n cases."""
         return cls(*(np.zeros(n) for _ in range(6)))
 
-    def __add__(self, other: object) -> VelocityChange:  # type: ignore[override]
+    def __add__(self, other: object) -> VelocityChange:
         if not isinstance(other, VelocityChange):
             return NotImplemented
         return VelocityChange(*(a + b for a, b in zip(self, other, strict=True)))
@@ -148,6 +148,8 @@ class Effect:
     **values : float
         Parameter values; missing ones take their defaults.
     """
+
+    _values: Mapping[str, float]
 
     #: Unique name, used on the command line (``--hidden NAME=VALUE``).
     name: ClassVar[str] = ""

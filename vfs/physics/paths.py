@@ -60,20 +60,49 @@ class PathArrays(NamedTuple):
     """
 
     knots: np.ndarray
-    count: np.ndarray
+    count: np.ndarray  # type: ignore[assignment]  # a field named like tuple.count
     t0: np.ndarray
     end_curvature: np.ndarray
 
-    t = property(lambda self: self.knots[..., _T].T, doc="Sample times [s] (N, M).")
-    s = property(lambda self: self.knots[..., _S].T, doc="Arc length [m] (N, M).")
-    x = property(lambda self: self.knots[..., _X].T, doc="CG x [m] (N, M).")
-    y = property(lambda self: self.knots[..., _Y].T, doc="CG y [m] (N, M).")
-    yaw = property(lambda self: self.knots[..., _YAW].T, doc="Yaw [rad] (N, M).")
-    heading = property(lambda self: self.knots[..., _HEADING].T,
-                       doc="Direction of motion [rad] (N, M).")
-    speed = property(lambda self: self.knots[..., _SPEED].T, doc="Speed [m/s] (N, M).")
-    accel = property(lambda self: self.knots[..., _ACCEL].T,
-                     doc="Acceleration [m/s^2] (N, M).")
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times [s] (N, M)."""
+        return self.knots[..., _T].T
+
+    @property
+    def s(self) -> np.ndarray:
+        """Arc length [m] (N, M)."""
+        return self.knots[..., _S].T
+
+    @property
+    def x(self) -> np.ndarray:
+        """CG x [m] (N, M)."""
+        return self.knots[..., _X].T
+
+    @property
+    def y(self) -> np.ndarray:
+        """CG y [m] (N, M)."""
+        return self.knots[..., _Y].T
+
+    @property
+    def yaw(self) -> np.ndarray:
+        """Yaw [rad] (N, M)."""
+        return self.knots[..., _YAW].T
+
+    @property
+    def heading(self) -> np.ndarray:
+        """Direction of motion [rad] (N, M)."""
+        return self.knots[..., _HEADING].T
+
+    @property
+    def speed(self) -> np.ndarray:
+        """Speed [m/s] (N, M)."""
+        return self.knots[..., _SPEED].T
+
+    @property
+    def accel(self) -> np.ndarray:
+        """Acceleration [m/s^2] (N, M)."""
+        return self.knots[..., _ACCEL].T
 
     @property
     def size(self) -> int:

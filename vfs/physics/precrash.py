@@ -152,7 +152,7 @@ class PrecrashObservation(NamedTuple):
     """
 
     rows: np.ndarray  # case indices into the batch (n,)
-    t: float  # time since the start of the records [s]
+    t: float | np.ndarray  # time since the start of the records [s] (scalar or per case (n,))
     x: np.ndarray  # CG positions [m] (n, 2)
     y: np.ndarray
     yaw: np.ndarray  # headings [rad] (n, 2)
@@ -545,6 +545,10 @@ class PrecrashRun:
         Cases that ended (impact reached or horizon expired) at the last
         step; their results are final after :meth:`finalize`.
     """
+
+    state: KinematicState
+    v_rec: np.ndarray
+    a_rec: np.ndarray
 
     def __init__(self, vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: PathArrays,
                  road_friction: npt.ArrayLike, params: PrecrashParams | None = None,

@@ -608,8 +608,8 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[key] = figs / file
         func(comparison, files[key])
     worst = plot_worst_cases(comparison, figs, max(0, int(sketches)), database)
-    for k, (file, _) in enumerate(worst):
-        files[f"fig_worst_{k + 1}"] = file
+    for k, (sketch, _) in enumerate(worst):
+        files[f"fig_worst_{k + 1}"] = sketch
 
     blocks = _report_blocks(comparison, top, worst, folder)
     files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))

@@ -30,7 +30,7 @@ COLORS = ("#1f77b4", "#d62728")
 DEFAULT_DPI = 110
 
 
-def new_figure(figsize: tuple[float, float] | None = None, *, layout: str | None = None,
+def new_figure(figsize: tuple[float, float] | None = None, *, layout: Any = None,
                agg: bool = False, **kwargs: Any) -> Figure:
     """A new figure, independent of pyplot and of the global backend.
 
@@ -169,13 +169,13 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
     ax.set_ylabel("y [m]")
     ax.grid(True, lw=0.3)
     # zoom on the collision and rest area
-    pts = []
+    corners: list[list[float]] = []
     for j in (0, 1):
         for state in (pre.impact_state, pre.end_state):
-            pts.append([state.x[index, j], state.y[index, j]])
+            corners.append([state.x[index, j], state.y[index, j]])
         r = ro.result1 if j == 0 else ro.result2
-        pts.append([r.rest_x[index], r.rest_y[index]])
-    pts = np.array(pts, float)
+        corners.append([r.rest_x[index], r.rest_y[index]])
+    pts = np.array(corners, float)
     pts = pts[~np.isnan(pts).any(axis=1)]
     if pts.size:
         lo, hi = pts.min(axis=0) - 8.0, pts.max(axis=0) + 8.0

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from vfs.database import Database
 from vfs.database.source import data_path
 from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import ImpactParams
@@ -80,7 +81,7 @@ if __name__ == "__main__":  # pragma: no cover
     write_example_impacts()
 
 
-def example_case_database() -> object:
+def example_case_database() -> Database:
     """The built-in example case for ``vfs run-case``: a head-on with partial overlap.
 
     Vehicle 1 (large car, 60 km/h) drives through a gentle left bend (radius

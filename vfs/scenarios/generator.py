@@ -431,8 +431,8 @@ def generate_database(preset: str | Preset = "default", n_cases: int | None = No
     scene_db = Database(cases, parts, traj, empty_table("reconstruction"),
                         meta={**default_meta(), "has_reconstruction": False})
     ids = scene_db.case_ids
-    eps = expert_rng.uniform(*p.expert.restitution, size=ids.shape[0])
-    mu = expert_rng.uniform(*p.expert.contact_friction, size=ids.shape[0])
+    eps = np.asarray(expert_rng.uniform(*p.expert.restitution, size=ids.shape[0]))
+    mu = np.asarray(expert_rng.uniform(*p.expert.contact_friction, size=ids.shape[0]))
     batch = CaseBatch.from_database(scene_db)._replace(restitution=eps, contact_friction=mu)
     res = simulate_cases(batch, params=SimulationParams(effects=effects))
 

@@ -14,7 +14,7 @@ def check_range(name: str, value: object, lo: float = -math.inf,
     """ParameterError unless ``value`` is a finite (low, high) pair with lo <= low <= high <= hi."""
     ok = (isinstance(value, tuple) and len(value) == 2
           and all(isinstance(v, int | float) and math.isfinite(v) for v in value))
-    if not ok or not lo <= value[0] <= value[1] <= hi:  # type: ignore[index]
+    if not ok or not lo <= value[0] <= value[1] <= hi:
         raise ParameterError(f"{name}={value!r} must be a (low, high) pair with "
                              f"{lo:g} <= low <= high <= {hi:g}")
 

@@ -14,7 +14,7 @@ from conftest import slow_scale
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
 from vfs.scenarios.generator import generate_database, write_generated
-from vfs.uncertainty.core import OUTCOME_NAMES, CaseSet, Distribution, ModelRuns
+from vfs.uncertainty import OUTCOME_NAMES, CaseSet, Distribution, ModelRuns
 from vfs.uncertainty.reconstruct import (
     ObservationSettings,
     ReconstructSettings,

@@ -16,7 +16,7 @@ from SALib.sample import sobol as salib_sample
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
 from vfs.scenarios.generator import generate_database, write_generated
-from vfs.uncertainty.core import (
+from vfs.uncertainty import (
     INPUT_NAMES,
     CaseSet,
     Distribution,
@@ -141,7 +141,7 @@ def test_model_output_matches_salib(clean_cases):
                "bounds": [[0, 1]] * d}
     u = salib_sample.sample(problem, n, calc_second_order=False, seed=2)
     runs = evaluate(cases, values_from_unit(res, u, np.zeros(len(u), dtype=int), varied), cfg)
-    for name in ("delta_v1", "rest_distance2"):
+    for name in ("delta_v1", "runout_distance2"):
         y = runs.outcomes[name]
         ref = salib_analyze.analyze(problem, y, calc_second_order=False, seed=1)
         ours = sobol_indices(_salib_to_blocks(y, n, d), d)
@@ -151,7 +151,7 @@ def test_model_output_matches_salib(clean_cases):
 
 def test_inputs_that_do_not_enter_an_outcome_get_zero(clean_cases):
     res = sensitivity_analysis(clean_cases, n_base=32, seed=3, n_boot=50,
-                               outcomes=("delta_v1", "ees2", "rest_distance1", "sliding"))
+                               outcomes=("delta_v1", "ees2", "runout_distance1", "sliding"))
     pc = res.per_case
     # the dummy enters nothing; road friction and post-crash brakes do not enter the impact
     for name in (DUMMY, "road_friction", "wheel_brake1", "wheel_brake2"):
@@ -160,10 +160,10 @@ def test_inputs_that_do_not_enter_an_outcome_get_zero(clean_cases):
     dummy = pc[pc["input"] == DUMMY]
     assert (dummy[["s1", "st"]].fillna(0.0).to_numpy() == 0.0).all()
     # but the run-out parameters do drive the rest distance
-    g = res.ranking("rest_distance1", "all").set_index("input")
+    g = res.ranking("runout_distance1", "all").set_index("input")
     assert g.loc["road_friction", "st"] > 0.02 and g.loc["wheel_brake1", "st"] > 0.02
     # vehicle 2's brakes do not move vehicle 1 (secondary collisions are not solved)
-    rest1 = pc[(pc["outcome"] == "rest_distance1") & (pc["input"] == "wheel_brake2")]
+    rest1 = pc[(pc["outcome"] == "runout_distance1") & (pc["input"] == "wheel_brake2")]
     assert (rest1[["s1", "st"]].fillna(0.0).to_numpy() == 0.0).all()
     # indices sum sensibly: S1 <= 1 and ST >= S1 on the group means
     for (_, _), h in res.groups.groupby(["group", "outcome"]):
@@ -210,6 +210,14 @@ def test_groups_split_the_cases_by_nominal_type(clean_cases):
         sensitivity_analysis(clean_cases, n_base=16, outcomes=("delta_v3",))
 
 
+def test_old_outcome_name_is_read_with_a_deprecation_warning(clean_cases):
+    kw = {"n_base": 16, "seed": 0, "n_boot": 10, "dummy": False}
+    with pytest.warns(DeprecationWarning, match="runout_distance1"):
+        old = sensitivity_analysis(clean_cases, outcomes=("rest_distance1",), **kw)
+    new = sensitivity_analysis(clean_cases, outcomes=("runout_distance1",), **kw)
+    pd.testing.assert_frame_equal(old.groups, new.groups)
+
+
 @pytest.mark.slow
 def test_ranking_on_a_larger_sample_is_stable_between_seeds():
     """Different seeds give the same leading input per outcome and group."""
@@ -217,10 +225,10 @@ def test_ranking_on_a_larger_sample_is_stable_between_seeds():
     db, _ = generate_database("default", n_cases=n_cases, seed=12)
     cases = CaseSet.from_database(db)
     a = sensitivity_analysis(cases, n_base=64, seed=1, n_boot=0,
-                             outcomes=("delta_v1", "rest_distance1"))
+                             outcomes=("delta_v1", "runout_distance1"))
     b = sensitivity_analysis(cases, n_base=64, seed=2, n_boot=0,
-                             outcomes=("delta_v1", "rest_distance1"))
-    for outcome in ("delta_v1", "rest_distance1"):
+                             outcomes=("delta_v1", "runout_distance1"))
+    for outcome in ("delta_v1", "runout_distance1"):
         ra, rb = a.ranking(outcome, "all"), b.ranking(outcome, "all")
         assert set(ra["input"].head(3)) & set(rb["input"].head(3))
         np.testing.assert_allclose(ra.set_index("input")["st"],

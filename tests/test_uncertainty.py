@@ -1,4 +1,4 @@
-"""Monte-Carlo uncertainty (vfs.uncertainty.core, vfs uncertainty).
+"""Monte-Carlo uncertainty (vfs.uncertainty, vfs uncertainty).
 
 The coverage check is marked ``slow`` and scales with VFS_SLOW_SCALE; the
 others use small generated databases.
@@ -24,7 +24,7 @@ from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import solve_impact
 from vfs.physics.runout import RunoutParams, RunoutState, run_out_pair
 from vfs.scenarios.generator import generate_database, write_generated
-from vfs.uncertainty.core import (
+from vfs.uncertainty import (
     FACTOR,
     FAMILIES,
     INPUT_NAMES,
@@ -48,6 +48,7 @@ from vfs.uncertainty.core import (
     sample_inputs,
     values_from_unit,
 )
+from vfs.units import wrap_angle
 
 
 @pytest.fixture(scope="module")
@@ -218,8 +219,16 @@ def test_nominal_run_reproduces_the_clean_reconstruction(clean):
                  "post_direction1", "sliding"):
         np.testing.assert_allclose(nom.outcomes[name], rec[name], rtol=1e-9, atol=1e-9,
                                    err_msg=name)
-    for name in ("rest_x1", "rest_y1", "rest_x2", "rest_y2", "rest_yaw1", "rest_distance2"):
+    for name in ("rest_x1", "rest_y1", "rest_x2", "rest_y2", "rest_yaw1", "runout_distance2"):
         np.testing.assert_allclose(nom.outcomes[name], rec[name], atol=1e-9, err_msg=name)
+    # angles: the reconstruction holds rad (converted once on loading), as the model
+    for name in ("pdof1", "pdof2", "velocity_angle_change1", "velocity_angle_change2"):
+        model, recorded = nom.outcomes[name], rec[name]
+        np.testing.assert_array_equal(np.isnan(model), np.isnan(recorded), err_msg=name)
+        ok = ~np.isnan(model)
+        assert ok.sum() >= 10, name
+        np.testing.assert_allclose(wrap_angle(model[ok] - recorded[ok]), 0.0, atol=1e-9,
+                                   err_msg=name)
     coarse = nominal_runs(cases, default_config())  # the 20 ms Monte-Carlo step
     err = np.hypot(coarse.outcomes["rest_x1"] - rec["rest_x1"],
                    coarse.outcomes["rest_y1"] - rec["rest_y1"])
@@ -449,7 +458,7 @@ def _oracle(cases, x):
     for i, r in ((1, ro.result1), (2, ro.result2)):
         out[f"rest_x{i}"], out[f"rest_y{i}"] = r.rest_x, r.rest_y
         out[f"rest_yaw{i}"] = r.rest_yaw
-        out[f"rest_distance{i}"] = np.hypot(r.rest_x - getattr(config, f"x{i}"),
+        out[f"runout_distance{i}"] = np.hypot(r.rest_x - getattr(config, f"x{i}"),
                                             r.rest_y - getattr(config, f"y{i}"))
     return out
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +42,7 @@ from vfs.physics.runout import (
     RunoutParams,
     RunoutResult,
     RunoutState,
+    run_out,
     run_out_pair,
 )
 from vfs.physics.vehicle import VehicleArrays
@@ -276,8 +277,31 @@ class ImpactInputs(NamedTuple):
     impact_time: np.ndarray
 
 
+def impact_parameters_or_default(restitution: npt.ArrayLike, contact_friction: npt.ArrayLike,
+                                 params: ImpactParams) -> tuple[np.ndarray, np.ndarray]:
+    """Restitution and contact friction with NaN replaced by the defaults of ``params``.
+
+    Parameters
+    ----------
+    restitution, contact_friction : array_like (N,)
+        Per-case values [-]; NaN = no value of its own.
+    params : ImpactParams
+        Defaults for the cases without their own values.
+
+    Returns
+    -------
+    restitution, contact_friction : ndarray (N,)
+        [-]
+    """
+    eps = np.asarray(restitution, dtype=float)
+    mu = np.asarray(contact_friction, dtype=float)
+    return (np.where(np.isnan(eps), params.restitution, eps),
+            np.where(np.isnan(mu), params.contact_friction, mu))
+
+
 def impact_parameters(batch: CaseBatch, params: ImpactParams) -> tuple[np.ndarray, np.ndarray]:
-    """Restitution and contact friction per case: the batch's values, NaN -> ``params``.
+    """Restitution and contact friction per case: the batch's values, NaN -> ``params``
+    (:func:`impact_parameters_or_default`).
 
     Parameters
     ----------
@@ -290,13 +314,26 @@ def impact_parameters(batch: CaseBatch, params: ImpactParams) -> tuple[np.ndarra
     restitution, contact_friction : ndarray (N,)
         [-]
     """
-    eps = np.where(np.isnan(batch.restitution), params.restitution, batch.restitution)
-    mu = np.where(np.isnan(batch.contact_friction), params.contact_friction,
-                  batch.contact_friction)
-    return eps, mu
+    return impact_parameters_or_default(batch.restitution, batch.contact_friction, params)
 
 
-def impact_stage(batch: CaseBatch, pre: ImpactInputs | PrecrashResult, hit: np.ndarray,
+class ImpactCases(Protocol):
+    """What :func:`impact_stage` reads of the cases (a :class:`CaseBatch` is one)."""
+
+    @property
+    def vehicle1(self) -> VehicleArrays:
+        """Vehicle 1 of the N cases."""
+
+    @property
+    def vehicle2(self) -> VehicleArrays:
+        """Vehicle 2 of the N cases."""
+
+    @property
+    def road_friction(self) -> np.ndarray:
+        """Tyre-road friction coefficient (N,) [-]."""
+
+
+def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np.ndarray,
                  eps: np.ndarray, mu: np.ndarray, params: SimulationParams
                  ) -> tuple[ImpactConfig, ImpactResult, np.ndarray, np.ndarray]:
     """Impact configuration, solution and run-out inputs of the colliding rows ``hit``.
@@ -307,8 +344,8 @@ def impact_stage(batch: CaseBatch, pre: ImpactInputs | PrecrashResult, hit: np.n
 
     Parameters
     ----------
-    batch : CaseBatch
-        All N cases.
+    batch : ImpactCases
+        All N cases (a :class:`CaseBatch`, or vehicles and road friction only).
     pre : ImpactInputs or PrecrashResult
         Impact state, geometric POI / contact plane and times of the N cases.
     hit : ndarray of int (M,)
@@ -419,17 +456,64 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     impact = _scatter_impact(n, hit, part)
     # run-out from the post-impact state (all cases; non-colliding ones are at
     # the pose where the pre-crash phase left them and are not run)
-    post1 = RunoutState(st.x[hit, 0], st.y[hit, 0], st.yaw[hit, 0], impact.vx1_post[hit],
-                        impact.vy1_post[hit], impact.yaw_rate1_post[hit])
-    post2 = RunoutState(st.x[hit, 1], st.y[hit, 1], st.yaw[hit, 1], impact.vx2_post[hit],
-                        impact.vy2_post[hit], impact.yaw_rate2_post[hit])
     runout = _scatter_runout(
         n, hit,
-        run_out_pair(batch.vehicle1.take(hit), batch.vehicle2.take(hit), post1, post2,
-                     batch.road_friction[hit], params.runout, wheel_brake1=b1,
-                     wheel_brake2=b2) if hit.size else None,
+        runout_stage(batch.vehicle1.take(hit), batch.vehicle2.take(hit), _take_rows(st, hit),
+                     part, batch.road_friction[hit], params.runout, b1, b2)
+        if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
+
+
+def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state: KinematicState,
+                 result: ImpactResult, road_friction: np.ndarray, params: RunoutParams,
+                 wheel_brake1: np.ndarray, wheel_brake2: np.ndarray,
+                 secondary_collisions: bool = True) -> PairRunoutResult:
+    """Run-out to rest of M collisions from the poses at impact and the post-impact velocities.
+
+    Parameters
+    ----------
+    vehicle1, vehicle2 : VehicleArrays
+        The M vehicle pairs.
+    impact_state : KinematicState
+        Poses at impact ((M, 2) arrays) [m, rad]; the velocities are those of ``result``.
+    result : ImpactResult
+        The M impact solutions (post-impact velocities [m/s, rad/s]).
+    road_friction : ndarray (M,)
+        Tyre-road friction coefficient [-] (both vehicles).
+    params : RunoutParams
+    wheel_brake1, wheel_brake2 : ndarray (M, 4)
+        Brake factors of the wheels FL, FR, RL, RR [-].
+    secondary_collisions : bool
+        Flag pairs that touch again after separating
+        (:func:`vfs.physics.runout.run_out_pair`); False skips that check (the
+        rest poses are the same: secondary collisions are detected, not solved),
+        and the result reports none.
+
+    Returns
+    -------
+    PairRunoutResult
+    """
+    st = impact_state
+    post1 = RunoutState(st.x[:, 0], st.y[:, 0], st.yaw[:, 0], result.vx1_post,
+                        result.vy1_post, result.yaw_rate1_post)
+    post2 = RunoutState(st.x[:, 1], st.y[:, 1], st.yaw[:, 1], result.vx2_post,
+                        result.vy2_post, result.yaw_rate2_post)
+    if secondary_collisions:
+        return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
+                            wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
+    m = post1.x.shape[0]
+    both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(vehicle1, vehicle2,
+                                                                   strict=True)))
+    state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(post1, post2, strict=True)))
+    mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
+    res = run_out(both, state, np.concatenate([mu, mu]), params,
+                  wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]))
+    first = RunoutResult(*(a if name == "path_t" else a[:m]
+                           for name, a in zip(RunoutResult._fields, res, strict=True)))
+    second = RunoutResult(*(a if name == "path_t" else a[m:]
+                            for name, a in zip(RunoutResult._fields, res, strict=True)))
+    return PairRunoutResult(first, second, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 
 def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:

@@ -48,7 +48,7 @@ def _positive(value: Any, flag: str, integer: bool = False, minimum: float = 0.0
 def _load_cases(args: argparse.Namespace) -> Any:
     """The CaseSet of ``--db`` / ``--where`` / ``--cases`` / ``--max-cases``."""
     from vfs.cli.common import open_db
-    from vfs.uncertainty.core import CaseSet
+    from vfs.uncertainty import CaseSet
 
     db = open_db(args)
     cases = CaseSet.from_database(db, parse_case_list(getattr(args, "cases", None)))
@@ -60,7 +60,7 @@ def _load_cases(args: argparse.Namespace) -> Any:
 
 
 def _config(args: argparse.Namespace) -> Any:
-    from vfs.uncertainty.core import load_config
+    from vfs.uncertainty import load_config
 
     return load_config(args.config)
 
@@ -85,7 +85,7 @@ def _common(p: argparse.ArgumentParser, max_cases_default: int | None = None) ->
 def cmd_uncertainty(args: argparse.Namespace) -> int:
     """Run ``vfs uncertainty``."""
     from vfs.report.uncertainty import write_uncertainty_report
-    from vfs.uncertainty.core import OUTCOMES_BY_NAME, run_uncertainty
+    from vfs.uncertainty import OUTCOMES_BY_NAME, run_uncertainty
 
     samples = _positive(args.samples, "--samples", integer=True)
     cases = _load_cases(args)
@@ -98,7 +98,7 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
     print("median relative half-width (p95 - p5) / (2 median) over the cases "
           "[all / nominal full / nominal sliding]:")
     for name in ("delta_v1", "delta_v2", "ees1", "ees2", "velocity_angle_change1",
-                 "post_speed1", "rest_distance1", "rest_distance2", "energy_loss"):
+                 "post_speed1", "runout_distance1", "runout_distance2", "energy_loss"):
         parts = []
         for group in ("all", "full", "sliding"):
             row = summary[(summary["outcome"] == name) & (summary["group"] == group)]
@@ -114,7 +114,7 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
 def cmd_sensitivity(args: argparse.Namespace) -> int:
     """Run ``vfs sensitivity``."""
     from vfs.report.uncertainty import write_sensitivity_report
-    from vfs.uncertainty.core import OUTCOMES_BY_NAME
+    from vfs.uncertainty import OUTCOMES_BY_NAME
     from vfs.uncertainty.sensitivity import sensitivity_analysis
 
     outcomes = None
@@ -129,7 +129,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
                                   outcomes=outcomes, n_boot=n_boot)
     files = write_sensitivity_report(result, args.out, plots=not args.no_plots)
     print(f"{cases.size} cases, {result.n_runs} model runs in {result.seconds:.1f} s")
-    shown = [o for o in ("delta_v1", "ees1", "velocity_angle_change1", "rest_distance1",
+    shown = [o for o in ("delta_v1", "ees1", "velocity_angle_change1", "runout_distance1",
                          "sliding") if o in set(result.groups["outcome"])]
     for outcome in shown:
         for group in ("full", "sliding"):
@@ -148,7 +148,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from vfs.report.uncertainty import write_reconstruct_report
-    from vfs.uncertainty.core import Distribution
+    from vfs.uncertainty import Distribution
     from vfs.uncertainty.reconstruct import (
         ObservationSettings,
         ReconstructSettings,
@@ -209,7 +209,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``uncertainty``, ``sensitivity`` and ``reconstruct`` to the main parser."""
-    from vfs.uncertainty.core import OUTCOME_NAMES
+    from vfs.uncertainty import OUTCOME_NAMES
     from vfs.uncertainty.reconstruct import OBSERVABLES
 
     p = subparsers.add_parser(

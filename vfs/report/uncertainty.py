@@ -31,18 +31,19 @@ from vfs.report.render import (
     Table,
     write_report,
 )
-from vfs.uncertainty.core import (
+from vfs.uncertainty import (
     DISPLAY_UNITS,
     INPUTS_BY_NAME,
     OUTCOMES_BY_NAME,
     UncertaintyResult,
     band_summary,
 )
+from vfs.units import KMH_PER_MS
 
 #: Colours of the nominal impact types.
 TYPE_COLORS = {"full": "#1f4e9c", "sliding": "#e6b800", "none": "#9e9e9e"}
 #: Outcomes of the overview figure of the sensitivity report.
-OVERVIEW_OUTCOMES: tuple[str, ...] = ("delta_v1", "ees1", "rest_distance1", "sliding")
+OVERVIEW_OUTCOMES: tuple[str, ...] = ("delta_v1", "ees1", "runout_distance1", "sliding")
 
 
 def _horizontal() -> dict[str, Any]:
@@ -222,8 +223,8 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
             result.bands, figs / "relative_half_width.png")
         files["fig_bands_delta_v1"] = plot_case_bands(result.bands, "delta_v1",
                                                       figs / "bands_delta_v1.png")
-        files["fig_bands_rest_distance1"] = plot_case_bands(
-            result.bands, "rest_distance1", figs / "bands_rest_distance1.png")
+        files["fig_bands_runout_distance1"] = plot_case_bands(
+            result.bands, "runout_distance1", figs / "bands_runout_distance1.png")
         files["fig_p_sliding"] = plot_sliding_probability(result.cases,
                                                           figs / "p_sliding.png")
     inputs = result.inputs[["input", "label", "distribution", "varied", "database_sd_cases",
@@ -258,7 +259,7 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
             Figure("figures/bands_delta_v1.png",
                    "Delta-v 1: 5-95 % band, median and reconstruction of the first "
                    "cases."),
-            Figure("figures/bands_rest_distance1.png",
+            Figure("figures/bands_runout_distance1.png",
                    "Impact-to-rest distance of vehicle 1."),
             Figure("figures/p_sliding.png",
                    "Probability of a sliding impact per case."),
@@ -485,7 +486,7 @@ def _band_display(rec: Any) -> pd.DataFrame:
         else:
             quantity = OUTCOMES_BY_NAME[name].quantity
             label = OUTCOMES_BY_NAME[name].label
-        unit, k = {"speed": ("km/h", 3.6), "angle": ("deg", 180 / math.pi),
+        unit, k = {"speed": ("km/h", KMH_PER_MS), "angle": ("deg", 180 / math.pi),
                    "time": ("ms", 1e3)}.get(quantity, ("", 1.0))
         if quantity == "mass":
             unit = "kg"
@@ -533,7 +534,7 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
     s = rec.stats
     obs_disp = obs.copy()
     scale = np.where(obs_disp["angular"], 180 / math.pi,
-                     np.where(obs_disp["observation"].str.startswith("ees"), 3.6, 1.0))
+                     np.where(obs_disp["observation"].str.startswith("ees"), KMH_PER_MS, 1.0))
     obs_disp["observed"] = [_fmt(v, 2) for v in obs_disp["observed"] * scale]
     obs_disp["sigma"] = [_fmt(v, 2) for v in obs_disp["sigma"] * scale]
     obs_disp["unit"] = np.where(obs_disp["angular"], "deg",

@@ -21,7 +21,7 @@ raw.
 
 1. **Monte-Carlo acceptance.**  The unknowns are the impact speeds (prior:
    uniform, by default 0.5-1.5 times the database's speed, direction kept)
-   and every uncertain input of :mod:`vfs.uncertainty.core` with its configured
+   and every uncertain input of :mod:`vfs.uncertainty.model` with its configured
    distribution.  They are sampled as standard normal scores z (u = Phi(z),
    value = the input's inverse CDF of u), so the prior is N(0, I) whatever
    the distributions.  A sample is *accepted* when every |r_k| <= k
@@ -67,17 +67,10 @@ from scipy.stats import chi2
 
 from vfs.errors import ParameterError
 from vfs.physics.impact import impact_type_names
-from vfs.uncertainty.core import (
-    INPUT_NAMES,
-    CaseSet,
-    Distribution,
-    ModelRuns,
-    UncertaintyConfig,
-    default_config,
-    evaluate,
-    resolve_inputs,
-    values_from_unit,
-)
+from vfs.uncertainty.cases import CaseSet
+from vfs.uncertainty.config import INPUT_NAMES, Distribution, UncertaintyConfig, default_config
+from vfs.uncertainty.model import ModelRuns, evaluate
+from vfs.uncertainty.sampling import resolve_inputs, values_from_unit
 from vfs.units import KMH_PER_MS, wrap_angle
 
 #: Observation groups: name -> (columns per vehicle, quantity).
@@ -616,7 +609,7 @@ def reconstruct(cases: CaseSet, case_id: object, config: UncertaintyConfig | Non
         The case to reconstruct.
     config : UncertaintyConfig, optional
         Distributions of the uncertain parameters (default
-        :func:`vfs.uncertainty.core.default_config`); the speed distributions are
+        :func:`vfs.uncertainty.config.default_config`); the speed distributions are
         replaced by the priors of ``settings``.
     observation : ObservationSettings, optional
     settings : ReconstructSettings, optional

@@ -27,7 +27,7 @@ Every term is a mean over the n base rows, so the bootstrap (resampling base
 rows, as SALib does) is one matrix product of resampling weights with the
 per-row terms.  :func:`sobol_indices` works on outputs with any trailing
 shape (cases x outcomes) at once.  :func:`sensitivity_analysis` applies it to
-the impact and run-out model of :mod:`vfs.uncertainty.core`, per case, and
+the impact and run-out model of :mod:`vfs.uncertainty.model`, per case, and
 averages the per-case indices separately over the cases whose nominal
 impact is full and those whose nominal impact is sliding.
 """
@@ -46,21 +46,12 @@ from scipy.stats import qmc
 
 from vfs.errors import ParameterError
 from vfs.physics.impact import impact_type_names
-from vfs.uncertainty.core import (
-    INPUT_NAMES,
-    INPUTS_BY_NAME,
-    OUTCOME_NAMES,
-    OUTCOMES_BY_NAME,
-    CaseSet,
-    UncertaintyConfig,
-    default_config,
-    evaluate,
-    input_table,
-    nominal_runs,
-    resolve_inputs,
-    unwrap_circular,
-    values_from_unit,
-)
+from vfs.uncertainty.bands import input_table, unwrap_circular
+from vfs.uncertainty.cases import CaseSet
+from vfs.uncertainty.config import INPUT_NAMES, INPUTS_BY_NAME, UncertaintyConfig, default_config
+from vfs.uncertainty.model import evaluate, nominal_runs
+from vfs.uncertainty.outcomes import OUTCOME_NAMES, OUTCOMES_BY_NAME, RENAMED_OUTCOMES
+from vfs.uncertainty.sampling import resolve_inputs, values_from_unit
 
 #: Name of the dummy input that enters no outcome (its indices must be ~0).
 DUMMY = "dummy"
@@ -69,7 +60,7 @@ GROUPS: tuple[str, ...] = ("all", "full", "sliding")
 #: Default outcomes of the analysis.
 DEFAULT_OUTCOMES: tuple[str, ...] = (
     "delta_v1", "delta_v2", "ees1", "ees2", "velocity_angle_change1", "velocity_angle_change2",
-    "post_speed1", "post_speed2", "rest_distance1", "rest_distance2", "sliding",
+    "post_speed1", "post_speed2", "runout_distance1", "runout_distance2", "sliding",
 )
 
 
@@ -345,6 +336,11 @@ class SensitivityResult(NamedTuple):
 
 def _check_outcomes(outcomes: Sequence[str] | None) -> tuple[str, ...]:
     names = DEFAULT_OUTCOMES if outcomes is None else tuple(outcomes)
+    old = [o for o in names if o in RENAMED_OUTCOMES]
+    if old:
+        warnings.warn(f"outcomes {old} are now called "
+                      f"{[RENAMED_OUTCOMES[o] for o in old]}", DeprecationWarning, stacklevel=3)
+        names = tuple(RENAMED_OUTCOMES.get(o, o) for o in names)
     unknown = [o for o in names if o not in OUTCOMES_BY_NAME]
     if unknown or not names:
         raise ParameterError(f"unknown outcomes {unknown}; known: {', '.join(OUTCOME_NAMES)}")
@@ -383,7 +379,7 @@ def sensitivity_analysis(cases: CaseSet, config: UncertaintyConfig | None = None
                          confidence: float = 0.95, dummy: bool = True) -> SensitivityResult:
     """Sobol indices of the outcomes on the uncertain inputs, per case and per group.
 
-    The inputs are the varied inputs of ``config`` (:mod:`vfs.uncertainty.core`;
+    The inputs are the varied inputs of ``config`` (:mod:`vfs.uncertainty.model`;
     each keeps its distribution, so the indices answer "which of the stated
     uncertainties matters most"), plus a dummy input that enters nothing.
     Every case gets the same Saltelli design (its points mapped through the

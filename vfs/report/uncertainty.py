@@ -14,7 +14,7 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -66,8 +66,8 @@ def _tables(folder: Path, tables: dict[str, pd.DataFrame], parquet: Sequence[str
             files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", df)
 
 
-def _report(folder: Path, blocks: list[Block], title: str, files: dict[str, Path]) -> None:
-    files.update(write_report(folder, Report(title, tuple(blocks))))
+def _report(folder: Path, blocks: Sequence[object], title: str, files: dict[str, Path]) -> None:
+    files.update(write_report(folder, Report(title, tuple(cast("Block", b) for b in blocks))))
 
 
 def _display(outcome: str) -> tuple[str, float]:
@@ -148,7 +148,7 @@ def plot_sliding_probability(cases: pd.DataFrame, path: Path) -> Path:
     """Histogram of the probability of a sliding impact, by nominal impact type."""
     fig = new_figure((6.5, 3.8))
     ax = fig.subplots()
-    bins = np.linspace(0, 100, 21)
+    bins = np.linspace(0, 100, 21).tolist()
     for t in ("full", "sliding"):
         v = 100.0 * cases.loc[cases["nominal_type"] == t, "p_sliding"].to_numpy(float)
         if v.size:

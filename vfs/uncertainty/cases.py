@@ -83,7 +83,7 @@ class CaseSet(NamedTuple):
         """Number of cases N."""
         return int(self.case_id.shape[0])
 
-    def take(self, index: npt.ArrayLike) -> CaseSet:
+    def take(self, index: npt.ArrayLike | slice) -> CaseSet:
         """Cases by position (integer index or mask)."""
         idx = np.arange(self.size)[index]
         return CaseSet(

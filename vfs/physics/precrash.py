@@ -32,12 +32,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.physics.braking import (
+    BrakeActuatorParams,
+    BrakeController,
+    PrecrashObservation,
+    ScheduledBraking,
+    actuator_step,
+    friction_limited_deceleration,
+)
 from vfs.physics.geometry import (
     AREA_TOLERANCE,
     contact_geometry,
@@ -52,50 +59,30 @@ from vfs.physics.paths import (
     pose_at_arclength,
     record_at_time,
 )
+from vfs.physics.precrash_result import KinematicState, PrecrashResult
 from vfs.physics.vehicle import VehicleArrays
-from vfs.units import G
+
+#: The braking names are re-exported from :mod:`vfs.physics.braking`, the records from
+#: :mod:`vfs.physics.precrash_result`, where they live.
+__all__ = [
+    "CLOSE_RANGE",
+    "GRAZE_SAMPLES",
+    "BrakeActuatorParams",
+    "BrakeController",
+    "KinematicState",
+    "PrecrashObservation",
+    "PrecrashParams",
+    "PrecrashResult",
+    "PrecrashRun",
+    "ScheduledBraking",
+    "actuator_step",
+    "friction_limited_deceleration",
+    "simulate_precrash",
+]
 
 # ----------------------------------------------------------------------------
 # Parameters
 # ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class BrakeActuatorParams:
-    """Brake build-up from demand to delivered deceleration.
-
-    Attributes
-    ----------
-    model : {'jerk', 'first_order'}
-        'jerk': the deceleration ramps towards the demand with at most
-        ``jerk`` [m/s^3] (and releases with ``release_jerk``);
-        'first_order': dd/dt = (demand - d) / ``time_constant``.
-    jerk : float
-        Build-up rate [m/s^3].  Default 40 m/s^3: 8 m/s^2 after 0.2 s, inside
-        the 0.1-0.3 s brake lag of seed 004 ("Lag").
-    release_jerk : float
-        Release rate [m/s^3], default 40.
-    time_constant : float
-        First-order time constant [s], default 0.1 (63 % after 0.1 s, 95 %
-        after 0.3 s: seed 004's brake lag range).
-    max_deceleration : float
-        Brake-system limit [m/s^2] before the road limit; default 10.
-    """
-
-    model: str = "jerk"
-    jerk: float = 40.0
-    release_jerk: float = 40.0
-    time_constant: float = 0.1
-    max_deceleration: float = 10.0
-
-    def __post_init__(self) -> None:
-        if self.model not in ("jerk", "first_order"):
-            raise ParameterError(f"brake actuator model {self.model!r}: use 'jerk' or "
-                                 "'first_order'")
-        for name in ("jerk", "release_jerk", "time_constant", "max_deceleration"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ParameterError(f"brake actuator {name}={value} must be > 0")
 
 
 @dataclass(frozen=True)
@@ -140,171 +127,8 @@ class PrecrashParams:
 
 
 # ----------------------------------------------------------------------------
-# Controllers
+# Contact tracking
 # ----------------------------------------------------------------------------
-
-
-class PrecrashObservation(NamedTuple):
-    """What a controller sees at one step, for the n cases still running.
-
-    Arrays have shape (n,) or (n, 2) (participant 1 and 2 in columns).
-    Controllers that model sensors (adas) derive their measurements from it.
-    """
-
-    rows: np.ndarray  # case indices into the batch (n,)
-    t: float | np.ndarray  # time since the start of the records [s] (scalar or per case (n,))
-    x: np.ndarray  # CG positions [m] (n, 2)
-    y: np.ndarray
-    yaw: np.ndarray  # headings [rad] (n, 2)
-    heading: np.ndarray  # direction of motion [rad] (n, 2)
-    speed: np.ndarray  # [m/s] (n, 2)
-    accel: np.ndarray  # current longitudinal acceleration [m/s^2] (n, 2)
-    yaw_rate: np.ndarray  # [rad/s] (n, 2)
-    deceleration: np.ndarray  # delivered brake deceleration [m/s^2] (n, 2)
-    road_friction: np.ndarray  # (n,)
-    vx: np.ndarray | None = None  # CG velocity [m/s], global (n, 2) (speed x heading)
-    vy: np.ndarray | None = None
-
-
-class BrakeController(Protocol):
-    """A controller demands a deceleration [m/s^2] (>= 0) per case and participant."""
-
-    def reset(self, n_cases: int, rng: np.random.Generator) -> None:
-        """Prepare for a batch of ``n_cases`` cases."""
-
-    def demand(self, obs: PrecrashObservation) -> np.ndarray:
-        """Demanded deceleration [m/s^2], shape (n, 2), for ``obs.rows``."""
-
-
-class ScheduledBraking:
-    """Brake with a fixed demand from a given time on (per case and participant).
-
-    Parameters
-    ----------
-    start_time : array_like (N, 2)
-        Time [s, relative to the record start] at which braking is demanded;
-        NaN or inf = never.
-    deceleration : array_like (N, 2)
-        Demanded deceleration [m/s^2].
-    """
-
-    def __init__(self, start_time: npt.ArrayLike, deceleration: npt.ArrayLike) -> None:
-        self.start_time = np.atleast_2d(np.asarray(start_time, float))
-        self.deceleration = np.broadcast_to(np.asarray(deceleration, float),
-                                            self.start_time.shape)
-
-    def reset(self, n_cases: int, rng: np.random.Generator) -> None:  # noqa: D102
-        if self.start_time.shape[0] != n_cases:
-            raise ParameterError(f"ScheduledBraking has {self.start_time.shape[0]} rows for "
-                                 f"{n_cases} cases")
-
-    def demand(self, obs: PrecrashObservation) -> np.ndarray:  # noqa: D102
-        start = self.start_time[obs.rows]
-        # 1 ns slack: a start time on the step grid is not missed by rounding
-        on = obs.t >= np.nan_to_num(start, nan=np.inf) - 1e-9
-        return np.where(on, self.deceleration[obs.rows], 0.0)
-
-
-def actuator_step(current: np.ndarray, demand: np.ndarray, limit: np.ndarray,
-                  params: BrakeActuatorParams, dt: float) -> np.ndarray:
-    """Delivered deceleration [m/s^2] after one step of the brake build-up."""
-    target = np.clip(demand, 0.0, limit)
-    if params.model == "jerk":
-        step = np.clip(target - current, -params.release_jerk * dt, params.jerk * dt)
-        return current + step
-    alpha = 1.0 - np.exp(-dt / params.time_constant)
-    return current + alpha * (target - current)
-
-
-# ----------------------------------------------------------------------------
-# Results
-# ----------------------------------------------------------------------------
-
-
-class KinematicState(NamedTuple):
-    """Pose and velocity of both vehicles of n cases (arrays (n, 2))."""
-
-    x: np.ndarray  # CG [m]
-    y: np.ndarray
-    yaw: np.ndarray  # heading [rad]
-    vx: np.ndarray  # CG velocity [m/s], global
-    vy: np.ndarray
-    yaw_rate: np.ndarray  # [rad/s]
-    speed: np.ndarray  # [m/s]
-
-
-class PrecrashResult(NamedTuple):
-    """Outcome of the pre-crash phase for N cases.
-
-    Attributes
-    ----------
-    collided : ndarray of bool (N,)
-        The outlines touched.
-    contact_time : ndarray (N,)
-        First contact [s, relative to the record start], NaN if none.
-    impact_time : ndarray (N,)
-        contact_time + penetration time [s].
-    impact_state : KinematicState
-        Poses and velocities at impact_time ((N, 2) arrays, NaN if none).
-    contact_state : KinematicState
-        Poses and velocities at first contact.
-    poi : ndarray (N, 2)
-        Point of impact [m] at impact_time (centroid of the overlap).
-    cp_angle : ndarray (N,)
-        Contact-plane tangent [rad] at impact_time.
-    cp_rule : ndarray of int (N,)
-        Contact-plane rule applied (vfs.physics.geometry.CP_RULES).
-    overlap_area : ndarray (N,)
-        Overlap area at impact_time [m^2].
-    min_distance : ndarray (N,)
-        Smallest outline distance before contact [m] (0 if they touched).
-    time_closest : ndarray (N,)
-        Time of the smallest distance [s] (step resolution).
-    brake_start : ndarray (N, 2)
-        First time the actuator delivered deceleration [s], NaN if never.
-    speed_reduction : ndarray (N, 2)
-        dv at the end: speed taken off the record by braking [m/s].
-    end_state : KinematicState
-        Poses and velocities at the end of the simulated horizon for cases
-        without a collision (NaN for colliding cases): where a braked
-        vehicle came to a stop.
-    end_time : float
-        Time of the end of the simulated horizon [s] (the longest case's;
-        each case ends at its own horizon: its longer record plus
-        ``extra_time``).
-    """
-
-    collided: np.ndarray
-    contact_time: np.ndarray
-    impact_time: np.ndarray
-    impact_state: KinematicState
-    contact_state: KinematicState
-    poi: np.ndarray
-    cp_angle: np.ndarray
-    cp_rule: np.ndarray
-    overlap_area: np.ndarray
-    min_distance: np.ndarray
-    time_closest: np.ndarray
-    brake_start: np.ndarray
-    speed_reduction: np.ndarray
-    end_state: KinematicState
-    end_time: float
-
-
-# ----------------------------------------------------------------------------
-# Helpers
-# ----------------------------------------------------------------------------
-
-def friction_limited_deceleration(road_friction: npt.ArrayLike,
-                                  max_deceleration: npt.ArrayLike) -> np.ndarray:
-    """Largest braking deceleration [m/s^2]: min(mu g, a_max).
-
-    The tyre-road friction coefficient ``road_friction`` [-] bounds the
-    deceleration by mu g; ``max_deceleration`` [m/s^2] is the limit of the
-    brake system or of the driver (broadcast against each other).
-    """
-    return np.minimum(np.asarray(road_friction) * G, max_deceleration)
-
 
 #: Outline distances are tracked exactly every step while the outlines may be
 #: closer than this [m]; farther passes are measured at the moment of minimal

@@ -624,9 +624,9 @@ def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _as_labels(values: pd.Series) -> np.ndarray:
-    """String labels with missing values as None."""
+    """String labels with missing values (and '' = not measured) as None."""
     arr = values.astype(object).to_numpy()
-    return np.where(pd.isna(arr), None, arr).astype(object)
+    return np.where(pd.isna(arr) | (arr == ""), None, arr).astype(object)
 
 
 def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:

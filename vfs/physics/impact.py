@@ -463,7 +463,10 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
 def deformation_energies(config: ImpactConfig,
                          result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
     """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
-    return 0.5 * config.m1 * result.ees1**2, 0.5 * config.m2 * result.ees2**2
+    with np.errstate(invalid="ignore"):  # a fixed object (m = inf) has EES 0 and E 0
+        e1, e2 = 0.5 * config.m1 * result.ees1**2, 0.5 * config.m2 * result.ees2**2
+    return (np.where(np.isposinf(config.m1), 0.0, e1),
+            np.where(np.isposinf(config.m2), 0.0, e2))
 
 
 def solve_impact(config: ImpactConfig,

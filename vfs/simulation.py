@@ -21,6 +21,7 @@ from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import (
+    FIXED_OBJECT_MASS,
     IMPACT_TYPE_NAMES,
     ImpactConfig,
     ImpactParams,
@@ -93,6 +94,10 @@ class CaseBatch(NamedTuple):
     yaw_inertia_known : ndarray of bool (N, 2), optional
         True where the data gave the yaw inertia (False: estimated by the
         default formula); None = all estimated.
+    fixed_object : ndarray of bool (N, 2), optional
+        True where a participant is a rigid fixed object (barrier, wall, pole):
+        infinite mass and yaw inertia in the impact (:data:`vfs.physics.impact.FIXED_OBJECT_MASS`),
+        hence no velocity change and no run-out; None = no fixed objects.
     """
 
     case_id: np.ndarray
@@ -103,6 +108,7 @@ class CaseBatch(NamedTuple):
     restitution: np.ndarray
     contact_friction: np.ndarray
     yaw_inertia_known: np.ndarray | None = None
+    fixed_object: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -116,7 +122,8 @@ class CaseBatch(NamedTuple):
         known = None if self.yaw_inertia_known is None else self.yaw_inertia_known[idx]
         return CaseBatch(self.case_id[idx], self.vehicle1.take(idx), self.vehicle2.take(idx),
                          self.paths.take(both), self.road_friction[idx],
-                         self.restitution[idx], self.contact_friction[idx], known)
+                         self.restitution[idx], self.contact_friction[idx], known,
+                         None if self.fixed_object is None else self.fixed_object[idx])
 
     @property
     def inertia_known(self) -> np.ndarray:
@@ -169,7 +176,16 @@ class CaseBatch(NamedTuple):
         known = np.stack([
             np.isfinite(parts.reindex(pd.MultiIndex.from_arrays(
                 [ids, np.full(ids.shape[0], k)])).to_numpy(float)) for k in (1, 2)], axis=1)
-        return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), eps, mu, known)
+        fixed = None
+        if "fixed_object" in sub.participants.columns:
+            flags = sub.participants.drop_duplicates(["case_id", "participant"]).set_index(
+                ["case_id", "participant"])["fixed_object"].astype(bool)
+            fixed = np.stack([flags.reindex(pd.MultiIndex.from_arrays(
+                [ids, np.full(ids.shape[0], k)])).fillna(False).to_numpy(bool)
+                for k in (1, 2)], axis=1)
+            fixed = fixed if fixed.any() else None
+        return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), eps, mu, known,
+                   fixed)
 
 
 class CaseResults(NamedTuple):
@@ -367,10 +383,17 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
     v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
+    m1, izz1, m2, izz2 = v1.mass, v1.yaw_inertia, v2.mass, v2.yaw_inertia
+    # rigid fixed objects (N, 2) bool, where the cases say (a CaseBatch may; others have none)
+    fixed_object = getattr(batch, "fixed_object", None)
+    if fixed_object is not None:  # the limit 1/m = 0 (vfs.physics.impact)
+        fixed = fixed_object[hit]
+        m1, izz1 = (np.where(fixed[:, 0], FIXED_OBJECT_MASS, a) for a in (m1, izz1))
+        m2, izz2 = (np.where(fixed[:, 1], FIXED_OBJECT_MASS, a) for a in (m2, izz2))
     config = ImpactConfig.from_arrays(
-        m1=v1.mass, izz1=v1.yaw_inertia, x1=st.x[:, 0], y1=st.y[:, 0], yaw1=st.yaw[:, 0],
+        m1=m1, izz1=izz1, x1=st.x[:, 0], y1=st.y[:, 0], yaw1=st.yaw[:, 0],
         vx1=st.vx[:, 0], vy1=st.vy[:, 0], yaw_rate1=st.yaw_rate[:, 0],
-        m2=v2.mass, izz2=v2.yaw_inertia, x2=st.x[:, 1], y2=st.y[:, 1], yaw2=st.yaw[:, 1],
+        m2=m2, izz2=izz2, x2=st.x[:, 1], y2=st.y[:, 1], yaw2=st.yaw[:, 1],
         vx2=st.vx[:, 1], vy2=st.vy[:, 1], yaw_rate2=st.yaw_rate[:, 1],
         poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
         restitution=eps[hit], contact_friction=mu[hit],

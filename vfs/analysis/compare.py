@@ -541,9 +541,9 @@ def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _as_labels(values: pd.Series) -> np.ndarray:
-    """String labels with missing values as None."""
+    """String labels with missing values (and '' = not measured) as None."""
     arr = values.astype(object).to_numpy()
-    return np.asarray(np.where(pd.isna(arr), None, arr), dtype=object)
+    return np.asarray(np.where(pd.isna(arr) | (arr == ""), None, arr), dtype=object)
 
 
 def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:

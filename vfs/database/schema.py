@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -339,6 +339,11 @@ PARTICIPANTS = TableSpec(
         _vehicle_column("cg_height", "m", "height of the CG above ground"),
         ColumnSpec("vehicle_class", "str", "", "vehicle class, e.g. car, truck",
                    required=False, default="car"),
+        ColumnSpec("fixed_object", "bool", "",
+                   "True for a rigid fixed object (barrier, wall, pole): infinite mass and "
+                   "yaw inertia in the impact (mass and yaw_inertia are then not used), "
+                   "no run-out; the outline rectangle is its contact geometry",
+                   required=False, default=False),
     ),
 )
 
@@ -413,12 +418,22 @@ for _i in (1, 2):
         _rec(f"rest_yaw{_i}", "rad", f"yaw angle of participant {_i} at rest"),
     ]
 
+#: Values of the reconstruction's ``outcome_source`` column.
+OUTCOME_RECONSTRUCTION, OUTCOME_MEASUREMENT = "reconstruction", "measurement"
+#: Reconstruction columns a measurement row may leave NaN ("not measured"): the
+#: outcomes and the impact parameters (a crash test measures no restitution).
+MEASURABLE_COLUMNS: tuple[str, ...] = (
+    "restitution", "contact_friction", *(c.name for c in _OUTCOMES))
+_OUTCOMES = [replace(c, nullable=True) if not c.nullable else c for c in _OUTCOMES]
+
 RECONSTRUCTION = TableSpec(
     name="reconstruction",
     description=(
         "the expert's reconstruction, one row per colliding case (wide: suffix 1/2 = "
         "participant); optional `<column>_sd` columns (standard deviation, same unit, "
-        ">= 0) for any float column; unknown extra columns are kept"
+        ">= 0) for any float column; unknown extra columns are kept; NaN in restitution, "
+        "contact_friction and the outcome columns (and an empty impact_type) only in "
+        "rows with outcome_source = 'measurement', where they mean 'not measured'"
     ),
     key=("case_id",),
     accepts_uncertainty=True,
@@ -430,11 +445,21 @@ RECONSTRUCTION = TableSpec(
         _rec("poi_y", "m", "point of impact y, global frame"),
         _rec("cp_angle", "rad", "tangent direction of the contact plane (orientation "
              "irrelevant)"),
-        _rec("restitution", "-", "coefficient of restitution", lo=0.0, hi=1.0),
+        _rec("restitution", "-", "coefficient of restitution", lo=0.0, hi=1.0,
+             nullable=True),
         _rec("contact_friction", "-", "friction coefficient between the vehicles", lo=0.0,
-             hi=2.0),
-        ColumnSpec("impact_type", "str", "", "impact model", allowed=("full", "sliding")),
+             hi=2.0, nullable=True),
+        ColumnSpec("impact_type", "str", "", "impact model ('' = not known, measurement "
+                   "rows only)", allowed=("full", "sliding", "")),
         *_OUTCOMES,
+        ColumnSpec("outcome_source", "str", "",
+                   "where the outcome values come from: 'reconstruction' (an expert's "
+                   "reconstruction, every outcome given) or 'measurement' (an instrumented "
+                   "test: only measured outcomes are given, NaN = not measured, `_sd` = "
+                   "measurement uncertainty; NaN restitution / contact friction = the "
+                   "model default)", required=False,
+                   allowed=(OUTCOME_RECONSTRUCTION, OUTCOME_MEASUREMENT),
+                   default=OUTCOME_RECONSTRUCTION),
     ),
 )
 

@@ -24,6 +24,7 @@ from vfs.errors import DataError, DataProblem, ParameterError
 #: Databases shipped with vfs: ``--db NAME`` -> folder below ``vfs/data``.
 BUNDLED_DATABASES: dict[str, str] = {
     "default": "default",
+    "crash-tests": "crash-tests",  # vfs/data/crash-tests/README.md
 }
 
 #: Folder formats :func:`load_any` reads.

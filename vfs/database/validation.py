@@ -26,7 +26,10 @@ import pandas as pd
 from vfs.database.database import Database, python_scalar
 from vfs.database.schema import (
     MAX_SAMPLE_SPACING,
+    MEASURABLE_COLUMNS,
     MIN_TRAJECTORY_SAMPLES,
+    OUTCOME_MEASUREMENT,
+    OUTCOME_RECONSTRUCTION,
     SCHEMA_VERSION,
     SUPPORTED_SCHEMA_VERSIONS,
     TABLES,
@@ -431,7 +434,25 @@ def validate_database(db: Database) -> list[DataProblem]:
     _check_vehicle_layout(report, db.participants)
     _check_trajectories(report, db)
     _check_collision(report, db)
+    _check_outcome_source(report, db.reconstruction)
     return report.problems
+
+
+def _check_outcome_source(report: _Report, rec: pd.DataFrame) -> None:
+    """Reconstruction rows give every outcome; only measurement rows may leave some NaN."""
+    if rec.empty:
+        return
+    source = (rec["outcome_source"].astype(object) if "outcome_source" in rec.columns
+              else pd.Series(OUTCOME_RECONSTRUCTION, index=rec.index))
+    given = (source != OUTCOME_MEASUREMENT).to_numpy()
+    text = "missing value (allowed only in outcome_source = 'measurement' rows: not measured)"
+    for name in MEASURABLE_COLUMNS:
+        if name in rec.columns and not name.startswith("velocity_angle_change"):
+            values = pd.to_numeric(rec[name], errors="coerce").to_numpy(float)
+            report.rows("reconstruction", name, rec, given & np.isnan(values), text, text)
+    if "impact_type" in rec.columns:
+        empty = (rec["impact_type"].astype(object).fillna("").map(str) == "").to_numpy()
+        report.rows("reconstruction", "impact_type", rec, given & empty, text, text)
 
 
 def check_values(table: str, values: Mapping[str, object]) -> list[DataProblem]:

@@ -40,6 +40,15 @@ K_tt = 1/m1 + 1/m2 + r1n^2/I1 + r2n^2/I2, K_nn = 1/m1 + 1/m2 + r1t^2/I1 +
 r2t^2/I2, K_tn = -(r1t r1n / I1 + r2t r2n / I2) (Brach; REFERENCES.md gives
 the same entries up to the sign of the off-diagonal term, which depends on
 the tangent's orientation).
+
+Fixed objects (barrier, wall, pole) are the limit 1/m = 0, 1/I = 0: pass
+``m = izz = inf`` (:data:`FIXED_OBJECT_MASS`) for one participant.  IEEE
+arithmetic gives 1/inf = 0 exactly, so every formula above is already that
+limit: K loses the fixed body's terms, its velocities do not change, and the
+whole energy loss is the free vehicle's deformation energy.  Momentum of the
+free vehicle is not conserved (the object takes the impulse), but its angular
+momentum about the (fixed) POI is: L_P = I1 w1 - m1 r1 x v1 (r1 = POI - CG1)
+changes by I1 dw1 - r1 x m1 dv1 = r1 x S - r1 x S = 0.
 """
 
 from __future__ import annotations
@@ -268,6 +277,20 @@ class ImpactResult(NamedTuple):
 # Validation
 # ----------------------------------------------------------------------------
 
+#: Mass and yaw inertia of a rigid fixed object (barrier, wall, pole): the limit 1/m = 0.
+FIXED_OBJECT_MASS = np.inf
+
+
+def inverse_mass(values: npt.ArrayLike) -> np.ndarray:
+    """1 / mass [1/kg] (or 1 / inertia [1/(kg m^2)]); exactly 0 for a fixed object (inf)."""
+    return 1.0 / np.asarray(values, float)  # IEEE: 1 / inf == 0.0 exactly
+
+
+def fixed_object(mass: npt.ArrayLike, yaw_inertia: npt.ArrayLike) -> np.ndarray:
+    """True where a participant is a rigid fixed object (mass and yaw inertia infinite)."""
+    return np.isposinf(np.asarray(mass, float)) & np.isposinf(np.asarray(yaw_inertia, float))
+
+
 #: Allowed ranges of the configuration fields (closed intervals).
 CONFIG_RANGES: dict[str, tuple[float, float]] = {
     "m1": (np.nextafter(0.0, 1.0), np.inf), "m2": (np.nextafter(0.0, 1.0), np.inf),
@@ -288,9 +311,13 @@ def config_problems(config: ImpactConfig) -> dict[str, np.ndarray]:
         with at least one bad row are listed).
     """
     bad: dict[str, np.ndarray] = {}
+    fixed1 = fixed_object(config.m1, config.izz1)
+    fixed2 = fixed_object(config.m2, config.izz2)
     for name in ImpactConfig._fields:
         v = getattr(config, name)
         mask = ~np.isfinite(v)
+        if name[:-1] in ("m", "izz"):  # a fixed object: both infinite, the other body free
+            mask &= ~((fixed1 & ~fixed2) if name.endswith("1") else (fixed2 & ~fixed1))
         lo, hi = CONFIG_RANGES.get(name, (-np.inf, np.inf))
         with np.errstate(invalid="ignore"):
             mask |= (v < lo) | (v > hi)
@@ -303,7 +330,7 @@ def describe_range(name: str) -> str:
     """Human-readable allowed range of a configuration field."""
     lo, hi = CONFIG_RANGES.get(name, (-np.inf, np.inf))
     if name in ("m1", "m2", "izz1", "izz2"):
-        return "finite and > 0"
+        return "finite and > 0 (or mass and inertia both inf: a fixed object, not both)"
     if np.isinf(lo) and np.isinf(hi):
         return "finite"
     return f"finite, in [{lo:g}, {hi:g}]"
@@ -335,7 +362,10 @@ def energy_split(
     e = np.asarray(energy_loss, float)
     m1 = np.asarray(m1, float)
     m2 = np.asarray(m2, float)
-    share1 = m2 / (m1 + m2)  # E1 / (E1 + E2) with k_i ~ m_i
+    with np.errstate(invalid="ignore"):
+        share1 = m2 / (m1 + m2)  # E1 / (E1 + E2) with k_i ~ m_i
+    # a fixed object (inf) does not deform: the free vehicle takes all (limit 1/m = 0)
+    share1 = np.where(np.isposinf(m2), 1.0, np.where(np.isposinf(m1), 0.0, share1))
     if stiffness_ratio is not None:
         k = np.asarray(stiffness_ratio, float)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -463,7 +493,11 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
 def deformation_energies(config: ImpactConfig,
                          result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
     """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
-    return deformation_energy(config.m1, result.ees1), deformation_energy(config.m2, result.ees2)
+    with np.errstate(invalid="ignore"):  # a fixed object (m = inf) has EES 0 and E 0
+        e1 = deformation_energy(config.m1, result.ees1)
+        e2 = deformation_energy(config.m2, result.ees2)
+    return (np.where(np.isposinf(config.m1), 0.0, e1),
+            np.where(np.isposinf(config.m2), 0.0, e2))
 
 
 def solve_impact(config: ImpactConfig,

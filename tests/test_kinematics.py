@@ -146,8 +146,9 @@ def test_zero_cases_give_empty_valid_tables():
 
 def test_fleet_masses_layouts_and_correlation():
     fleet = sample_fleet(3000, np.random.default_rng(9))
+    # every vehicle column except the optional fixed-object flag (a sampled fleet is cars)
     assert list(fleet.columns) == [c for c in TABLES["participants"].column_names
-                                   if c not in ("case_id", "participant")]
+                                   if c not in ("case_id", "participant", "fixed_object")]
     assert fleet["mass"].between(800.0, 2600.0).all()
     assert fleet["yaw_inertia"].isna().all()
     assert (fleet["vehicle_class"] == "car").all()

@@ -499,7 +499,8 @@ def from_reconstruction(rows: Any, outcomes: Iterable[Outcome | str] | None = No
 
 def difference(outcome: Outcome, model: Any, reference: Any) -> np.ndarray:
     """``model - reference`` [SI]; the smallest signed angle in (-pi, pi] where
-    :attr:`Outcome.wrap` is set."""
+    :attr:`Outcome.wrap` is set.
+    """
     d = np.asarray(model, dtype=float) - np.asarray(reference, dtype=float)
     return wrap_angle(d) if outcome.wrap else d
 

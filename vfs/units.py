@@ -21,7 +21,8 @@ def ms_to_kmh(speed_ms: npt.ArrayLike) -> np.ndarray:
 
 def wrap_axial(angle_rad: npt.ArrayLike) -> np.ndarray:
     """Wrap an axial angle [rad] (a direction modulo pi, e.g. a difference of
-    contact-plane angles) to the interval [-pi/2, pi/2)."""
+    contact-plane angles) to the interval [-pi/2, pi/2).
+    """
     a = np.asarray(angle_rad, dtype=float)
     return (a + 0.5 * np.pi) % np.pi - 0.5 * np.pi
 

@@ -22,6 +22,7 @@ HERE = Path(__file__).parent
 
 
 def main() -> None:
+    """Draw the crash-test validation figures into docs/figures."""
     db = open_database("crash-tests")
     batch = CaseBatch.from_database(db)
     res = simulate_cases(batch)

@@ -1,4 +1,4 @@
-"""Sensor geometry: is an object's outline inside a field-of-view sector?
+"""Sensor geometry: whether an object's outline lies inside a field-of-view sector.
 
 The sector has its apex at the sensor, a boresight direction, an opening
 angle 2 alpha and a radius R.  An object is visible when its outline
@@ -27,7 +27,8 @@ _PARALLEL = 1e-12
 def _ray_entry(lx: np.ndarray, ly: np.ndarray, ex: np.ndarray, ey: np.ndarray,
                hl: np.ndarray, hw: np.ndarray) -> np.ndarray:
     """Entry distance [m] of rays from (lx, ly) along unit (ex, ey) into the
-    axis-aligned box [-hl, hl] x [-hw, hw] (slab method); inf if missed."""
+    axis-aligned box [-hl, hl] x [-hw, hw] (slab method); inf if missed.
+    """
 
     def slab(origin: np.ndarray, direction: np.ndarray,
              half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

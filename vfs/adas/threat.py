@@ -147,7 +147,8 @@ def path_cg(m: Motion, u: np.ndarray, curvature: np.ndarray) -> tuple[np.ndarray
 def _path_samples(m: Motion, u: np.ndarray,
                   curvature: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """CG samples (n, K + 1) [m] and the outline orientation of each interval's middle
-    (n, K) [rad] along arc lengths ``u`` (n, K + 1)."""
+    (n, K) [rad] along arc lengths ``u`` (n, K + 1).
+    """
     x, y = path_cg(m, u, curvature)
     if not curvature.any():
         return x, y, np.broadcast_to(m.yaw[:, None], (u.shape[0], u.shape[1] - 1))

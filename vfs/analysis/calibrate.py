@@ -53,7 +53,8 @@ from vfs.simulation import CaseBatch
 
 def parse_outputs(spec: str | Iterable[str] | None) -> tuple[str, ...] | None:
     """Output names (:data:`vfs.outcomes.OUTPUT_GROUPS`) from ``"delta_v,ees"`` or a
-    list; None = all available."""
+    list; None = all available.
+    """
     if spec is None:
         return None
     names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec)]
@@ -224,7 +225,8 @@ class CalibrationData:
 
     def case_errors(self, residuals: np.ndarray) -> np.ndarray:
         """Per-case mean squared standardised residual of each output (n, n_groups);
-        NaN where an output has no value for a case."""
+        NaN where an output has no value for a case.
+        """
         z2 = (residuals / self.scales[self.column_group]) ** 2
         out = np.full((residuals.shape[0], len(self.groups)), np.nan)
         for k in range(len(self.groups)):
@@ -309,7 +311,8 @@ class FitSpace:
     def of(cls, effects: Iterable[Effect | type[Effect] | str],
            parameters: str = "primary") -> FitSpace:
         """Space of effects (instances, classes or names); ``parameters`` "primary"
-        (the first parameter of each effect) or "all"."""
+        (the first parameter of each effect) or "all".
+        """
         if parameters not in ("primary", "all"):
             raise ParameterError(f"parameters={parameters!r}; use 'primary' or 'all'")
         inst: list[Effect] = []
@@ -344,7 +347,8 @@ class FitSpace:
 
     def model(self, x: Sequence[float] | np.ndarray) -> Model:
         """The effects with the free parameters set to ``x`` (clipped to the bounds);
-        no effect at all (the default model) if ``x`` holds NaN ("switched off")."""
+        no effect at all (the default model) if ``x`` holds NaN ("switched off").
+        """
         if np.isnan(np.asarray(x, float)).any():
             return ()
         vecs = [e.vector() for e in self.effects]

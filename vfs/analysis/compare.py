@@ -837,7 +837,8 @@ def _paired_table(values: Mapping[str, tuple[np.ndarray, np.ndarray]], group_cas
 
 def _table1(paired: pd.DataFrame) -> pd.DataFrame:
     """Seed 001's Table 1: paired t-tests of delta-v, EES and change of velocity
-    angle for full and sliding impacts (same type in both), km/h and degrees."""
+    angle for full and sliding impacts (same type in both), km/h and degrees.
+    """
     rows = []
     kind = {GROUP_FULL: "full impacts", GROUP_SLIDING: "sliding impacts"}
     indexed = paired.set_index(["outcome", "group"]) if len(paired) else None
@@ -869,7 +870,8 @@ def _case_errors(cases: pd.DataFrame, values: Mapping[str, tuple[np.ndarray, np.
                  margins: Mapping[str, float | None], poi_distance: np.ndarray,
                  rest_distance: np.ndarray) -> pd.DataFrame:
     """Errors per compared case (absolute, relative), ranked by the largest
-    margin-scaled error, worst first."""
+    margin-scaled error, worst first.
+    """
     ok = (cases["status"] == STATUS_OK).to_numpy()
     out: dict[str, Any] = {c: cases[c].to_numpy(object)[ok]
                            for c in ("case_id", "reference_type", "vfs_type", "group")}

@@ -329,7 +329,8 @@ def _metric_specs(levels: Sequence[str]) -> list[tuple[str, str, str, str | None
 
 def _risk(curve: RiskCurve, delta_v: np.ndarray, crash: np.ndarray) -> np.ndarray:
     """Expected injured drivers per case: sum over the two vehicles of P(delta-v), 0 without
-    a crash (the curves give a small risk even at delta-v 0)."""
+    a crash (the curves give a small risk even at delta-v 0).
+    """
     p = np.nan_to_num(curve.probability(np.abs(delta_v)), nan=0.0)
     return np.where(crash, p.sum(axis=1), 0.0)
 

@@ -111,7 +111,8 @@ def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
 
 def load_model_config(path: str | os.PathLike[str]) -> SimulationParams:
     """Simulation parameters of a model configuration file: the default parameters
-    with the effects of :func:`read_model_config` (same errors)."""
+    with the effects of :func:`read_model_config` (same errors).
+    """
     return SimulationParams(effects=read_model_config(path))
 
 

@@ -27,7 +27,8 @@ def _steps_per_second(step: Any, reset: Any, seconds: float, warmup: int = 0) ->
 def bench_gym_env(quick: bool) -> dict[str, Any]:
     """Environment steps/s: single env, gymnasium SyncVectorEnv, the native vector env at
     several sizes (after a warm-up of 700 steps, so that episodes end and restart at their
-    steady rate), and highway-env's highway-fast-v0 if it is installed."""
+    steady rate), and highway-env's highway-fast-v0 if it is installed.
+    """
     import gymnasium as gym
 
     from vfs.gym.env import AEBEnv, AEBVectorEnv

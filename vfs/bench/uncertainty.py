@@ -8,7 +8,8 @@ from typing import Any
 
 def bench_uncertainty(quick: bool) -> dict[str, Any]:
     """Monte-Carlo throughput (1000 samples x 200 cases of the bundled database; 100 x 50
-    with ``quick``) and the time of a Sobol analysis (:mod:`vfs.uncertainty.sensitivity`)."""
+    with ``quick``) and the time of a Sobol analysis (:mod:`vfs.uncertainty.sensitivity`).
+    """
     from vfs.database import open_database
     from vfs.uncertainty import CaseSet, default_config, run_uncertainty
     from vfs.uncertainty.sensitivity import sensitivity_analysis

@@ -1,5 +1,6 @@
 """``vfs diagnose``, ``vfs calibrate`` and ``vfs ledger`` (see :mod:`vfs.analysis.diagnose`,
-:mod:`vfs.report.diagnose`)."""
+:mod:`vfs.report.diagnose`).
+"""
 
 from __future__ import annotations
 

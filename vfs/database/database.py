@@ -233,5 +233,5 @@ class Database:
 
 
 def python_scalar(value: object) -> object:
-    """numpy scalar -> Python scalar (for readable messages and dict keys)."""
+    """Numpy scalar -> Python scalar (for readable messages and dict keys)."""
     return value.item() if isinstance(value, np.generic) else value

@@ -118,7 +118,8 @@ def check_before_write(db: Database, validate: bool) -> Database:
 
 def tables_for_writing(db: Database) -> dict[str, pd.DataFrame]:
     """The tables of a (normalised, SI) database in the units of the files
-    (:func:`vfs.database.schema.table_to_file_units`: angles stored in degrees)."""
+    (:func:`vfs.database.schema.table_to_file_units`: angles stored in degrees).
+    """
     return {name: table_to_file_units(df, name) for name, df in db.tables().items()}
 
 

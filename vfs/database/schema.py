@@ -183,7 +183,7 @@ class ColumnSpec:
 
     @property
     def dtype(self) -> object:
-        """pandas dtype of the column after normalisation."""
+        """Pandas dtype of the column after normalisation."""
         return PANDAS_DTYPES[self.kind]
 
     @property
@@ -193,7 +193,8 @@ class ColumnSpec:
 
     def allowed_text(self) -> str:
         """Human-readable allowed values in the file unit, e.g. ``"[0.05, 1.5]"`` or
-        ``"{dry, wet}"``."""
+        ``"{dry, wet}"``.
+        """
         if self.allowed:
             return "{" + ", ".join(str(v) for v in self.allowed) + "}"
         if self.kind == "bool":
@@ -603,7 +604,8 @@ def table_from_file_units(df: pd.DataFrame, table: str) -> pd.DataFrame:
 
 def table_as_stored(df: pd.DataFrame, table: str) -> pd.DataFrame:
     """A table in SI units with every column rounded to what its file unit can hold
-    (:meth:`ColumnSpec.as_stored`); writing and reading it changes nothing."""
+    (:meth:`ColumnSpec.as_stored`); writing and reading it changes nothing.
+    """
     spec = TABLES[table]
     out = df.copy()
     for col in spec.known_columns(list(df.columns)):

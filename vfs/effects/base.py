@@ -195,7 +195,8 @@ class Effect:
 
     def active_stages(self) -> tuple[str, ...]:
         """Stages whose hook this instance runs (:meth:`stages`; an effect that
-        dispatches to other effects may run fewer)."""
+        dispatches to other effects may run fewer).
+        """
         return type(self).stages()
 
     def replace(self, **values: float) -> Effect:
@@ -380,7 +381,8 @@ def check_effects(effects: Iterable[Effect]) -> tuple[Effect, ...]:
 
 def hooks(effects: Iterable[Effect], stage: str) -> list[Callable[..., Any]]:
     """Bound hook methods of ``stage`` of the effects that run it
-    (:meth:`Effect.active_stages`), in order."""
+    (:meth:`Effect.active_stages`), in order.
+    """
     if stage not in STAGES:
         raise ParameterError(f"unknown stage {stage!r}; stages: {STAGES}")
     return [getattr(e, stage) for e in effects if stage in e.active_stages()]

@@ -63,7 +63,8 @@ class _PairContext:
     @cached_property
     def swept_overlap(self) -> np.ndarray:
         """Overlap ratio along the relative velocity (n,) [-]
-        (:func:`vfs.physics.geometry.swept_overlap`)."""
+        (:func:`vfs.physics.geometry.swept_overlap`).
+        """
         return swept_overlap(self.outline1, self.outline2, self.relative_velocity)
 
 
@@ -109,7 +110,8 @@ class ImpactContext(_PairContext):
     @cached_property
     def faces(self) -> np.ndarray:
         """Face of each outline nearest the overlap centroid (n, 2), codes of
-        :func:`vfs.physics.geometry.contact_faces` (front, rear, left, right)."""
+        :func:`vfs.physics.geometry.contact_faces` (front, rear, left, right).
+        """
         s = self.state
         c = self.overlap.centroid
         f1 = contact_faces(c, self.vehicle1, s.x[:, 0], s.y[:, 0], s.yaw[:, 0])
@@ -119,7 +121,8 @@ class ImpactContext(_PairContext):
     @cached_property
     def overlap_local(self) -> tuple[np.ndarray, np.ndarray]:
         """Overlap polygon vertices in the frames of vehicle 1 and vehicle 2,
-        (n, W, 2) each [m] (x forward, y left, origin at the CG)."""
+        (n, W, 2) each [m] (x forward, y left, origin at the CG).
+        """
         poly = self.overlap.polygon.vertices
         n, w = poly.shape[0], poly.shape[1]
         s = self.state

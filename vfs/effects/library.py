@@ -213,7 +213,8 @@ def _structure_point(vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray, yaw:
 
 def _face_tangent(yaw: np.ndarray, face: np.ndarray) -> np.ndarray:
     """Direction of the engaged face [rad]: across the vehicle for front/rear, along it
-    for the sides."""
+    for the sides.
+    """
     ends = (face == FACE_FRONT) | (face == FACE_REAR)
     return np.where(ends, yaw + 0.5 * np.pi, yaw)
 

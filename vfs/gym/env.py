@@ -306,7 +306,8 @@ def _load(cfg: EnvConfig) -> tuple[Any, np.ndarray]:
 
 def _rest_from(batch: CaseBatch, column: int) -> np.ndarray:
     """Time [s, record axis] from which participant ``column`` (0/1) of each case stands
-    still for good (recorded speed 0 to the end of its record and beyond); inf if never."""
+    still for good (recorded speed 0 to the end of its record and beyond); inf if never.
+    """
     n = batch.size
     p = batch.paths
     rows = np.arange(n) + column * n
@@ -356,7 +357,8 @@ def _visible(sx: np.ndarray, sy: np.ndarray, bx: np.ndarray, by: np.ndarray,
              so: np.ndarray, hl: np.ndarray, hw: np.ndarray) -> np.ndarray:
     """:func:`vfs.adas.sensor.outline_visible` with quick decisions first: the object's centre
     inside the sector (seen) or beyond range + circumradius (not seen); the exact test
-    runs on the rest only.  (bx, by): boresight unit vector; (co, so): object axis."""
+    runs on the rest only.  (bx, by): boresight unit vector; (co, so): object axis.
+    """
     dx, dy = cx - sx, cy - sy
     dist = np.sqrt(dx * dx + dy * dy)
     half = 0.5 * sensor.field_of_view
@@ -520,7 +522,8 @@ class EpisodeBatch:
     def draw(self, slots: np.ndarray, rng: np.random.Generator,
              case_ids: npt.ArrayLike | None = None) -> np.ndarray:
         """Instances (rows) for new episodes of ``slots``: idle instances drawn uniformly,
-        or the given case ids."""
+        or the given case ids.
+        """
         m = slots.shape[0]
         free = ~self.busy
         free[self.slot_row[slots][self.slot_row[slots] >= 0]] = True
@@ -548,7 +551,8 @@ class EpisodeBatch:
 
     def assign(self, slots: np.ndarray, rows: np.ndarray) -> None:
         """Stop what ``slots`` run and give them instances ``rows`` (started by the next
-        :meth:`step_rows` or :meth:`start_now`)."""
+        :meth:`step_rows` or :meth:`start_now`).
+        """
         old = self.slot_row[slots]
         old = old[old >= 0]
         running_old = old[self.run.running[old]]
@@ -640,7 +644,8 @@ class EpisodeBatch:
 
     def impacts(self, rows: np.ndarray) -> Any:
         """Impact results (:class:`vfs.physics.impact.ImpactResult`) of collided instances ``rows``
-        (the impact stages of :func:`vfs.simulation.simulate_cases`, effects included)."""
+        (the impact stages of :func:`vfs.simulation.simulate_cases`, effects included).
+        """
         run = self.run
         cases = self.case_index[rows]
         pre = ImpactInputs(KinematicState(*(a[rows] for a in run.impact_state)),

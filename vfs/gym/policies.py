@@ -118,7 +118,8 @@ class AEBPolicy:
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         """The system's demand for the bound environment's running episodes, as a share of
-        the available deceleration (one value per running episode, in slot order)."""
+        the available deceleration (one value per running episode, in slot order).
+        """
         core = self._core
         if core is None:
             raise ParameterError("AEBPolicy: call bind(env) first")

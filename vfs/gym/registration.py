@@ -13,7 +13,8 @@ ENV_ID = "vfs/AEB-v0"
 def register_envs() -> None:
     """Register ``vfs/AEB-v0`` (entry point :class:`vfs.gym.env.AEBEnv`, vector entry point
     :class:`vfs.gym.env.AEBVectorEnv`) with gymnasium; idempotent; a no-op without
-    gymnasium."""
+    gymnasium.
+    """
     try:
         from gymnasium.envs.registration import register, registry
     except ImportError:  # pragma: no cover - gymnasium is a dependency

@@ -258,7 +258,8 @@ class RectangleFrame(NamedTuple):
 
 def rectangle_frame(corners: np.ndarray) -> RectangleFrame:
     """Frame of outline rectangles given as corners (N, 4, 2) [m] in the order of
-    :func:`outline_corners` (front-right, front-left, rear-left, rear-right)."""
+    :func:`outline_corners` (front-right, front-left, rear-left, rear-right).
+    """
     centre = 0.5 * (corners[:, 0] + corners[:, 2])  # midpoint of a diagonal
     along = corners[:, 0] - corners[:, 3]  # rear-right -> front-right
     across = corners[:, 1] - corners[:, 0]  # front-right -> front-left
@@ -679,7 +680,8 @@ _UNIT_CORNERS = (np.array([1.0, 1.0, -1.0, -1.0]), np.array([-1.0, 1.0, 1.0, -1.
 def pose_frame(x: npt.ArrayLike, y: npt.ArrayLike, yaw: npt.ArrayLike,
                half_length: npt.ArrayLike, half_width: npt.ArrayLike) -> RectangleFrame:
     """Frame (N,) of rectangles with centre (x, y) [m], long axis at ``yaw`` [rad] and
-    half sizes [m]."""
+    half sizes [m].
+    """
     x, y, yaw, hl, hw = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(a, float)) for a in (x, y, yaw, half_length, half_width)))
     return RectangleFrame(np.stack([x, y], axis=-1),

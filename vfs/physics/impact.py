@@ -376,7 +376,8 @@ def energy_split(
 
 def deformation_energy(mass: npt.ArrayLike, ees: npt.ArrayLike) -> np.ndarray:
     """Deformation energy [J] of a vehicle of ``mass`` [kg] with an EES [m/s]:
-    E = m EES^2 / 2 (seed 004)."""
+    E = m EES^2 / 2 (seed 004).
+    """
     return 0.5 * np.asarray(mass) * np.asarray(ees) ** 2
 
 
@@ -458,7 +459,8 @@ def poi_relative_velocity(config: ImpactConfig, vx1: np.ndarray, vy1: np.ndarray
                           w1: np.ndarray, vx2: np.ndarray, vy2: np.ndarray,
                           w2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Relative POI velocity u = v1_P - v2_P [m/s] (x, y) for given body velocities
-    (e.g. the post-impact ones) at the configuration's poses and POI."""
+    (e.g. the post-impact ones) at the configuration's poses and POI.
+    """
     c = config
     r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
     r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
@@ -472,7 +474,8 @@ def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
     """Result with changed post-impact velocities [m/s, rad/s] and, optionally,
     deformation energies e1, e2 [J]; delta-v, EES and the change of velocity
     angle follow.  The impulse, impact type, energy loss and PDOF describe
-    the impulse exchange and stay as they are."""
+    the impulse exchange and stay as they are.
+    """
     dvx1, dvy1 = vx1 - config.vx1, vy1 - config.vy1
     dvx2, dvy2 = vx2 - config.vx2, vy2 - config.vy2
     none = result.impact_type == IMPACT_NONE

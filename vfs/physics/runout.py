@@ -587,7 +587,7 @@ class _Solver(NamedTuple):
 
     def solve(self, u: np.ndarray, v: np.ndarray,
               r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """q' = (M + k A)^-1 M q."""
+        """Q' = (M + k A)^-1 M q."""
         mu, mv = self.mass * u, self.mass * v
         r_new = (self.inertia * r - (self.ku * mu / self.p + self.kv * mv / self.q)) / self.schur
         return (mu - self.ku * r_new) / self.p, (mv - self.kv * r_new) / self.q, r_new

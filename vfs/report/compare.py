@@ -181,7 +181,8 @@ def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> N
 
 def _poi_plot_coordinates(pairs: pd.DataFrame, prefix: str) -> tuple[np.ndarray, np.ndarray]:
     """POI relative to the front bumper centre [m] (x forward), lateral scaled to the
-    median width so that every vehicle fits one outline."""
+    median width so that every vehicle fits one outline.
+    """
     x = pairs[f"{prefix}_poi_x"].to_numpy(float)
     y = pairs[f"{prefix}_poi_y"].to_numpy(float)
     front = pairs["cg_to_front"].to_numpy(float)
@@ -245,7 +246,8 @@ def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> 
 def plot_boxplots(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     """Seed 001's Figure 6: boxplots of delta-v, EES and the change of velocity angle
     for (a) both full and (b) both sliding, reconstruction vs VFS, equal axes;
-    whiskers at the minimum and maximum."""
+    whiskers at the minimum and maximum.
+    """
     pairs = comparison.pairs
     names = [o for o in TABLE1_OUTCOMES if f"reference_{o}" in pairs.columns]
     fig = new_figure((11, 4.8))
@@ -283,7 +285,8 @@ def _figure_outcomes(comparison: Comparison) -> list[str]:
 def plot_bland_altman(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     """Bland-Altman plots: difference VFS - reconstruction against the mean of both,
     per vehicle, coloured by group; bias and 95 % limits of agreement of all
-    compared vehicles, the TOST margin shaded."""
+    compared vehicles, the TOST margin shaded.
+    """
     names = _figure_outcomes(comparison)
     pairs = comparison.pairs
     paired = comparison.paired.set_index(["outcome", "group"])

@@ -94,7 +94,8 @@ def _pct(v: Any) -> str:
 
 def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     """Box plots of the relative half-width (the +- % of seed 002) per ratio outcome,
-    full and sliding nominal impacts side by side."""
+    full and sliding nominal impacts side by side.
+    """
     data = bands[bands["kind"] == "ratio"]
     outcomes = list(dict.fromkeys(data["outcome"]))
     fig = new_figure((8.5, 0.42 * len(outcomes) + 1.6))
@@ -307,7 +308,8 @@ def _bars(ax: Any, table: pd.DataFrame, title: str) -> None:
 
 def plot_sobol_ranking(result: Any, outcomes: Sequence[str], path: Path) -> Path:
     """Ranked horizontal bars of the mean Sobol indices, full and sliding impacts side by
-    side, one row per outcome (bars: ST with its case-bootstrap interval; inner bars: S1)."""
+    side, one row per outcome (bars: ST with its case-bootstrap interval; inner bars: S1).
+    """
     d = len(result.names)
     fig = new_figure((10, (0.22 * d + 1.0) * len(outcomes)))
     axes = fig.subplots(len(outcomes), 2, squeeze=False)
@@ -421,7 +423,8 @@ def write_sensitivity_report(result: Any, out: str | os.PathLike[str], *, plots:
 def plot_reconstruction_speeds(rec: Any, path: Path, truth: Sequence[float] | None = None
                                ) -> Path:
     """Feasible impact speeds (speed 1 against speed 2) coloured by the road friction,
-    as seed 002's Figure 11, with the optimum and the database's speeds."""
+    as seed 002's Figure 11, with the optimum and the database's speeds.
+    """
     k = DISPLAY_UNITS["speed"][1]
     f = rec.feasible
     fig = new_figure((6.5, 5.2))

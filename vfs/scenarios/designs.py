@@ -60,6 +60,7 @@ class DesignContext(NamedTuple):
 
     @property
     def n(self) -> int:
+        """Number of designs."""
         return int(self.mu.shape[0])
 
     @property

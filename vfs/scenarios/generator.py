@@ -185,7 +185,8 @@ class Preset:
 def _study36_specs() -> dict[int, ScenarioSpec]:
     """Seed 001's fatal frontal collisions: delta-v about 50 km/h (its Table 1) needs
     closing speeds of about 90-100 km/h at impact, so somewhat lower travel speeds
-    and more late braking than the default head-on scenes, overlaps from 15 %."""
+    and more late braking than the default head-on scenes, overlaps from 15 %.
+    """
     out: dict[int, ScenarioSpec] = {}
     for code in (241, 242, 243, 264):
         spec = SCENARIO_TYPES[code]

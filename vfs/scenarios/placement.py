@@ -88,6 +88,7 @@ class OutlineDims(NamedTuple):
 
     @property
     def length(self) -> np.ndarray:
+        """Overall length (front + rear), m."""
         return self.front + self.rear
 
 

@@ -84,6 +84,7 @@ class SpeedProfile(NamedTuple):
 
     @property
     def braking(self) -> np.ndarray:
+        """True where the profile brakes before the crash."""
         return self.brake_time < 0.5 * NO_BRAKE
 
     def at(self, tau: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

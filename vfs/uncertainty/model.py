@@ -127,7 +127,8 @@ def _velocities(c0: ImpactConfig, col: Mapping[str, np.ndarray]
                 ) -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Sampled CG velocities [m/s] and yaw rates [rad/s]: the recorded direction
     kept (the heading below 1 mm/s), the yaw rate scaled with the speed (path
-    curvature kept)."""
+    curvature kept).
+    """
     vel = {}
     for i in (1, 2):
         vx, vy = getattr(c0, f"vx{i}"), getattr(c0, f"vy{i}")

@@ -517,7 +517,8 @@ def _optimise(problem: _Problem, starts: np.ndarray
 def _starts(problem: _Problem, prior: _Batch, settings: ReconstructSettings) -> np.ndarray:
     """Starting points of the local optimisations: the best prior sample (scaled residuals
     plus a little prior) of each cell of a 3 x 3 grid over the two speed priors, best cells
-    first, then the best distinct samples overall."""
+    first, then the best distinct samples overall.
+    """
     score = np.sum(prior.res * prior.res, axis=1) + 1e-3 * np.sum(prior.z**2, axis=1)
     cols = [problem.names.index(n) for n in ("speed1", "speed2") if n in problem.names]
     cell = np.zeros(prior.z.shape[0], dtype=int)
@@ -538,7 +539,8 @@ def _starts(problem: _Problem, prior: _Batch, settings: ReconstructSettings) -> 
 
 def _drift(records: Sequence[_Batch], column: int) -> float:
     """Change of the ensemble median of one input between the first and the last recorded
-    step, relative to the 5-95 % width of all records (0: the ensemble has settled)."""
+    step, relative to the 5-95 % width of all records (0: the ensemble has settled).
+    """
     if len(records) < 2:
         return math.nan
     first, last = records[0].x[:, column], records[-1].x[:, column]
@@ -552,7 +554,8 @@ def _drift(records: Sequence[_Batch], column: int) -> float:
 def _chains(problem: _Problem, start: _Batch, settings: ReconstructSettings,
             rng: np.random.Generator) -> tuple[list[_Batch], list[np.ndarray], float]:
     """Random-walk chains inside the feasible set; returns the records after the burn-in,
-    their step numbers and the move rate after the burn-in."""
+    their step numbers and the move rate after the burn-in.
+    """
     d = problem.d
     state = start
     n = state.z.shape[0]

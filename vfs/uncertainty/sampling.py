@@ -158,7 +158,8 @@ def nominal_inputs(cases: CaseSet, config: UncertaintyConfig) -> np.ndarray:
 
 def resolve_inputs(cases: CaseSet, config: UncertaintyConfig) -> ResolvedInputs:
     """Per-case distributions of every input: the configured one, the road-surface
-    override, or normal with the database's sd (``database_sd``)."""
+    override, or normal with the database's sd (``database_sd``).
+    """
     d, n = len(INPUT_NAMES), cases.size
     family = np.zeros((d, n), dtype=int)
     mode = np.zeros((d, n), dtype=int)
@@ -293,7 +294,8 @@ def values_from_unit(resolved: ResolvedInputs, u: np.ndarray, rows: np.ndarray,
 def sample_inputs(resolved: ResolvedInputs, n_samples: int, rng: np.random.Generator
                   ) -> SampledInputs:
     """S independent random samples of every case: M = S x N runs, sample-major
-    (row s N + j is sample s of case j)."""
+    (row s N + j is sample s of case j).
+    """
     if n_samples < 1:
         raise ParameterError(f"samples = {n_samples} must be >= 1")
     d, n = resolved.family.shape

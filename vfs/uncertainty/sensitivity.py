@@ -274,7 +274,8 @@ def sobol_analyze(func: Callable[[np.ndarray], np.ndarray], d: int, n: int,
 
 def ishigami(x: np.ndarray, a: float = 7.0, b: float = 0.1) -> np.ndarray:
     """Ishigami function of x in [0, 1)^3 mapped to [-pi, pi)^3 (a test function with
-    known indices; x3 has S1 = 0 but ST > 0 through its interaction with x1)."""
+    known indices; x3 has S1 = 0 but ST > 0 through its interaction with x1).
+    """
     z = -np.pi + 2.0 * np.pi * np.asarray(x, float)
     return np.sin(z[:, 0]) + a * np.sin(z[:, 1]) ** 2 + b * z[:, 2] ** 4 * np.sin(z[:, 0])
 

@@ -76,12 +76,22 @@ def test_observation_sds_come_from_flags_database_or_defaults(clean):
     assert more.angular[list(more.names).index("post_direction1")]
 
 
-def test_missing_observation_and_bad_settings_raise(clean):
+def test_missing_observations_are_left_out_and_none_at_all_raises(clean):
+    # NaN = not measured (a crash test) or not documented: left out and listed, not guessed
     rec = clean.reconstruction.copy()
     rec.loc[0, "rest_yaw1"] = np.nan
     cases = CaseSet.from_database(dataclasses.replace(clean, reconstruction=rec))
-    with pytest.raises(ParameterError, match="rest_yaw1 is missing"):
-        observations(cases, 0, ObservationSettings())
+    obs = observations(cases, 0, ObservationSettings())
+    full = observations(CaseSet.from_database(clean), 0, ObservationSettings())
+    assert obs.missing == ("rest_yaw1",)
+    assert obs.names == tuple(n for n in full.names if n != "rest_yaw1")
+    rec.loc[0, ["rest_yaw1", "rest_yaw2"]] = np.nan
+    cases = CaseSet.from_database(dataclasses.replace(clean, reconstruction=rec))
+    with pytest.raises(ParameterError, match="none of the observations"):
+        observations(cases, 0, ObservationSettings(observe=("rest_yaw",)))
+
+
+def test_bad_settings_raise():
     with pytest.raises(ParameterError, match="observe"):
         ObservationSettings(observe=("skid_marks",))
     with pytest.raises(ParameterError, match="rest_position_sd"):

@@ -226,6 +226,9 @@ class Observations(NamedTuple):
         Where each sd came from (``flag``, ``database``, ``default``).
     angular : ndarray of bool (k,)
         Residuals wrapped to (-pi, pi].
+    missing : tuple of str
+        Requested observations the record does not have (NaN: not measured or not
+        documented); they are left out, not guessed.
     """
 
     names: tuple[str, ...]
@@ -233,6 +236,7 @@ class Observations(NamedTuple):
     sigma: np.ndarray
     source: tuple[str, ...]
     angular: np.ndarray
+    missing: tuple[str, ...] = ()
 
     def table(self) -> pd.DataFrame:
         """The observations for reports (SI)."""
@@ -244,10 +248,14 @@ class Observations(NamedTuple):
 def observations(cases: CaseSet, position: int, settings: ObservationSettings) -> Observations:
     """Observed values and their standard deviations for the case at ``position``.
 
+    A requested observation that the record does not have (NaN: a crash test that
+    did not measure it, a scene that does not show it) is left out and listed in
+    :attr:`Observations.missing`.
+
     Raises
     ------
     ParameterError
-        If an observed value is missing (NaN) in the reconstruction.
+        If none of the requested observations is present.
     """
     r = cases.reconstruction.iloc[position]
     names: list[str] = []
@@ -255,6 +263,7 @@ def observations(cases: CaseSet, position: int, settings: ObservationSettings) -
     sig: list[float] = []
     src: list[str] = []
     ang: list[bool] = []
+    missing: list[str] = []
 
     def get(col: str) -> float:
         return float(r[col]) if col in r.index and pd.notna(r[col]) else math.nan
@@ -273,9 +282,8 @@ def observations(cases: CaseSet, position: int, settings: ObservationSettings) -
                     value = get(name)
                     sd_db = get(f"{name}_sd")
                 if not math.isfinite(value):
-                    raise ParameterError(
-                        f"case {cases.case_id[position]}: observation {name} is missing in the "
-                        f"reconstruction (observe only what the scene shows: --observe)")
+                    missing.append(name)
+                    continue
                 flag = {"rest_position": settings.rest_position_sd,
                         "rest_yaw": settings.rest_yaw_sd, "ees": settings.ees_sd,
                         "post_direction": settings.direction_sd}[group]
@@ -294,8 +302,13 @@ def observations(cases: CaseSet, position: int, settings: ObservationSettings) -
                 sig.append(math.hypot(sd, floor))
                 src.append(source)
                 ang.append(quantity == "angle")
+    if not names:
+        raise ParameterError(
+            f"case {cases.case_id[position]}: none of the observations {missing} is in the "
+            f"reconstruction table (NaN = not measured); observe what the scene shows: "
+            f"--observe {','.join(OBSERVABLES)}")
     return Observations(tuple(names), np.array(obs), np.array(sig), tuple(src),
-                        np.array(ang, dtype=bool))
+                        np.array(ang, dtype=bool), tuple(missing))
 
 
 def scaled_residuals(runs: ModelRuns, obs: Observations) -> np.ndarray:
@@ -749,6 +762,13 @@ def format_reconstruction(rec: Reconstruction) -> str:
             f"km/h (median {row['p50'] * k:.1f}; range {row['min'] * k:.1f} - "
             f"{row['max'] * k:.1f}); optimum {row['optimum'] * k:.1f}; database "
             f"{row['nominal'] * k:.1f} km/h")
+    if rec.observations.missing:
+        lines.append(f"  not observed (NaN in the record, left out): "
+                     f"{', '.join(rec.observations.missing)}")
+    if len(rec.observations.names) < len(rec.speed_band()):
+        lines.append(f"  {len(rec.observations.names)} observation(s) for "
+                     f"{len(rec.speed_band())} impact speeds: the speeds are not identifiable "
+                     f"from these observations alone; the band shows what the prior allows")
     o = rec.optimum
     res = ", ".join(f"{n} {v:+.2f}" for n, v in o.residuals.items())
     lines.append(f"  optimum: chi2 {o.chi2:.2f} ({'accepted' if o.accepted else 'NOT accepted'})"

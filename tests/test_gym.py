@@ -240,3 +240,24 @@ def test_evaluate_policy_cli_writes_the_effectiveness_report(tmp_path):
     assert set(runs["system"]) == {"baseline", "always-brake"}
     treat = runs[runs["system"] == "always-brake"]
     assert treat["collided"].sum() < runs[runs["system"] == "baseline"]["collided"].sum()
+
+
+def test_every_nested_setting_may_be_a_dict():
+    env = AEBEnv(split="test", simulation={"precrash": {"dt": 0.02, "brake": {"jerk": 30.0}},
+                                           "impact": {"restitution": 0.2}},
+                 reward={"risk_of": "ego"}, sensor={"range": 80.0}, brake={"jerk": 25.0})
+    cfg = env.config
+    assert cfg.simulation.precrash.dt == 0.02
+    assert cfg.simulation.precrash.brake.jerk == 30.0
+    assert cfg.simulation.impact.restitution == 0.2
+    assert cfg.reward.risk_of == "ego" and cfg.sensor.range == 80.0 and cfg.brake.jerk == 25.0
+    # the defaults of every field not given
+    assert cfg.simulation.runout == type(cfg.simulation.runout)()
+    # the environment runs on the dict settings: its step is 2 x 10 ms
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.zeros(1, np.float32))
+    assert info.get("t", 0.02) == pytest.approx(0.02)
+    with pytest.raises(ParameterError, match=r"simulation\.precrash: unknown setting.*'dtt'"):
+        AEBEnv(simulation={"precrash": {"dtt": 0.02}})
+    with pytest.raises(ParameterError, match="reward"):
+        AEBEnv(reward=3)

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -33,240 +32,41 @@ import numpy.typing as npt
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from vfs.adas.params import SensorParams
-from vfs.adas.sensor import outline_visible
-from vfs.analysis.risk import default_risk_curve, get_risk_curve
 from vfs.effects.base import hooks, parse_effect
 from vfs.errors import ParameterError
-from vfs.physics.geometry import rectangle_distance
-from vfs.physics.impact import IMPACT_TYPE_NAMES
-from vfs.physics.precrash import (
-    BrakeActuatorParams,
-    KinematicState,
-    PrecrashObservation,
-    PrecrashRun,
+from vfs.gym.config import (
+    DEFAULT_BRAKE,
+    DEFAULT_SENSOR,
+    EnvConfig,
+    RewardParams,
+    make_config,
+    params_from_dict,
 )
+from vfs.gym.observation import (
+    OBSERVATION_HIGH,
+    OBSERVATION_LOW,
+    OBSERVATION_NAMES,
+    OBSERVATION_UNITS,
+    PRIVILEGED_HIGH,
+    PRIVILEGED_LOW,
+    PRIVILEGED_NAMES,
+    TTC_NONE,
+    Dimensions,
+    observe,
+)
+from vfs.physics.impact import IMPACT_TYPE_NAMES
+from vfs.physics.precrash import KinematicState, PrecrashObservation, PrecrashRun
 from vfs.simulation import (
     CaseBatch,
     ImpactInputs,
-    SimulationParams,
     impact_parameters,
     impact_stage,
     penetration_rule,
 )
 from vfs.units import G
 
-#: Names of the sensor observation's entries, in order (docs/gym.md, "Observation").
-OBSERVATION_NAMES: tuple[str, ...] = (
-    "ego_speed", "ego_accel", "object_seen", "gap", "rel_x", "rel_y", "rel_vx", "rel_vy",
-    "ttc", "road_friction",
-)
-#: Units of :data:`OBSERVATION_NAMES`.
-OBSERVATION_UNITS: tuple[str, ...] = ("m/s", "m/s^2", "-", "m", "m", "m", "m/s", "m/s", "s", "-")
-#: Bounds of the sensor observation (values are clipped to them).
-OBSERVATION_LOW = np.array([0.0, -20.0, 0.0, 0.0, -200.0, -200.0, -100.0, -100.0, 0.0, 0.0])
-OBSERVATION_HIGH = np.array([80.0, 20.0, 1.0, 200.0, 200.0, 200.0, 100.0, 100.0, 10.0, 2.0])
-
-#: Names of the privileged (full-state) observation's entries, in order.
-PRIVILEGED_NAMES: tuple[str, ...] = (
-    "t", "road_friction", "ego_speed", "ego_accel", "ego_yaw_rate", "ego_deceleration",
-    "obj_x", "obj_y", "obj_rel_yaw", "obj_vx", "obj_vy", "obj_yaw_rate", "obj_speed",
-    "obj_accel", "ego_length", "ego_width", "ego_cg_to_front", "obj_length", "obj_width",
-    "obj_cg_to_front", "gap",
-)
-PRIVILEGED_LOW = np.array([0.0, 0.0, 0.0, -20.0, -10.0, 0.0, -1000.0, -1000.0, -math.pi,
-                           -100.0, -100.0, -10.0, 0.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                           0.0])
-PRIVILEGED_HIGH = np.array([120.0, 2.0, 80.0, 20.0, 10.0, 20.0, 1000.0, 1000.0, math.pi,
-                            100.0, 100.0, 10.0, 80.0, 20.0, 25.0, 5.0, 25.0, 25.0, 5.0, 25.0,
-                            2000.0])
-
-_OBS_BOUNDS = (OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32))
-_PRIV_BOUNDS = (PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32))
-
-#: TTC reported when no contact is approaching [s] (the top of its range).
-TTC_NONE = 10.0
-
 #: Below this speed [m/s] a vehicle counts as standing still.
 STANDSTILL = 1e-6
-
-
-# ----------------------------------------------------------------------------
-# Parameters
-# ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class RewardParams:
-    """Reward of the AEB environments (docs/gym.md, "Reward").
-
-    Per step the reward is minus
-
-    - ``unnecessary_brake_weight`` x (ego deceleration / g) x dt in a case
-      whose recorded paths do not collide (a near miss: any braking is
-      unnecessary), [1 / (g s)];
-    - ``comfort_weight`` x |change of the ego deceleration| / g per step
-      (total variation of the brake, [1 / g]);
-
-    and at a collision (the terminal step) minus ``injury_weight`` x the
-    injury risk of the impact's delta-v by the curve ``risk_curve`` (default:
-    the default curve of ``injury_level``, as in ``vfs report
-    effectiveness``), summed over both drivers (``risk_of="both"``, the
-    expected number of injured drivers) or the ego driver only.
-
-    Attributes
-    ----------
-    injury_weight : float
-        Weight of the injury risk [-], default 1.
-    injury_level : str
-        Injury level of the default curve, default "MAIS3+".
-    risk_curve : str or None
-        Name of a registered curve (:mod:`vfs.analysis.risk`); overrides ``injury_level``.
-    risk_of : {"both", "ego"}
-        Whose risk counts, default "both".
-    unnecessary_brake_weight : float
-        Default 0.05 per g s: a 1 g stop from 50 km/h in a near miss costs
-        about 0.07, a few per cent of a likely MAIS3+ injury.
-    comfort_weight : float
-        Default 0.01 per g of brake change: applying and releasing a full
-        brake costs 0.02.
-    """
-
-    injury_weight: float = 1.0
-    injury_level: str = "MAIS3+"
-    risk_curve: str | None = None
-    risk_of: str = "both"
-    unnecessary_brake_weight: float = 0.05
-    comfort_weight: float = 0.01
-
-    def __post_init__(self) -> None:
-        if self.risk_of not in ("both", "ego"):
-            raise ParameterError(f"risk_of={self.risk_of!r}; use 'both' or 'ego'")
-        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ParameterError(f"reward {name}={value} must be finite and >= 0")
-
-    def curve(self) -> Any:
-        """The risk curve (:class:`vfs.analysis.risk.RiskCurve`)."""
-        if self.risk_curve:
-            return get_risk_curve(self.risk_curve)
-        return default_risk_curve(self.injury_level)
-
-
-#: Sensor of the environments by default: 150 m, 1.6 rad (about 92 deg: a radar and
-#: camera fusion that also sees crossing traffic), every step, no latency.
-DEFAULT_SENSOR = SensorParams(range=150.0, field_of_view=1.6, cycle_time=0.0, latency=0.0)
-
-#: Brake actuator by default: the generic AEB's (jerk 40 m/s^3, vfs.adas.systems.THREE_STAGE).
-DEFAULT_BRAKE = BrakeActuatorParams(model="jerk", jerk=40.0, release_jerk=40.0)
-
-
-@dataclass(frozen=True)
-class EnvConfig:
-    """Settings of the AEB environments (the keyword arguments of ``gymnasium.make``).
-
-    Attributes
-    ----------
-    db : str or Database
-        Database folder, "default" (the bundled one) or a loaded Database.
-    split : {"train", "test", "all"}
-        Which cases: a fixed random share ``test_share`` of the cases
-        (permutation seeded with ``split_seed``) is "test", the rest "train".
-    test_share : float
-        Share of test cases, default 0.2.
-    split_seed : int
-        Seed of the split, default 0.
-    where : str, optional
-        SQL filter on the cases table first (duckdb, as ``--where``).
-    ego : {1, 2}
-        The participant the agent brakes, default 1.
-    sensor : SensorParams
-        The ego's sensor (field of view, range, mounting); default
-        :data:`DEFAULT_SENSOR`.  Its cycle time and latency are not modelled
-        here (each step observes the present).
-    observe_friction : bool
-        Include the road friction coefficient in the observation (else 0);
-        default True.
-    privileged : bool
-        Observe the full state (:data:`PRIVILEGED_NAMES`) instead of the
-        sensor (:data:`OBSERVATION_NAMES`); default False.
-    brake : BrakeActuatorParams
-        Actuator between the demand and the delivered deceleration; default
-        :data:`DEFAULT_BRAKE` (the generic AEB's).
-    action_repeat : int
-        Simulation steps per environment step (each of ``simulation.precrash.dt``,
-        default 10 ms); default 1.
-    reward : RewardParams
-    simulation : SimulationParams
-        Pre-crash and impact settings (its brake is replaced by ``brake``).
-    impact_parameters : {"reconstruction", "default"}
-        Restitution and contact friction per case from the reconstruction or
-        the defaults, as ``vfs study``.
-    effects : tuple of str
-        Physical effects (:mod:`vfs.effects`, "NAME[:P=V,...]") added to the model.
-    """
-
-    db: Any = "default"
-    split: str = "train"
-    test_share: float = 0.2
-    split_seed: int = 0
-    where: str | None = None
-    ego: int = 1
-    sensor: SensorParams = DEFAULT_SENSOR
-    observe_friction: bool = True
-    privileged: bool = False
-    brake: BrakeActuatorParams = DEFAULT_BRAKE
-    action_repeat: int = 1
-    reward: RewardParams = field(default_factory=RewardParams)
-    simulation: SimulationParams = field(default_factory=SimulationParams)
-    impact_parameters: str = "reconstruction"
-    effects: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        if self.split not in ("train", "test", "all"):
-            raise ParameterError(f"split={self.split!r}; use 'train', 'test' or 'all'")
-        if not 0.0 < self.test_share < 1.0:
-            raise ParameterError(f"test_share={self.test_share} outside (0, 1)")
-        if self.ego not in (1, 2):
-            raise ParameterError(f"ego={self.ego!r}; use 1 or 2")
-        if int(self.action_repeat) != self.action_repeat or not 1 <= self.action_repeat <= 100:
-            raise ParameterError(f"action_repeat={self.action_repeat} outside 1..100")
-        if self.impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use "
-                                 "'reconstruction' or 'default'")
-        if isinstance(self.effects, str):
-            object.__setattr__(self, "effects", (self.effects,))
-
-    @property
-    def observation_dim(self) -> int:
-        """Length of the observation vector."""
-        return len(PRIVILEGED_NAMES if self.privileged else OBSERVATION_NAMES)
-
-    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(low, high) of the observation Box (float32)."""
-        if self.privileged:
-            return PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32)
-        return OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32)
-
-
-def make_config(**kwargs: Any) -> EnvConfig:
-    """An :class:`EnvConfig` from keyword arguments (dicts accepted for nested settings)."""
-    if isinstance(kwargs.get("reward"), dict):
-        kwargs["reward"] = RewardParams(**kwargs["reward"])
-    if isinstance(kwargs.get("sensor"), dict):
-        kwargs["sensor"] = SensorParams(**kwargs["sensor"])
-    if isinstance(kwargs.get("brake"), dict):
-        kwargs["brake"] = BrakeActuatorParams(**kwargs["brake"])
-    if "effects" in kwargs and kwargs["effects"] is not None:
-        eff = kwargs["effects"]
-        kwargs["effects"] = (eff,) if isinstance(eff, str) else tuple(eff)
-    known = {f.name for f in dataclasses.fields(EnvConfig)}
-    unknown = sorted(set(kwargs) - known)
-    if unknown:
-        raise ParameterError(f"unknown AEB environment setting(s) {unknown}; known: "
-                             f"{', '.join(sorted(known))}")
-    return EnvConfig(**kwargs)
 
 
 # ----------------------------------------------------------------------------
@@ -321,132 +121,6 @@ def _rest_from(batch: CaseBatch, column: int) -> np.ndarray:
     nxt = np.minimum(last + 1, p.count[rows] - 1)
     out = np.where(last < 0, 0.0, t[nxt, np.arange(n)])
     return np.where(end_moving, np.inf, out)
-
-
-# ----------------------------------------------------------------------------
-# Observations
-# ----------------------------------------------------------------------------
-
-
-class Dimensions(NamedTuple):
-    """Outline dimensions [m] of ego and object per case instance (float32 arrays (N,))."""
-
-    ego_front: np.ndarray
-    ego_rear: np.ndarray
-    ego_width: np.ndarray
-    obj_front: np.ndarray
-    obj_rear: np.ndarray
-    obj_width: np.ndarray
-
-    @classmethod
-    def of(cls, batch: CaseBatch, ego: int) -> Dimensions:
-        """Dimensions of the cases of ``batch`` with participant ``ego`` (1/2) as ego."""
-        v = (batch.vehicle1, batch.vehicle2)
-        e, o = v[ego - 1], v[2 - ego]
-        f = np.float32
-        return cls(e.cg_to_front.astype(f), e.cg_to_rear.astype(f), e.width.astype(f),
-                   o.cg_to_front.astype(f), o.cg_to_rear.astype(f), o.width.astype(f))
-
-    def take(self, rows: np.ndarray) -> Dimensions:
-        """Rows ``rows``."""
-        return Dimensions(*(a[rows] for a in self))
-
-
-def _visible(sx: np.ndarray, sy: np.ndarray, bx: np.ndarray, by: np.ndarray,
-             sensor: SensorParams, cx: np.ndarray, cy: np.ndarray, co: np.ndarray,
-             so: np.ndarray, hl: np.ndarray, hw: np.ndarray) -> np.ndarray:
-    """:func:`vfs.adas.sensor.outline_visible` with quick decisions first: the object's centre
-    inside the sector (seen) or beyond range + circumradius (not seen); the exact test
-    runs on the rest only.  (bx, by): boresight unit vector; (co, so): object axis.
-    """
-    dx, dy = cx - sx, cy - sy
-    dist = np.sqrt(dx * dx + dy * dy)
-    half = 0.5 * sensor.field_of_view
-    ahead = (dx * bx + dy * by) >= math.cos(half) * dist if half < math.pi else True
-    seen = (dist <= sensor.range) & ahead
-    unsure = ~seen & (dist - np.sqrt(hl * hl + hw * hw) <= sensor.range)
-    if unsure.any():
-        u = np.flatnonzero(unsure)
-        seen[u] = outline_visible(sx[u], sy[u], np.arctan2(by[u], bx[u]), sensor.field_of_view,
-                                  sensor.range, cx[u], cy[u], np.arctan2(so[u], co[u]),
-                                  hl[u], hw[u])
-    return seen
-
-
-def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndarray:
-    """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
-
-    Sensor observation (:data:`OBSERVATION_NAMES`): ego speed [m/s] and
-    longitudinal acceleration [m/s^2]; whether the object's outline is in
-    the sensor's field of view (1/0); when it is: the gap between the
-    outlines [m], the position of the object's geometric centre relative to
-    the ego's front-bumper centre in the ego frame (x forward, y left) [m],
-    the object's velocity relative to the ego in the ego frame [m/s], and
-    the time to collision gap / closing speed [s] (closing speed = rate at
-    which the centres approach; :data:`TTC_NONE` when not approaching);
-    zeros (TTC :data:`TTC_NONE`) when unseen; the road friction coefficient
-    (0 unless ``observe_friction``).  The privileged observation
-    (:data:`PRIVILEGED_NAMES`) is the full state in the ego frame.  Values
-    are clipped to the Box bounds.
-    """
-    rows = p.rows
-    e, o = cfg.ego - 1, 2 - cfg.ego
-    f32 = np.float32
-    # positions relative to the ego CG in float64, then everything in float32 (the
-    # observation's type; float32 sin/cos are SIMD, float64 ones are not)
-    ex, ey = p.x[:, e], p.y[:, e]
-    ox, oy = (p.x[:, o] - ex).astype(f32), (p.y[:, o] - ey).astype(f32)
-    eyaw, oyaw = p.yaw[:, e].astype(f32), p.yaw[:, o].astype(f32)
-    ce, se = np.cos(eyaw), np.sin(eyaw)
-    co, so = np.cos(oyaw), np.sin(oyaw)
-    ev = p.speed[:, e].astype(f32)
-    if p.vx is not None and p.vy is not None:
-        vx, vy = p.vx.astype(f32), p.vy.astype(f32)
-    else:
-        h = p.heading.astype(f32)
-        vx, vy = p.speed.astype(f32) * np.cos(h), p.speed.astype(f32) * np.sin(h)
-    dims_rows = dims.take(rows)
-    ef, er, ew, of, orr, ow = dims_rows
-    e_c, o_c = 0.5 * (ef - er), 0.5 * (of - orr)  # geometric centre ahead of the CG
-    ecx, ecy = e_c * ce, e_c * se  # geometric centres, relative to the ego CG
-    ocx, ocy = ox + o_c * co, oy + o_c * so
-    ehl, ohl = 0.5 * (ef + er), 0.5 * (of + orr)
-    gap = rectangle_distance(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
-    # object centre relative to the ego's front-bumper centre, ego frame
-    dx, dy = ocx - ef * ce, ocy - ef * se
-    dvx, dvy = vx[:, o] - vx[:, e], vy[:, o] - vy[:, e]
-    rel_x, rel_y = ce * dx + se * dy, -se * dx + ce * dy
-    rel_vx, rel_vy = ce * dvx + se * dvy, -se * dvx + ce * dvy
-    closing = -(dx * dvx + dy * dvy) / np.maximum(np.sqrt(dx * dx + dy * dy), f32(1e-9))
-    ttc = np.where(closing > 0.0, gap / np.maximum(closing, f32(1e-12)), f32(TTC_NONE))
-    friction = p.road_friction.astype(f32) if cfg.observe_friction else \
-        np.zeros(rows.shape[0], f32)
-    accel = p.accel[:, e].astype(f32)
-    if cfg.privileged:
-        orel = np.arctan2(ce * so - se * co, ce * co + se * so)
-        cols = [np.broadcast_to(np.asarray(p.t, f32), rows.shape), friction, ev, accel,
-                p.yaw_rate[:, e], p.deceleration[:, e],
-                ce * ox + se * oy, -se * ox + ce * oy, orel,
-                rel_vx, rel_vy, p.yaw_rate[:, o], p.speed[:, o], p.accel[:, o],
-                ef + er, ew, ef, of + orr, ow, of, gap]
-        low, high = _PRIV_BOUNDS
-    else:
-        sn = cfg.sensor
-        mx, my = ef + f32(sn.mount_x), f32(sn.mount_y)
-        if sn.mount_yaw:
-            bx, by = np.cos(eyaw + f32(sn.mount_yaw)), np.sin(eyaw + f32(sn.mount_yaw))
-        else:
-            bx, by = ce, se
-        seen = _visible(ce * mx - se * my, se * mx + ce * my, bx, by, sn, ocx, ocy, co, so,
-                        ohl, 0.5 * ow)
-        cols = [ev, accel, seen, gap * seen, rel_x * seen, rel_y * seen, rel_vx * seen,
-                rel_vy * seen, np.where(seen, ttc, f32(TTC_NONE)), friction]
-        low, high = _OBS_BOUNDS
-    out = np.stack(cols, axis=1, dtype=np.float32)
-    np.clip(out, low, high, out=out)
-    if not np.isfinite(out).all():
-        out = np.nan_to_num(out, nan=0.0)
-    return out
 
 
 # ----------------------------------------------------------------------------
@@ -899,3 +573,12 @@ class AEBVectorEnv(VectorEnv):
         every = np.ones(self.num_envs, bool)
         return {"case_id": core.batch.case_id[core.case_index[rows]], "_case_id": every,
                 "t": t, "_t": every.copy()}
+
+
+__all__ = [
+    "DEFAULT_BRAKE", "DEFAULT_SENSOR", "OBSERVATION_HIGH", "OBSERVATION_LOW",
+    "OBSERVATION_NAMES", "OBSERVATION_UNITS", "PRIVILEGED_HIGH", "PRIVILEGED_LOW",
+    "PRIVILEGED_NAMES", "STANDSTILL", "TTC_NONE", "AEBEnv", "AEBVectorEnv", "Dimensions",
+    "EnvConfig", "EpisodeBatch", "RewardParams", "make_config", "observe", "params_from_dict",
+    "split_case_ids",
+]

@@ -39,7 +39,7 @@ from vfs.physics.precrash import (
 )
 
 if TYPE_CHECKING:
-    from vfs.gym.env import EnvConfig
+    from vfs.gym.config import EnvConfig
     from vfs.simulation import CaseBatch
 
 
@@ -152,7 +152,7 @@ class PolicyController:
     """
 
     def __init__(self, policy: Policy, batch: CaseBatch, config: EnvConfig) -> None:
-        from vfs.gym.env import Dimensions
+        from vfs.gym.observation import Dimensions
 
         self.policy = policy
         self.config = config
@@ -163,7 +163,7 @@ class PolicyController:
         self.policy.reset(n_cases, rng)
 
     def demand(self, obs: PrecrashObservation) -> np.ndarray:  # noqa: D102
-        from vfs.gym.env import observe
+        from vfs.gym.observation import observe
 
         o = observe(obs, self.dims, self.config)
         share = np.clip(np.nan_to_num(np.asarray(self.policy.act(o), float).reshape(-1),

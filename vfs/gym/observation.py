@@ -1,0 +1,182 @@
+"""What the agent observes: the sensor and the privileged (full-state) observation.
+
+docs/gym.md, "Observation", documents every entry; :func:`observe` computes them for
+many case instances at once (float32, clipped to the Box bounds).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from vfs.adas.params import SensorParams
+from vfs.adas.sensor import outline_visible
+from vfs.physics.geometry import rectangle_distance
+from vfs.physics.precrash import PrecrashObservation
+
+if TYPE_CHECKING:
+    from vfs.gym.config import EnvConfig
+    from vfs.simulation import CaseBatch
+
+#: Names of the sensor observation's entries, in order (docs/gym.md, "Observation").
+OBSERVATION_NAMES: tuple[str, ...] = (
+    "ego_speed", "ego_accel", "object_seen", "gap", "rel_x", "rel_y", "rel_vx", "rel_vy",
+    "ttc", "road_friction",
+)
+#: Units of :data:`OBSERVATION_NAMES`.
+OBSERVATION_UNITS: tuple[str, ...] = ("m/s", "m/s^2", "-", "m", "m", "m", "m/s", "m/s", "s", "-")
+#: Bounds of the sensor observation (values are clipped to them).
+OBSERVATION_LOW = np.array([0.0, -20.0, 0.0, 0.0, -200.0, -200.0, -100.0, -100.0, 0.0, 0.0])
+OBSERVATION_HIGH = np.array([80.0, 20.0, 1.0, 200.0, 200.0, 200.0, 100.0, 100.0, 10.0, 2.0])
+
+#: Names of the privileged (full-state) observation's entries, in order.
+PRIVILEGED_NAMES: tuple[str, ...] = (
+    "t", "road_friction", "ego_speed", "ego_accel", "ego_yaw_rate", "ego_deceleration",
+    "obj_x", "obj_y", "obj_rel_yaw", "obj_vx", "obj_vy", "obj_yaw_rate", "obj_speed",
+    "obj_accel", "ego_length", "ego_width", "ego_cg_to_front", "obj_length", "obj_width",
+    "obj_cg_to_front", "gap",
+)
+PRIVILEGED_LOW = np.array([0.0, 0.0, 0.0, -20.0, -10.0, 0.0, -1000.0, -1000.0, -math.pi,
+                           -100.0, -100.0, -10.0, 0.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                           0.0])
+PRIVILEGED_HIGH = np.array([120.0, 2.0, 80.0, 20.0, 10.0, 20.0, 1000.0, 1000.0, math.pi,
+                            100.0, 100.0, 10.0, 80.0, 20.0, 25.0, 5.0, 25.0, 25.0, 5.0, 25.0,
+                            2000.0])
+
+_OBS_BOUNDS = (OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32))
+_PRIV_BOUNDS = (PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32))
+
+#: TTC reported when no contact is approaching [s] (the top of its range).
+TTC_NONE = 10.0
+
+
+
+
+class Dimensions(NamedTuple):
+    """Outline dimensions [m] of ego and object per case instance (float32 arrays (N,))."""
+
+    ego_front: np.ndarray
+    ego_rear: np.ndarray
+    ego_width: np.ndarray
+    obj_front: np.ndarray
+    obj_rear: np.ndarray
+    obj_width: np.ndarray
+
+    @classmethod
+    def of(cls, batch: CaseBatch, ego: int) -> Dimensions:
+        """Dimensions of the cases of ``batch`` with participant ``ego`` (1/2) as ego."""
+        v = (batch.vehicle1, batch.vehicle2)
+        e, o = v[ego - 1], v[2 - ego]
+        f = np.float32
+        return cls(e.cg_to_front.astype(f), e.cg_to_rear.astype(f), e.width.astype(f),
+                   o.cg_to_front.astype(f), o.cg_to_rear.astype(f), o.width.astype(f))
+
+    def take(self, rows: np.ndarray) -> Dimensions:
+        """Rows ``rows``."""
+        return Dimensions(*(a[rows] for a in self))
+
+
+def _visible(sx: np.ndarray, sy: np.ndarray, bx: np.ndarray, by: np.ndarray,
+             sensor: SensorParams, cx: np.ndarray, cy: np.ndarray, co: np.ndarray,
+             so: np.ndarray, hl: np.ndarray, hw: np.ndarray) -> np.ndarray:
+    """:func:`vfs.adas.sensor.outline_visible` with quick decisions first: the object's centre
+    inside the sector (seen) or beyond range + circumradius (not seen); the exact test
+    runs on the rest only.  (bx, by): boresight unit vector; (co, so): object axis.
+    """
+    dx, dy = cx - sx, cy - sy
+    dist = np.sqrt(dx * dx + dy * dy)
+    half = 0.5 * sensor.field_of_view
+    ahead = (dx * bx + dy * by) >= math.cos(half) * dist if half < math.pi else True
+    seen = (dist <= sensor.range) & ahead
+    unsure = ~seen & (dist - np.sqrt(hl * hl + hw * hw) <= sensor.range)
+    if unsure.any():
+        u = np.flatnonzero(unsure)
+        seen[u] = outline_visible(sx[u], sy[u], np.arctan2(by[u], bx[u]), sensor.field_of_view,
+                                  sensor.range, cx[u], cy[u], np.arctan2(so[u], co[u]),
+                                  hl[u], hw[u])
+    return seen
+
+
+def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndarray:
+    """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
+
+    Sensor observation (:data:`OBSERVATION_NAMES`): ego speed [m/s] and
+    longitudinal acceleration [m/s^2]; whether the object's outline is in
+    the sensor's field of view (1/0); when it is: the gap between the
+    outlines [m], the position of the object's geometric centre relative to
+    the ego's front-bumper centre in the ego frame (x forward, y left) [m],
+    the object's velocity relative to the ego in the ego frame [m/s], and
+    the time to collision gap / closing speed [s] (closing speed = rate at
+    which the centres approach; :data:`TTC_NONE` when not approaching);
+    zeros (TTC :data:`TTC_NONE`) when unseen; the road friction coefficient
+    (0 unless ``observe_friction``).  The privileged observation
+    (:data:`PRIVILEGED_NAMES`) is the full state in the ego frame.  Values
+    are clipped to the Box bounds.
+    """
+    rows = p.rows
+    e, o = cfg.ego - 1, 2 - cfg.ego
+    f32 = np.float32
+    # positions relative to the ego CG in float64, then everything in float32 (the
+    # observation's type; float32 sin/cos are SIMD, float64 ones are not)
+    ex, ey = p.x[:, e], p.y[:, e]
+    ox, oy = (p.x[:, o] - ex).astype(f32), (p.y[:, o] - ey).astype(f32)
+    eyaw, oyaw = p.yaw[:, e].astype(f32), p.yaw[:, o].astype(f32)
+    ce, se = np.cos(eyaw), np.sin(eyaw)
+    co, so = np.cos(oyaw), np.sin(oyaw)
+    ev = p.speed[:, e].astype(f32)
+    if p.vx is not None and p.vy is not None:
+        vx, vy = p.vx.astype(f32), p.vy.astype(f32)
+    else:
+        h = p.heading.astype(f32)
+        vx, vy = p.speed.astype(f32) * np.cos(h), p.speed.astype(f32) * np.sin(h)
+    dims_rows = dims.take(rows)
+    ef, er, ew, of, orr, ow = dims_rows
+    e_c, o_c = 0.5 * (ef - er), 0.5 * (of - orr)  # geometric centre ahead of the CG
+    ecx, ecy = e_c * ce, e_c * se  # geometric centres, relative to the ego CG
+    ocx, ocy = ox + o_c * co, oy + o_c * so
+    ehl, ohl = 0.5 * (ef + er), 0.5 * (of + orr)
+    gap = rectangle_distance(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
+    # object centre relative to the ego's front-bumper centre, ego frame
+    dx, dy = ocx - ef * ce, ocy - ef * se
+    dvx, dvy = vx[:, o] - vx[:, e], vy[:, o] - vy[:, e]
+    rel_x, rel_y = ce * dx + se * dy, -se * dx + ce * dy
+    rel_vx, rel_vy = ce * dvx + se * dvy, -se * dvx + ce * dvy
+    closing = -(dx * dvx + dy * dvy) / np.maximum(np.sqrt(dx * dx + dy * dy), f32(1e-9))
+    ttc = np.where(closing > 0.0, gap / np.maximum(closing, f32(1e-12)), f32(TTC_NONE))
+    friction = p.road_friction.astype(f32) if cfg.observe_friction else \
+        np.zeros(rows.shape[0], f32)
+    accel = p.accel[:, e].astype(f32)
+    if cfg.privileged:
+        orel = np.arctan2(ce * so - se * co, ce * co + se * so)
+        cols = [np.broadcast_to(np.asarray(p.t, f32), rows.shape), friction, ev, accel,
+                p.yaw_rate[:, e], p.deceleration[:, e],
+                ce * ox + se * oy, -se * ox + ce * oy, orel,
+                rel_vx, rel_vy, p.yaw_rate[:, o], p.speed[:, o], p.accel[:, o],
+                ef + er, ew, ef, of + orr, ow, of, gap]
+        low, high = _PRIV_BOUNDS
+    else:
+        sn = cfg.sensor
+        mx, my = ef + f32(sn.mount_x), f32(sn.mount_y)
+        if sn.mount_yaw:
+            bx, by = np.cos(eyaw + f32(sn.mount_yaw)), np.sin(eyaw + f32(sn.mount_yaw))
+        else:
+            bx, by = ce, se
+        seen = _visible(ce * mx - se * my, se * mx + ce * my, bx, by, sn, ocx, ocy, co, so,
+                        ohl, 0.5 * ow)
+        cols = [ev, accel, seen, gap * seen, rel_x * seen, rel_y * seen, rel_vx * seen,
+                rel_vy * seen, np.where(seen, ttc, f32(TTC_NONE)), friction]
+        low, high = _OBS_BOUNDS
+    out = np.stack(cols, axis=1, dtype=np.float32)
+    np.clip(out, low, high, out=out)
+    if not np.isfinite(out).all():
+        out = np.nan_to_num(out, nan=0.0)
+    return out
+
+
+__all__ = [
+    "OBSERVATION_HIGH", "OBSERVATION_LOW", "OBSERVATION_NAMES", "OBSERVATION_UNITS",
+    "PRIVILEGED_HIGH", "PRIVILEGED_LOW", "PRIVILEGED_NAMES", "TTC_NONE", "Dimensions",
+    "observe",
+]

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
+from pathlib import Path
+from typing import Any
 
 
 def cmd_evaluate_policy(args: argparse.Namespace) -> int:
@@ -13,11 +16,12 @@ def cmd_evaluate_policy(args: argparse.Namespace) -> int:
     try:
         from vfs.gym.evaluate import evaluate_policy
 
+        env_kwargs = _env_kwargs(args.env_kwargs)
         result = evaluate_policy(
             args.policy, args.db, args.out, split=args.split, test_share=args.test_share,
             split_seed=args.split_seed, where=args.where, ego=args.ego, engine=args.engine,
             workers=args.workers, seed=args.seed, resume=args.resume,
-            overwrite=args.overwrite, n_boot=args.bootstrap)
+            overwrite=args.overwrite, n_boot=args.bootstrap, env_kwargs=env_kwargs)
     except KeyboardInterrupt:
         print(f"interrupted; continue with the same command and --resume ({args.out})",
               file=sys.stderr)
@@ -29,6 +33,27 @@ def cmd_evaluate_policy(args: argparse.Namespace) -> int:
     return 0
 
 
+def _env_kwargs(text: str | None) -> dict[str, Any] | None:
+    """``--env-kwargs``: a JSON object, or the path of a JSON file holding one."""
+    from vfs.errors import ParameterError
+
+    if not text:
+        return None
+    source = text
+    if not text.lstrip().startswith("{"):
+        path = Path(text)
+        if not path.is_file():
+            raise ParameterError(f"--env-kwargs {text!r}: neither a JSON object nor a file")
+        source = path.read_text(encoding="utf-8")
+    try:
+        value = json.loads(source)
+    except json.JSONDecodeError as exc:
+        raise ParameterError(f"--env-kwargs: not valid JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise ParameterError("--env-kwargs: expected a JSON object of environment settings")
+    return value
+
+
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``vfs evaluate-policy``."""
     p = subparsers.add_parser(
@@ -36,9 +61,19 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "effectiveness report)",
         description="Run POLICY on the ego vehicle of every case of the split, with the "
         "observation and brake actuator of the vfs/AEB-v0 environment, against the recorded "
-        "baseline; writes a study folder and its effectiveness report. POLICY: never-brake, "
-        "always-brake, aeb:NAME (a generic AEB system) or MODULE:ATTRIBUTE. See docs/gym.md.")
-    p.add_argument("policy", help="never-brake | always-brake | aeb:NAME | MODULE:ATTRIBUTE")
+        "baseline; writes a study folder and its effectiveness report with every POLICY side "
+        "by side. POLICY: never-brake, always-brake, aeb:NAME (a generic AEB system), "
+        "sb3:PATH (a saved stable-baselines3 model; its training settings from PATH.vfs.json "
+        "and observation normalisation from PATH.vecnormalize.pkl when present) or "
+        "MODULE:ATTRIBUTE. The policy is asked every action_repeat simulation steps, as in "
+        "training. See docs/gym.md.")
+    p.add_argument("policy", nargs="+",
+                   help="never-brake | always-brake | aeb:NAME | sb3:PATH | MODULE:ATTRIBUTE "
+                   "(several: one study, one report)")
+    p.add_argument("--env-kwargs", metavar="JSON|FILE",
+                   help='environment settings as in gymnasium.make, e.g. \'{"action_repeat": '
+                   '10, "privileged": true, "sensor": {"range": 100}}\' (over those a saved '
+                   'policy carries)')
     p.add_argument("--db", required=True, help="database folder or 'default'")
     p.add_argument("--split", choices=("train", "test", "all"), default="test",
                    help="cases of the environment's split (default test)")

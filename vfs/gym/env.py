@@ -54,6 +54,7 @@ from vfs.gym.observation import (
     Dimensions,
     observe,
 )
+from vfs.gym.render import EpisodeTrace, FrameRenderer, ansi_line, record_step, start_trace
 from vfs.physics.impact import IMPACT_TYPE_NAMES
 from vfs.physics.precrash import KinematicState, PrecrashObservation, PrecrashRun
 from vfs.simulation import (
@@ -63,7 +64,7 @@ from vfs.simulation import (
     impact_stage,
     penetration_rule,
 )
-from vfs.units import G
+from vfs.units import KMH_PER_MS, G
 
 #: Below this speed [m/s] a vehicle counts as standing still.
 STANDSTILL = 1e-6
@@ -240,10 +241,8 @@ class EpisodeBatch:
         self.prev_decel[rows] = 0.0
 
     def start_now(self, rows: np.ndarray) -> None:
-        """Start ``rows`` (assigned, nothing else running) at the next step."""
-        if self.run.rows.size:
-            raise ParameterError("start_now needs every other episode stopped")
-        self.run.advance(None, start=rows)
+        """Start ``rows`` (assigned) now, at their time 0; the running rows do not move."""
+        self.run.start(rows)
 
     def demand(self, actions: np.ndarray) -> np.ndarray:
         """Deceleration demand (n, 2) [m/s^2] of the running rows for slot actions (S,)."""
@@ -415,19 +414,25 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
     plays a given case.
     """
 
-    metadata: dict[str, Any] = {"render_modes": [], "render_fps": 100}
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array", "ansi"], "render_fps": 100}
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        if render_mode is not None:
-            raise ParameterError("the AEB environment has no render modes")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ParameterError(f"render_mode={render_mode!r}; the AEB environment renders "
+                                 f"{self.metadata['render_modes']} (or None)")
         self.config = make_config(**kwargs)
         self.core = EpisodeBatch(self.config, 1)
         low, high = self.config.observation_bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.action_space = spaces.Box(0.0, 1.0, shape=(1,), dtype=np.float32)
-        self.render_mode = None
+        self.render_mode = render_mode
+        # one frame per environment step: action_repeat simulation steps of dt
+        step = self.config.simulation.precrash.dt * self.config.action_repeat
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / step, 3)}
         self._row = -1
         self._done = True
+        self._trace: EpisodeTrace | None = None
+        self._frames: FrameRenderer | None = None
 
     def reset(self, *, seed: int | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -440,6 +445,9 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
         self.core.start_now(rows)
         self._row = int(rows[0])
         self._done = False
+        if self.render_mode is not None:
+            self._trace = start_trace(self.core, self._row)
+            record_step(self._trace, self.core, self._row, 0.0)
         obs = self.core.observations()[0]
         return obs, {"case_id": self.core.case_id(self._row), "t": 0.0}
 
@@ -460,10 +468,38 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
                                    out.get("risk"))
             info.update({k: (v[0].item() if hasattr(v[0], "item") else v[0])
                          for k, v in ep.items()})
+            if self._trace is not None:
+                self._trace.outcome = (
+                    f"impact at {info['impact_speed'] * KMH_PER_MS:.0f} km/h "
+                    f"({info['impact_type']}), delta-v {info['delta_v'] * KMH_PER_MS:.0f} km/h"
+                    if info.get("collided") else
+                    "crash avoided" if info.get("avoided") else "no collision")
         else:
             obs = core.observations()[0]
             info["t"] = float(core.run.local_time(row)[0])
+            if self._trace is not None:
+                record_step(self._trace, core, self._row, float(np.clip(a[0], 0.0, 1.0)))
         return obs, float(out["reward"][0]), term, trunc, info
+
+    def render(self) -> Any:
+        """The current step as an RGB frame (H, W, 3) uint8 (``rgb_array``: a top view with
+        both outlines, the recorded and driven paths, the sensor's field of view, TTC,
+        speed and brake demand) or a line of text (``ansi``); None without a render mode.
+        """
+        if self.render_mode is None:
+            return None
+        if self._trace is None or len(self._trace) == 0:
+            raise ParameterError("render() before reset()")
+        if self.render_mode == "ansi":
+            return ansi_line(self._trace)
+        if self._frames is None:
+            self._frames = FrameRenderer()
+        return self._frames.rgb(self._trace)
+
+    @property
+    def trace(self) -> EpisodeTrace | None:
+        """The states of the running or last episode (with a render mode; else None)."""
+        return self._trace
 
     @property
     def precrash_observation(self) -> PrecrashObservation:
@@ -557,6 +593,20 @@ class AEBVectorEnv(VectorEnv):
                     info[key], info[f"_{key}"] = full, mask
         return (obs, out["reward"].astype(np.float64), out["terminated"], out["truncated"],
                 info)
+
+    def restart(self, slots: npt.ArrayLike) -> np.ndarray:
+        """Start the next case now in sub-environments ``slots`` (same-step autoreset, as
+        stable-baselines3 expects) and return their first observations (k, d).
+        """
+        slots = np.asarray(slots, dtype=np.int64).reshape(-1)
+        if slots.size == 0:
+            return np.zeros((0, self.core.config.observation_dim), np.float32)
+        core = self.core
+        rows = core.draw(slots, self._rng)
+        core.assign(slots, rows)
+        core.start_now(rows)
+        self._autoreset[slots] = False
+        return self._observations()[slots]
 
     def _observations(self) -> np.ndarray:
         core = self.core

@@ -158,23 +158,47 @@ class PolicyController:
         self.config = config
         self.dims = Dimensions.of(batch, config.ego)
         self.limit_max = config.brake.max_deceleration
+        self.dt = config.simulation.precrash.dt
+        self.share = np.zeros(batch.size)  # the held action per case
 
     def reset(self, n_cases: int, rng: np.random.Generator) -> None:  # noqa: D102
         self.policy.reset(n_cases, rng)
+        self.share = np.zeros(n_cases)
 
-    def demand(self, obs: PrecrashObservation) -> np.ndarray:  # noqa: D102
+    def demand(self, obs: PrecrashObservation) -> np.ndarray:
+        """Deceleration demand (n, 2) [m/s^2]: the policy is asked every ``action_repeat``
+        simulation steps of each case (at its steps 0, R, 2R, ...), as in the environment,
+        and its action is held in between.
+        """
         from vfs.gym.observation import observe
 
-        o = observe(obs, self.dims, self.config)
-        share = np.clip(np.nan_to_num(np.asarray(self.policy.act(o), float).reshape(-1),
-                                      nan=0.0), 0.0, 1.0)
-        if share.shape[0] != obs.rows.shape[0]:
-            raise ParameterError(f"policy {self.policy.name!r} returned {share.shape[0]} "
-                                 f"actions for {obs.rows.shape[0]} observations")
+        repeat = int(self.config.action_repeat)
+        rows = obs.rows
+        if repeat > 1:
+            k = np.rint(np.broadcast_to(np.asarray(obs.t, float), rows.shape) / self.dt)
+            ask = (k.astype(np.int64) % repeat) == 0
+        else:
+            ask = np.ones(rows.shape[0], dtype=bool)
+        if ask.any():
+            sub = obs if ask.all() else _take_rows(obs, ask)
+            o = observe(sub, self.dims, self.config)
+            new = np.clip(np.nan_to_num(np.asarray(self.policy.act(o), float).reshape(-1),
+                                        nan=0.0), 0.0, 1.0)
+            if new.shape[0] != sub.rows.shape[0]:
+                raise ParameterError(f"policy {self.policy.name!r} returned {new.shape[0]} "
+                                     f"actions for {sub.rows.shape[0]} observations")
+            self.share[sub.rows] = new
+        share = self.share[rows]
         limit = friction_limited_deceleration(obs.road_friction, self.limit_max)
         d = np.zeros((obs.rows.shape[0], 2))
         d[:, self.config.ego - 1] = share * limit
         return d
+
+
+def _take_rows(obs: PrecrashObservation, mask: np.ndarray) -> PrecrashObservation:
+    """The rows ``mask`` of an observation (per-case arrays sliced, scalars kept)."""
+    return obs._replace(**{f: getattr(obs, f)[mask] for f in obs._fields
+                           if isinstance(getattr(obs, f), np.ndarray)})
 
 
 @dataclass(frozen=True)
@@ -216,13 +240,85 @@ class PolicySystem:
         return dataclasses.replace(base, brake=self.config.brake)
 
 
+#: File beside a saved stable-baselines3 model with the environment settings it was
+#: trained with (``{"env_kwargs": {...}}``), written by examples/train_ppo.py.
+SB3_SETTINGS_SUFFIX = ".vfs.json"
+#: File beside a saved model with its VecNormalize statistics (SB3's ``VecNormalize.save``).
+SB3_NORMALIZE_SUFFIX = ".vecnormalize.pkl"
+
+
+class SB3Policy:
+    """A saved stable-baselines3 model as a policy (``sb3:PATH.zip``), deterministic actions.
+
+    The algorithm is read from the zip (PPO, A2C, SAC, TD3, DDPG are tried in turn);
+    observation normalisation is applied when ``PATH`` + :data:`SB3_NORMALIZE_SUFFIX`
+    exists; the environment settings the model was trained with (action repeat, sensor,
+    ...) come from ``PATH`` + :data:`SB3_SETTINGS_SUFFIX` when it exists
+    (:attr:`env_kwargs`), so that evaluation matches training.
+    """
+
+    def __init__(self, path: str) -> None:
+        import json
+        import pickle
+        from pathlib import Path
+
+        try:
+            import stable_baselines3 as sb3
+        except ImportError:
+            raise ParameterError("sb3: policies need stable-baselines3 (pip install "
+                                 "'vfs[rl]')") from None
+        file = Path(path)
+        stem = file.with_suffix("") if file.suffix == ".zip" else file
+        zip_file = stem.with_suffix(".zip")
+        if not zip_file.is_file():
+            raise ParameterError(f"policy sb3:{path}: no file {zip_file}")
+        self.model: Any = None
+        errors = []
+        for algo in ("PPO", "A2C", "SAC", "TD3", "DDPG"):
+            try:
+                self.model = getattr(sb3, algo).load(str(zip_file), device="cpu")
+                break
+            except Exception as exc:  # noqa: BLE001 - the next algorithm may fit
+                errors.append(f"{algo}: {exc}")
+        if self.model is None:
+            raise ParameterError(f"policy sb3:{path}: not a model of "
+                                 f"PPO/A2C/SAC/TD3/DDPG ({errors[0]})")
+        self.name = f"sb3:{stem.name}"
+        self.obs_rms: Any = None
+        norm = Path(str(stem) + SB3_NORMALIZE_SUFFIX)
+        if norm.is_file():
+            with open(norm, "rb") as fh:
+                vn = pickle.load(fh)
+            if getattr(vn, "norm_obs", False):
+                self.obs_rms = (vn.obs_rms.mean, np.sqrt(vn.obs_rms.var + vn.epsilon),
+                                vn.clip_obs)
+        settings = Path(str(stem) + SB3_SETTINGS_SUFFIX)
+        self.env_kwargs: dict[str, Any] = (
+            json.loads(settings.read_text()).get("env_kwargs", {}) if settings.is_file()
+            else {})
+
+    def reset(self, n: int, rng: np.random.Generator) -> None:  # noqa: D102
+        return None
+
+    def act(self, observation: np.ndarray) -> np.ndarray:  # noqa: D102
+        o = np.asarray(observation, np.float32)
+        if self.obs_rms is not None:
+            mean, std, clip = self.obs_rms
+            o = np.clip((o - mean) / std, -clip, clip).astype(np.float32)
+        action, _ = self.model.predict(o, deterministic=True)
+        return np.clip(np.asarray(action, float).reshape(-1), 0.0, 1.0)
+
+
 def load_policy(spec: str) -> Any:
     """A policy (or an AEB system for ``aeb:NAME``) from a command-line spec.
 
     ``never-brake``, ``always-brake``, ``aeb:NAME`` (an AEB system of
-    :mod:`vfs.adas.systems`), or ``MODULE:ATTRIBUTE`` naming a policy object or
-    a callable returning one.
+    :mod:`vfs.adas.systems`), ``sb3:PATH`` (a saved stable-baselines3 model,
+    :class:`SB3Policy`), or ``MODULE:ATTRIBUTE`` naming a policy object or a
+    callable returning one.
     """
+    if spec.startswith("sb3:"):
+        return SB3Policy(spec[4:])
     if spec == "never-brake":
         return NEVER_BRAKE
     if spec == "always-brake":
@@ -242,5 +338,5 @@ def load_policy(spec: str) -> Any:
         if not isinstance(obj, Policy):
             raise ParameterError(f"policy {spec!r} has no name/reset/act")
         return obj
-    raise ParameterError(f"unknown policy {spec!r}; use never-brake, always-brake, aeb:NAME "
-                         "or MODULE:ATTRIBUTE")
+    raise ParameterError(f"unknown policy {spec!r}; use never-brake, always-brake, aeb:NAME, "
+                         "sb3:PATH or MODULE:ATTRIBUTE")

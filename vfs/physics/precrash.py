@@ -681,6 +681,38 @@ class PrecrashRun:
             self._start(np.asarray(start, np.int64).reshape(-1))
         self._settle()
 
+    def start(self, new: npt.ArrayLike) -> None:
+        """Start cases ``new`` (not running) at the current step, without advancing the
+        running ones: they begin at their own time 0 now (an environment's same-step
+        reset), with the same numbers as a start through :meth:`advance`.
+        """
+        new = np.asarray(new, np.int64).reshape(-1)
+        if new.size == 0:
+            return
+        if self.done or not self.open_ended:
+            raise ParameterError("start() needs an open-ended run that has not ended")
+        finished = self.finished
+        # set the running rows aside, settle the new ones alone, then put both together
+        # (running rows first, as advance(start=...) orders them)
+        rows, state, v_rec, a_rec = self.rows, self.state, self.v_rec, self.a_rec
+        saved = {name: getattr(self.track, name) for name in _Track.FIELDS}
+        prev = (self.prev_dv, self.prev_ds, self.prev_ti, self.prev_si)
+        self._keep(np.zeros(rows.shape[0], dtype=bool))
+        self._start(new)
+        self._settle()
+        for name in _Track.FIELDS:
+            setattr(self.track, name, np.concatenate([saved[name], getattr(self.track, name)]))
+        self.prev_dv, self.prev_ds, self.prev_ti, self.prev_si = (
+            np.concatenate([old, cur]) for old, cur in zip(
+                prev, (self.prev_dv, self.prev_ds, self.prev_ti, self.prev_si), strict=True))
+        self.rows = np.concatenate([rows, self.rows])
+        self.v_rec = np.concatenate([v_rec, self.v_rec])
+        self.a_rec = np.concatenate([a_rec, self.a_rec])
+        self.state = KinematicState(*(np.concatenate([a, b]) for a, b in
+                                      zip(state, self.state, strict=True)))
+        self.active = None
+        self.finished = np.concatenate([finished, self.finished])
+
     def _start(self, new: np.ndarray) -> None:
         """(Re)start cases ``new`` at the current step with fresh results."""
         if new.size == 0:

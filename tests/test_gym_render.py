@@ -210,3 +210,28 @@ def test_evaluate_policy_loads_an_sb3_model_with_its_settings(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "sb3:model" in text and "never-brake" in text
     assert (out / "report" / "report.md").is_file()
+
+
+def test_animation_has_the_stated_number_of_frames(tmp_path):
+    import dataclasses
+
+    from PIL import Image
+
+    from vfs.gym.render import animate_traces, play_traces
+
+    env = AEBEnv(split="test")
+    case = env.core.split_ids[0]
+    base, treated = play_traces("default", case, "three-stage")
+    assert base.case_id == treated.case_id == case
+
+    def head(tr, k):
+        return dataclasses.replace(tr, **{f: getattr(tr, f)[:k] for f in (
+            "t", "x", "y", "yaw", "speed", "decel", "demand", "ttc", "gap", "seen")})
+
+    n = animate_traces([head(base, 12), head(treated, 7)], ["a", "b"], tmp_path / "a.gif",
+                       fps=10)
+    assert n == 12
+    with Image.open(tmp_path / "a.gif") as im:
+        assert im.n_frames == 12
+    with pytest.raises(ParameterError, match="gif"):
+        animate_traces([base], ["a"], tmp_path / "a.avi")

@@ -29,6 +29,15 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--penetration-ms", type=float, metavar="MS",
                    help="penetration time after first contact [ms] (default: the model's, "
                    f"{PrecrashParams().penetration_time * 1e3:g} ms)")
+    p.add_argument("--animate", metavar="FILE",
+                   help="write an animation (.gif, or .mp4 with ffmpeg) of the case in the AEB "
+                   "environment: the recorded behaviour and with --system side by side, the "
+                   "drawing of the environment's rgb_array render mode")
+    p.add_argument("--system", default="three-stage",
+                   help="AEB system of --animate (default three-stage; vfs study --help "
+                   "lists them)")
+    p.add_argument("--fps", type=float, default=20.0,
+                   help="frames per second of --animate (one frame per 50 ms; default 20)")
     p.set_defaults(func=cmd_run_case)
 
 
@@ -76,6 +85,18 @@ def cmd_run_case(args: argparse.Namespace) -> int:
 
         plot_case_topview(batch, res, 0, args.plot)
         print(f"top view -> {args.plot}")
+    if args.animate:
+        if not args.db:
+            raise DataError(DataProblem("cases", "case_id", None, args.case,
+                                        "--animate needs --db (the AEB environment's cases)"))
+        from vfs.gym.render import animate_traces, play_traces
+
+        base, treated = play_traces(args.db, case_id, args.system)
+        n = animate_traces([base, treated], [f"case {case_id}: recorded behaviour",
+                                             f"case {case_id}: with {args.system}"],
+                           args.animate, fps=args.fps)
+        print(f"animation -> {args.animate} ({n} frames at {args.fps:g} fps; "
+              f"{base.outcome or 'running'} | {treated.outcome or 'running'})")
     return 0
 
 

@@ -295,7 +295,8 @@ def animate_traces(traces: list[EpisodeTrace], titles: list[str], path: str | An
         return list(axes)
 
     anim = FuncAnimation(fig, draw, frames=n, blit=False)
-    writer = PillowWriter(fps=fps) if suffix == ".gif" else FFMpegWriter(fps=fps)
+    rate = max(1, round(fps))  # the writers take whole frames per second
+    writer = PillowWriter(fps=rate) if suffix == ".gif" else FFMpegWriter(fps=rate)
     write_atomic(target, lambda tmp: anim.save(str(tmp), writer=writer, dpi=dpi))
     return n
 

@@ -47,14 +47,16 @@ def study36():
     (p = 0.093, 0.406, 0.176), as in the paper.
     """
     db, _ = generate_database("study36", seed=0)
-    return db, compare_database(db)
+    # the reconstructed impact parameters given to the simulation (not the paper's protocol:
+    # test_default_impact_parameters_follow_the_papers_protocol)
+    return db, compare_database(db, impact_parameters="reconstruction")
 
 
 @pytest.fixture(scope="module")
 def clean():
     """No hidden effect and no noise: the reconstruction is the model."""
     db, _ = generate_database("clean", seed=1)
-    return compare_database(db)
+    return compare_database(db, impact_parameters="reconstruction")
 
 
 def _run_table_from_reconstruction(rec: pd.DataFrame) -> pd.DataFrame:
@@ -147,7 +149,7 @@ def test_model_config_with_the_hidden_effect_removes_the_discrepancy(study36, tm
                                "effects": [{"name": "structure_poi", "parameters": {}}]}))
     params = load_model_config(cfg)
     assert [e.name for e in params.effects] == ["structure_poi"]
-    c = compare_database(db, params=params)
+    c = compare_database(db, params=params, impact_parameters="reconstruction")
     assert c.contingency.n_discordant == 0
     assert c.contingency.kappa == pytest.approx(1.0)
     assert c.poi_distances.set_index("group").loc[GROUP_ALL, "max"] < 1e-9
@@ -209,7 +211,7 @@ def test_clean_database_agrees_exactly(clean):
 
 def test_default_preset_without_hidden_effects_agrees_exactly():
     db, _ = generate_database("default", n_cases=60, seed=2, hidden=(), noise=NO_NOISE)
-    _assert_identical(compare_database(db))
+    _assert_identical(compare_database(db, impact_parameters="reconstruction"))
 
 
 # ----------------------------------------------------------------------------
@@ -454,3 +456,53 @@ def test_cli_user_errors(capsys, tmp_path):
     assert "does not fit" in capsys.readouterr().err
     assert main(["compare", "--db", "default", "--run", str(tmp_path / "nothing"),
                  "--out", str(tmp_path)]) == 2
+
+
+# ----------------------------------------------------------------------------
+# --impact-parameters
+# ----------------------------------------------------------------------------
+
+
+def test_impact_parameters_change_only_what_the_simulation_uses():
+    from vfs.physics.impact import ImpactParams
+
+    db, _ = generate_database("default", n_cases=60, seed=2, hidden=(), noise=NO_NOISE)
+    rec = compare_database(db, impact_parameters="reconstruction")
+    dflt = compare_database(db, impact_parameters="default")
+    assert (rec.impact_parameters, dflt.impact_parameters) == ("reconstruction", "default")
+    # without hidden effects and noise the reconstruction is the model with its own values
+    _assert_identical(rec)
+    # the pre-impact phase does not depend on them: same impact poses, closing speeds, POIs
+    a, b = rec.pairs.set_index(["case_id", "vehicle"]), dflt.pairs.set_index(
+        ["case_id", "vehicle"])
+    for col in ("vfs_closing_speed", "vfs_poi_x", "vfs_poi_y"):
+        if col in a:
+            np.testing.assert_array_equal(a[col], b.loc[a.index, col])
+    # the impact does: delta-v differs exactly where a case's values differ from the defaults
+    d = ImpactParams()
+    r = db.reconstruction.set_index("case_id")
+    own = ~(np.isclose(r["restitution"], d.restitution)
+            & np.isclose(r["contact_friction"], d.contact_friction))
+    moved = ~np.isclose(a["vfs_delta_v"], b.loc[a.index, "vfs_delta_v"], rtol=0, atol=1e-9)
+    moved_cases = set(a.index[moved].get_level_values(0))
+    assert moved_cases and moved_cases <= set(r.index[own])
+    # a database whose reconstructed values are the defaults: both settings agree exactly
+    same = replace(db, reconstruction=db.reconstruction.assign(
+        restitution=d.restitution, contact_friction=d.contact_friction))
+    x = compare_database(same, impact_parameters="reconstruction")
+    y = compare_database(same, impact_parameters="default")
+    pd.testing.assert_frame_equal(x.pairs, y.pairs)
+    with pytest.raises(ParameterError, match="impact_parameters"):
+        compare_database(db, impact_parameters="expert")
+
+
+def test_report_states_the_impact_parameters_first(tmp_path):
+    from vfs.scenarios.generator import write_generated
+
+    db, truth = generate_database("clean", n_cases=10, seed=4)
+    folder = write_generated(db, truth, tmp_path / "db")
+    out = tmp_path / "c"
+    assert main(["compare", "--db", str(folder), "--out", str(out), "--sketches", "0"]) == 0
+    lines = [ln for ln in (out / "report.md").read_text().splitlines() if ln.strip()]
+    assert lines[1].startswith("Impact parameters: the model's generic defaults")
+    assert "restitution 0.1, contact friction 0.6" in lines[1]

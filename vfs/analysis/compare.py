@@ -21,6 +21,7 @@ only in the report (:mod:`vfs.report.compare`).  Formulas and conventions:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
@@ -340,6 +341,11 @@ class Comparison:
         vehicles).
     params : SimulationParams or None
         Model parameters of the simulation (None: default model).
+    impact_parameters : str
+        Restitution and contact friction of the simulation: ``"default"`` (the model's
+        generic defaults for every case, the prospective protocol of the frontal-collision
+        paper), ``"reconstruction"`` (each case's reconstructed values) or ``""`` (a run
+        table: its study's setting).
     """
 
     source: str
@@ -357,6 +363,7 @@ class Comparison:
     table1: pd.DataFrame
     case_errors: pd.DataFrame
     params: SimulationParams | None = None
+    impact_parameters: str = ""
 
     @property
     def status_counts(self) -> dict[str, int]:
@@ -480,6 +487,7 @@ def compare_database(
     margins: Mapping[str, float | None] | None = None,
     alpha: float = 0.05,
     confidence: float = 0.95,
+    impact_parameters: str = "default",
 ) -> Comparison:
     """Compare the baseline VFS of every reconstructed case with its reconstruction.
 
@@ -491,8 +499,7 @@ def compare_database(
     run : path or DataFrame, optional
         Baseline rows of a ``vfs study`` run (:func:`read_run_table`).  Without
         it, the cases are simulated with :func:`vfs.simulation.simulate_cases`
-        on ``CaseBatch.from_database(db)`` (restitution and contact friction
-        from the reconstruction, no controller).
+        (no controller) with the impact parameters ``impact_parameters``.
     params : SimulationParams, optional
         Model of the simulation (default: the default model); with ``run`` only
         used to re-simulate the worst cases for the report.
@@ -502,6 +509,13 @@ def compare_database(
     alpha, confidence : float
         Significance level of the equivalence decision, level of the
         confidence intervals.
+    impact_parameters : {"default", "reconstruction"}
+        Restitution and contact friction of the simulation: the model's generic
+        defaults for every case (default: a prospective assessment has no expert
+        values, the protocol of "Evaluation of a momentum based impact model in frontal
+        car collisions for the prospective assessment of ADAS"), or each case's
+        reconstructed values (NaN: the default).  Nothing else changes.  Not used
+        with ``run`` (the run's study chose).
 
     Returns
     -------
@@ -517,16 +531,19 @@ def compare_database(
     rec = _reconstruction(db)
     ids = rec["case_id"].to_numpy()
     if run is None:
-        batch = CaseBatch.from_database(db, ids)
+        batch = CaseBatch.from_database(db, ids, impact_parameters=impact_parameters)
         res = simulate_cases(batch, params=params or SimulationParams())
         vfs = results_table(batch, res)
         source = "simulation"
+        setting = impact_parameters
     else:
         vfs = read_run_table(run)
         source = "run table" if isinstance(run, pd.DataFrame) else f"run {run}"
-    return compare_tables(rec, vfs, participants=getattr(db, "participants", None),
-                          margins=margins, alpha=alpha, confidence=confidence, source=source,
-                          params=params)
+        setting = ""
+    comparison = compare_tables(rec, vfs, participants=getattr(db, "participants", None),
+                                margins=margins, alpha=alpha, confidence=confidence,
+                                source=source, params=params)
+    return dataclasses.replace(comparison, impact_parameters=setting)
 
 
 def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:

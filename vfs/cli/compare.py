@@ -38,6 +38,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--top", type=int, default=10, help="worst cases listed (default 10)")
     p.add_argument("--sketches", type=int, default=4,
                    help="worst cases re-simulated and drawn as top views (default 4)")
+    p.add_argument("--impact-parameters", choices=("defaults", "reconstruction"),
+                   default="defaults",
+                   help="restitution and contact friction of the simulation: the model's "
+                   "generic defaults for every case (default; the prospective protocol of the "
+                   "frontal-collision paper) or each case's reconstructed values (not used "
+                   "with --run)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=run_compare)
 
@@ -51,8 +57,10 @@ def run_compare(args: argparse.Namespace) -> int:
 
     db = open_db(args)
     params = load_model_config(args.model) if args.model else None
+    setting = "default" if args.impact_parameters == "defaults" else "reconstruction"
     comparison = compare_database(db, run=args.run, params=params,
-                                  margins=parse_margins(args.margins), alpha=args.alpha)
+                                  margins=parse_margins(args.margins), alpha=args.alpha,
+                                  impact_parameters=setting)
     files = write_comparison_report(comparison, args.out, database=db, top=args.top,
                                     sketches=args.sketches)
     print(comparison.summary())

@@ -381,7 +381,8 @@ def plot_worst_cases(comparison: Comparison, folder: Path, count: int,
     from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
     ids = worst["case_id"].to_numpy()
-    batch = CaseBatch.from_database(db, ids)
+    batch = CaseBatch.from_database(db, ids,
+                                    impact_parameters=comparison.impact_parameters or "default")
     res = simulate_cases(batch, params=comparison.params or SimulationParams())
     rec = db.reconstruction.drop_duplicates("case_id").set_index("case_id").loc[ids]
     out = []
@@ -623,6 +624,26 @@ def _table(df: pd.DataFrame) -> Table:
     return Table.from_frame(df, empty="(no rows)")
 
 
+def impact_parameter_sentence(c: Comparison) -> str:
+    """The report's first line: which restitution and contact friction the simulation used."""
+    from vfs.physics.impact import ImpactParams
+
+    d = (c.params.impact if c.params is not None else ImpactParams())
+    defaults = f"restitution {d.restitution:g}, contact friction {d.contact_friction:g}"
+    if c.impact_parameters == "default":
+        return (f"Impact parameters: the model's generic defaults for every case ({defaults}), "
+                "as in a prospective assessment, where no expert values exist (the protocol "
+                "of the frontal-collision paper; `--impact-parameters reconstruction` gives "
+                "the simulation each case's reconstructed values instead).")
+    if c.impact_parameters == "reconstruction":
+        return ("Impact parameters: each case's reconstructed restitution and contact friction "
+                f"(the defaults, {defaults}, where the reconstruction has none). This is NOT "
+                "the paper's prospective protocol (`--impact-parameters defaults`): the "
+                "simulation is given values only a reconstruction can know.")
+    return ("Impact parameters: those of the study run compared (`vfs study "
+            "--impact-parameters`).")
+
+
 def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str]],
                    folder: Path) -> list[Block]:
     c = comparison
@@ -632,6 +653,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
     effects = ", ".join(repr(e) for e in c.params.effects) if c.params is not None else ""
     b: list[Block] = [
         Heading("Virtual forward simulation vs reconstruction", 1),
+        Paragraph(impact_parameter_sentence(c)),
         Paragraph(f"VFS source: {c.source}; model: default"
                   + (f" with effects {effects}" if effects else "") + ". "
                   f"{len(c.cases)} cases with a reconstruction: "

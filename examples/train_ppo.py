@@ -43,7 +43,11 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="results/ppo")
     ap.add_argument("--evaluate", action="store_true", help="evaluate on the test split")
+    ap.add_argument("--env-kwargs", default="{}",
+                    help='further environment settings as JSON, e.g. \'{"reward": '
+                    '{"unnecessary_brake_weight": 1.0}}\'')
     args = ap.parse_args()
+    extra = json.loads(args.env_kwargs)
 
     import torch
     from stable_baselines3 import PPO
@@ -56,7 +60,8 @@ def main() -> None:
     torch.set_num_threads(1)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    env = VecNormalize(VecMonitor(AEBVecEnv(args.envs, seed=args.seed, **ENV_KWARGS)),
+    env = VecNormalize(VecMonitor(AEBVecEnv(args.envs, seed=args.seed,
+                                            **{**ENV_KWARGS, **extra})),
                        norm_obs=True, norm_reward=False, clip_obs=10.0)
     model = PPO("MlpPolicy", env, n_steps=32, batch_size=2048, n_epochs=5,
                 learning_rate=3e-4, gamma=0.99, gae_lambda=0.95, ent_coef=0.0,
@@ -85,7 +90,7 @@ def main() -> None:
     seconds = time.perf_counter() - started
     model.save(out / "model")
     env.save(str(out / "model") + SB3_NORMALIZE_SUFFIX)
-    settings = {"env_kwargs": {"action_repeat": ENV_KWARGS["action_repeat"]},
+    settings = {"env_kwargs": {"action_repeat": ENV_KWARGS["action_repeat"], **extra},
                 "trained": {"steps": int(model.num_timesteps), "seconds": round(seconds, 1),
                             "steps_per_s": round(model.num_timesteps / seconds),
                             "envs": args.envs, "seed": args.seed, "split": "train"}}

@@ -284,3 +284,114 @@ def test_single_and_batch_identical():
         one = solve_impact(ImpactConfig(*(a[k:k + 1] for a in c)))
         for name in ("vx1_post", "yaw_rate2_post", "ees1", "energy_loss", "pdof2"):
             np.testing.assert_array_equal(getattr(one, name), getattr(batch, name)[k:k + 1])
+
+
+# ----------------------------------------------------------------------------
+# Normal-only restitution (Brach's convention)
+# ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("eps", [0.0, 0.3, 1.0])
+def test_normal_restitution_oblique_particle_impact_closed_form(eps):
+    # two "particles" (POI at both CGs, no lever): K = (1/m1 + 1/m2) 1.  Brach: with
+    # enough friction the tangential relative velocity is stopped (u_t' = 0) and the
+    # normal one reversed by eps; the loss is m_eff (u_t^2 + (1 - eps^2) u_n^2) / 2
+    m1, m2 = 1500.0, 1000.0
+    c = config(x1=0.0, y1=0.0, x2=0.0, y2=0.0, poi_x=0.0, poi_y=0.0, cp_angle=np.pi / 2,
+               vx1=20.0, vy1=3.0, vx2=-10.0, vy2=-4.0, m1=m1, m2=m2, restitution=eps,
+               contact_friction=5.0)
+    # x2 = x1: the normal is undefined by the CG rule, so give vehicle 2 an offset along n
+    c = c._replace(x2=np.array([1e-9]))
+    r = solve_impact(c, restitution_mode="normal")
+    ux, uy = relative_poi_velocity(c, r, post=False)
+    uxp, uyp = relative_poi_velocity(c, r, post=True)
+    n = np.array([r.normal_x[0], r.normal_y[0]])
+    t = np.array([n[1], -n[0]])
+    u_n, u_t = ux[0] * n[0] + uy[0] * n[1], ux[0] * t[0] + uy[0] * t[1]
+    assert uxp[0] * t[0] + uyp[0] * t[1] == pytest.approx(0.0, abs=1e-9)
+    assert uxp[0] * n[0] + uyp[0] * n[1] == pytest.approx(-eps * u_n, abs=1e-9)
+    m_eff = m1 * m2 / (m1 + m2)
+    assert r.energy_loss[0] == pytest.approx(0.5 * m_eff * (u_t**2 + (1 - eps**2) * u_n**2),
+                                             rel=1e-12)
+    # the impulse ratio is Brach's critical one: |S_t / S_n| = |u_t| / ((1 + eps) |u_n|)
+    assert abs(r.impulse_t[0] / r.impulse_n[0]) == pytest.approx(
+        abs(u_t) / ((1 + eps) * abs(u_n)), rel=1e-12)
+
+
+@given(seed=seeds, wide=st.booleans())
+def test_normal_restitution_stops_sliding_inside_the_cone(seed, wide):
+    c = random_configs(np.random.default_rng(seed), 256, wide)
+    r = solve_impact(c, restitution_mode="normal")
+    ux, uy = relative_poi_velocity(c, r, post=False)
+    uxp, uyp = relative_poi_velocity(c, r, post=True)
+    tx, ty = r.normal_y, -r.normal_x
+    un = ux * r.normal_x + uy * r.normal_y
+    unp, utp = uxp * r.normal_x + uyp * r.normal_y, uxp * tx + uyp * ty
+    speed = np.hypot(ux, uy) + 1e-9
+    # sliding impacts are the same in both conventions (|S_t| = mu S_n and the normal
+    # compression impulse times (1 + eps) either way); full ones differ.  Where Newton's
+    # restitution would create energy (Kane's paradox) a full impact falls back to the
+    # default Poisson split: those rows equal the default mode's, and they are few
+    default = solve_impact(c)
+    fields = ("vx1_post", "vy1_post", "yaw_rate1_post", "vx2_post", "vy2_post",
+              "yaw_rate2_post")
+    same = np.all([np.isclose(getattr(r, f), getattr(default, f), rtol=1e-12, atol=1e-12)
+                   for f in fields], axis=0)
+    sliding = r.impact_type == IMPACT_SLIDING
+    # (the slip direction comes from each mode's stick solution and may differ where the
+    # normal and tangential directions are strongly coupled)
+    both_sliding = (sliding & (default.impact_type == IMPACT_SLIDING)
+                    & (np.sign(r.impulse_t) == np.sign(default.impulse_t)))
+    np.testing.assert_array_equal(same[both_sliding], True)
+    full = (r.impact_type == IMPACT_FULL) & ~same
+    fell_back = (r.impact_type == IMPACT_FULL) & same & (c.restitution > 1e-6)
+    assert fell_back.mean() < 0.15 and full.any() and sliding.any()
+    hit = full | sliding
+    # kinematic restitution of the normal velocity
+    np.testing.assert_allclose((unp + c.restitution * un)[hit] / speed[hit], 0.0, atol=1e-8)
+    # inside the friction cone: no tangential velocity at separation (critical ratio)
+    np.testing.assert_allclose(utp[full] / speed[full], 0.0, atol=1e-8)
+    size = np.hypot(r.impulse_t, r.impulse_n) + 1e-12
+    assert (np.abs(r.impulse_t[full]) <= c.contact_friction[full] * r.impulse_n[full]
+            + 1e-9 * size[full]).all()
+    # momentum is conserved and energy never gained, as in the default mode
+    px0, py0 = momentum(c, c.vx1, c.vy1, c.vx2, c.vy2)
+    px1, py1 = momentum(c, r.vx1_post, r.vy1_post, r.vx2_post, r.vy2_post)
+    scale = c.m1 * np.hypot(c.vx1, c.vy1) + c.m2 * np.hypot(c.vx2, c.vy2)
+    np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
+    np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
+    e0 = kinetic(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
+    e1 = kinetic(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post,
+                 r.yaw_rate2_post)
+    np.testing.assert_array_less(e1 - e0, 1e-9 * e0)
+
+
+def test_normal_restitution_is_continuous_at_the_critical_ratio():
+    # at mu = the critical impulse ratio the full and the sliding solution coincide
+    c = config(vy1=4.0, restitution=0.3)
+    crit = solve_impact(c._replace(contact_friction=np.array([10.0])),
+                        restitution_mode="normal")
+    mu_c = abs(crit.impulse_t[0] / crit.impulse_n[0])
+    above = solve_impact(c._replace(contact_friction=np.array([mu_c * (1 + 1e-9)])),
+                         restitution_mode="normal")
+    below = solve_impact(c._replace(contact_friction=np.array([mu_c * (1 - 1e-9)])),
+                         restitution_mode="normal")
+    assert above.impact_type[0] == IMPACT_FULL and below.impact_type[0] == IMPACT_SLIDING
+    for f in ("vx1_post", "vy1_post", "yaw_rate1_post", "vx2_post", "vy2_post"):
+        assert getattr(below, f)[0] == pytest.approx(getattr(above, f)[0], rel=1e-6, abs=1e-6)
+
+
+def test_the_two_conventions_differ_only_through_restitution():
+    c = random_configs(np.random.default_rng(5), 200)
+    for mode in ("impulse", "normal"):
+        a = solve_impact(c._replace(restitution=np.zeros(200)), restitution_mode=mode)
+        assert a.impact_type.size == 200
+    # eps = 0: identical (no restitution to distribute)
+    a = solve_impact(c._replace(restitution=np.zeros(200)))
+    b = solve_impact(c._replace(restitution=np.zeros(200)), restitution_mode="normal")
+    np.testing.assert_allclose(a.delta_v1, b.delta_v1, rtol=1e-12, atol=1e-12)
+    assert ImpactParams().restitution_mode == "impulse"
+    with pytest.raises(ParameterError, match="restitution_mode"):
+        ImpactParams(restitution_mode="tangential")
+    with pytest.raises(ParameterError, match="restitution_mode"):
+        solve_impact(c, restitution_mode="both")

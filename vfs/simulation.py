@@ -403,7 +403,7 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     for stage in ("impact_configuration", "impact_parameters"):
         for hook in hooks(effects, stage):
             config = hook(ctx, config)
-    result = solve_impact(config)
+    result = solve_impact(config, restitution_mode=params.impact.restitution_mode)
     impulse_hooks = hooks(effects, "contact_impulse")
     split_hooks = hooks(effects, "energy_split")
     if impulse_hooks or split_hooks:

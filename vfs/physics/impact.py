@@ -70,6 +70,12 @@ IMPACT_TYPE_NAMES: dict[int, str] = {IMPACT_NONE: "none", IMPACT_FULL: "full",
 _NAME_OF_CODE = np.array([IMPACT_TYPE_NAMES[k] for k in range(len(IMPACT_TYPE_NAMES))])
 
 
+#: Conventions for the restitution (:attr:`ImpactParams.restitution_mode`): ``"impulse"``
+#: restitutes both impulse components (PC-Crash, Kudlich-Slibar), ``"normal"`` only the
+#: normal relative velocity (Brach; tangential impulse up to the critical impulse ratio).
+RESTITUTION_MODES: tuple[str, ...] = ("impulse", "normal")
+
+
 def impact_type_names(codes: npt.ArrayLike) -> np.ndarray:
     """Impact type codes (0, 1, 2) as the strings of :data:`IMPACT_TYPE_NAMES`."""
     return _NAME_OF_CODE[np.asarray(codes)]
@@ -90,6 +96,13 @@ class ImpactParams:
         friction cone, seed 002), >= 0.  Default 0.6; there is no firm
         source for a universal value (openPASS hard-codes 0.3), so studies
         should vary it (see `vfs uncertainty`).
+    restitution_mode : {"impulse", "normal"}
+        How eps enters (:data:`RESTITUTION_MODES`).  ``"impulse"`` (default): the
+        Kudlich-Slibar/PC-Crash convention, S = (1 + eps) S_C for both impulse
+        components.  ``"normal"``: Brach's convention, restitution of the normal
+        relative velocity only, u_n' = -eps u_n, and a tangential impulse that
+        stops the sliding at the POI (u_t' = 0) unless that needs more than the
+        friction cone allows (then |S_t| = mu S_n).
 
     The time the outlines move on after first contact before the impact is
     solved is :attr:`vfs.physics.precrash.PrecrashParams.penetration_time`.
@@ -97,6 +110,7 @@ class ImpactParams:
 
     restitution: float = 0.1
     contact_friction: float = 0.6
+    restitution_mode: str = "impulse"
 
     @property
     def penetration_time(self) -> float:
@@ -113,6 +127,9 @@ class ImpactParams:
         return PrecrashParams().penetration_time
 
     def __post_init__(self) -> None:
+        if self.restitution_mode not in RESTITUTION_MODES:
+            raise ParameterError(f"restitution_mode={self.restitution_mode!r}; use one of "
+                                 f"{RESTITUTION_MODES}")
         if not 0.0 <= self.restitution <= 1.0:
             raise ParameterError(f"restitution={self.restitution} outside [0, 1]")
         if not (self.contact_friction >= 0.0 and np.isfinite(self.contact_friction)):
@@ -504,7 +521,8 @@ def deformation_energies(config: ImpactConfig,
 
 
 def solve_impact(config: ImpactConfig,
-                 stiffness_ratio: npt.ArrayLike | None = None) -> ImpactResult:
+                 stiffness_ratio: npt.ArrayLike | None = None, *,
+                 restitution_mode: str = "impulse") -> ImpactResult:
     """Solve N planar impacts with the Kudlich-Slibar impulse model.
 
     Parameters
@@ -515,26 +533,35 @@ def solve_impact(config: ImpactConfig,
     stiffness_ratio : array_like, optional
         k1 / k2 for the EES energy split (:func:`energy_split`); NaN or None
         selects the mass rule.
+    restitution_mode : {"impulse", "normal"}
+        ``"impulse"`` (default, PC-Crash): S = (1 + eps) S_C for both components.
+        ``"normal"`` (Brach): u_n' = -eps u_n and, within the friction cone,
+        u_t' = 0 (the critical impulse ratio); beyond it |S_t| = mu S_n.
 
     Returns
     -------
     ImpactResult
     """
+    if restitution_mode not in RESTITUTION_MODES:
+        raise ParameterError(f"restitution_mode={restitution_mode!r}; use one of "
+                             f"{RESTITUTION_MODES}")
     n = config.size
     ratio = None if stiffness_ratio is None else np.broadcast_to(
         np.asarray(stiffness_ratio, float), (n,))
+    normal = restitution_mode == "normal"
     if n <= CHUNK:
-        return _solve_block(config, ratio)
+        return _solve_block(config, ratio, normal)
     parts = [
         _solve_block(ImpactConfig(*(a[lo:lo + CHUNK] for a in config)),
-                     None if ratio is None else ratio[lo:lo + CHUNK])
+                     None if ratio is None else ratio[lo:lo + CHUNK], normal)
         for lo in range(0, n, CHUNK)
     ]
     return ImpactResult(*(np.concatenate(f) for f in zip(*parts, strict=True)))
 
 
 def _solve_block(config: ImpactConfig,
-                 stiffness_ratio: npt.ArrayLike | None = None) -> ImpactResult:
+                 stiffness_ratio: npt.ArrayLike | None = None,
+                 normal_only: bool = False) -> ImpactResult:
     """Solve one block of impacts (see :func:`solve_impact`)."""
     c = config
     m1, m2, i1, i2 = c.m1, c.m2, c.izz1, c.izz2
@@ -553,9 +580,13 @@ def _solve_block(config: ImpactConfig,
     k_tn = -(r1t * r1n / i1 + r2t * r2n / i2)
     det = k_tt * k_nn - k_tn**2  # > 0: K is positive definite
 
-    # full impact: u + K S_c = 0 at the end of compression (seed 004, eq. 24)
-    sc_t = -(k_nn * u_t - k_tn * u_n) / det
-    sc_n = -(-k_tn * u_t + k_tt * u_n) / det
+    # full impact: u + K S_c = 0 at the end of compression (seed 004, eq. 24).
+    # Normal-only restitution (Brach): the whole impulse solves u_t' = 0,
+    # u_n' = -eps u_n, i.e. K S = (-u_t, -(1 + eps) u_n); it is found here as
+    # the "compression" impulse of the target (u_t, (1 + eps) u_n) with gain 1.
+    un_eff = (1.0 + eps) * u_n if normal_only else u_n
+    sc_t = -(k_nn * u_t - k_tn * un_eff) / det
+    sc_n = -(-k_tn * u_t + k_tt * un_eff) / det
     full = np.abs(sc_t) <= mu * sc_n
     # sliding impact: |T| = mu N with the sign of the full-impact T; only the
     # normal relative velocity vanishes at the end of compression
@@ -564,11 +595,12 @@ def _solve_block(config: ImpactConfig,
     jam = ~full & (denom <= 1e-12 * k_nn)  # no sliding solution; not seen in practice
     full |= jam
     with np.errstate(invalid="ignore", divide="ignore"):
-        lam = np.where(full, 0.0, -u_n / np.where(jam, 1.0, denom))
+        lam = np.where(full, 0.0, -un_eff / np.where(jam, 1.0, denom))
     comp_t = np.where(full, sc_t, s * mu * lam)
     comp_n = np.where(full, sc_n, lam)
-    # total impulse S = (1 + eps) S_C (seed 001, eq. 5; seed 004, eqs. 25-26)
-    gain = np.where(approaching, 1.0 + eps, 0.0)
+    # total impulse S = (1 + eps) S_C (seed 001, eq. 5; seed 004, eqs. 25-26); in
+    # the normal-only mode the restitution is already in the target velocity
+    gain = np.where(approaching, 1.0 if normal_only else 1.0 + eps, 0.0)
     s_t, s_n = gain * comp_t, gain * comp_n
     impulse_x = s_t * tx + s_n * nx
     impulse_y = s_t * ty + s_n * ny
@@ -586,6 +618,12 @@ def _solve_block(config: ImpactConfig,
     k_s_t = k_tt * s_t + k_tn * s_n
     k_s_n = k_tn * s_t + k_nn * s_n
     loss = -(s_t * u_t + s_n * u_n + 0.5 * (s_t * k_s_t + s_n * k_s_n))
+    # Newton's kinematic restitution with friction can create energy where the normal and
+    # tangential directions are coupled (k_tn != 0; Kane's paradox, also discussed by
+    # Brach): there the normal-only mode falls back to the Poisson split (S = (1 + eps)
+    # S_C, the default mode), which never gains energy
+    created = normal_only & approaching & (
+        loss < -1e-12 * (np.abs(s_t * u_t) + np.abs(s_n * u_n)))
     loss = np.maximum(loss, 0.0)  # rounding only; the model never gains energy
     e1, e2 = energy_split(loss, m1, m2, stiffness_ratio)
     dvx1, dvy1 = vx1p - c.vx1, vy1p - c.vy1
@@ -594,7 +632,7 @@ def _solve_block(config: ImpactConfig,
     pdof2, clock2 = _pdof(-impulse_x, -impulse_y, c.yaw2)
     none = ~approaching
     nan = np.full(m1.shape, np.nan)
-    return ImpactResult(
+    result = ImpactResult(
         impact_type=np.where(none, IMPACT_NONE, np.where(full, IMPACT_FULL, IMPACT_SLIDING)),
         normal_x=nx, normal_y=ny,
         closing_speed=-u_n, sliding_speed=u_t,
@@ -609,3 +647,8 @@ def _solve_block(config: ImpactConfig,
         pdof1=np.where(none, nan, pdof1), pdof2=np.where(none, nan, pdof2),
         pdof_clock1=np.where(none, 0, clock1), pdof_clock2=np.where(none, 0, clock2),
     )
+    if np.any(created):
+        fallback = _solve_block(config, stiffness_ratio, False)
+        result = ImpactResult(*(np.where(created, b, a)
+                                for a, b in zip(result, fallback, strict=True)))
+    return result

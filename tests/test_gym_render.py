@@ -217,7 +217,7 @@ def test_animation_has_the_stated_number_of_frames(tmp_path):
 
     from PIL import Image
 
-    from vfs.gym.render import animate_traces, play_traces
+    from vfs.gym.animation import animate_traces, play_traces
 
     env = AEBEnv(split="test")
     case = env.core.split_ids[0]

@@ -89,7 +89,7 @@ def cmd_run_case(args: argparse.Namespace) -> int:
         if not args.db:
             raise DataError(DataProblem("cases", "case_id", None, args.case,
                                         "--animate needs --db (the AEB environment's cases)"))
-        from vfs.gym.render import animate_traces, play_traces
+        from vfs.gym.animation import animate_traces, play_traces
 
         base, treated = play_traces(args.db, case_id, args.system)
         n = animate_traces([base, treated], [f"case {case_id}: recorded behaviour",

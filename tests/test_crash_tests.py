@@ -110,3 +110,25 @@ def test_model_meets_the_test_configuration(db):
     loss = 0.5 * ct.C300["mass"] * v**2 * (1.0 - eps**2)
     assert res.impact.energy_loss[barrier] == pytest.approx(loss, rel=1e-9)
     assert math.isfinite(res.runout.result1.rest_x[barrier])
+
+
+def test_compare_reports_exactly_the_measured_values():
+    import numpy as np
+
+    from vfs import open_database
+    from vfs.analysis.compare import compare_database
+
+    db = open_database("crash-tests")
+    c = compare_database(db)
+    m = c.measured
+    rec = db.reconstruction.set_index("case_id")
+    # one row per finite measured value, nothing for what was not measured
+    expected = sum(int(np.isfinite(rec[col]).sum()) for col in m["outcome"].unique())
+    assert len(m) == expected and set(m["outcome"]) <= set(rec.columns)
+    for r in m.itertuples(index=False):
+        assert r.measured == rec.loc[r.case_id, r.outcome]
+        assert r.difference == r.model - r.measured
+        sd = rec[f"{r.outcome}_sd"].get(r.case_id) if f"{r.outcome}_sd" in rec else np.nan
+        assert (np.isnan(r.z) and not sd > 0) or r.z == r.difference / sd
+    # the model's value is the simulation's (the results table of the comparison's pairs)
+    assert {"energy_loss", "ees2"} <= set(m["outcome"])

@@ -200,13 +200,18 @@ def test_nominal_strength_changes_its_outputs(name, batch, baseline):
 
 
 def test_restitution_falls_with_closing_speed(batch, baseline):
-    res = run(batch, get_effect("restitution_speed")(exponent=1.0, reference_speed=15.0))
+    res = run(batch, get_effect("restitution_speed")(exponent=1.0, reference_speed=15.0,
+                                                     cap=0.8))
     hit = baseline.precrash.collided
     v_c = np.maximum(res.impact.closing_speed[hit], 2.0)
     expected = np.minimum(batch.restitution[hit] * 15.0 / v_c, 0.8)
     np.testing.assert_allclose(res.restitution[hit], expected, rtol=1e-12)
     # the recorded input is untouched for cases without a collision
     np.testing.assert_array_equal(res.restitution[~hit], batch.restitution[~hit])
+    # the default cap is the top of the 0.1-0.3 range for real deformations
+    capped = run(batch, get_effect("restitution_speed")(exponent=1.0, reference_speed=15.0))
+    np.testing.assert_allclose(capped.restitution[hit], np.minimum(expected, 0.3), rtol=1e-12)
+    assert (capped.restitution[hit] == 0.3).any()
 
 
 def test_tyre_impulse_slows_but_never_reverses(batch, baseline):

@@ -341,6 +341,11 @@ class Comparison:
         vehicles).
     params : SimulationParams or None
         Model parameters of the simulation (None: default model).
+    measured : pandas.DataFrame
+        Crash tests (reconstruction rows with ``outcome_source = measurement``): one row
+        per measured outcome value, ``case_id``, ``outcome`` (column), ``measured``, ``sd``
+        (NaN: not stated), ``model``, ``difference`` (model - measured) and ``z``
+        (difference / sd) [SI units]; empty when there are no measurement rows.
     impact_parameters : str
         Restitution and contact friction of the simulation: ``"default"`` (the model's
         generic defaults for every case, the prospective protocol of the frontal-collision
@@ -363,6 +368,7 @@ class Comparison:
     table1: pd.DataFrame
     case_errors: pd.DataFrame
     params: SimulationParams | None = None
+    measured: pd.DataFrame | None = None
     impact_parameters: str = ""
 
     @property
@@ -543,7 +549,52 @@ def compare_database(
     comparison = compare_tables(rec, vfs, participants=getattr(db, "participants", None),
                                 margins=margins, alpha=alpha, confidence=confidence,
                                 source=source, params=params)
-    return dataclasses.replace(comparison, impact_parameters=setting)
+    return dataclasses.replace(comparison, impact_parameters=setting,
+                               measured=measured_outcomes(rec, vfs))
+
+
+#: Reconstruction columns a crash test can measure and the simulation's results table has.
+MEASURABLE: tuple[str, ...] = tuple(
+    f"{q}{i}" for q in ("delta_v", "ees", "pdof", "velocity_angle_change")
+    for i in (1, 2)) + (
+    "vx1_post", "vy1_post", "yaw_rate1_post", "vx2_post", "vy2_post", "yaw_rate2_post",
+    "rest_x1", "rest_y1", "rest_yaw1", "rest_x2", "rest_y2", "rest_yaw2", "energy_loss")
+
+
+def measured_outcomes(reconstruction: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:
+    """Model against measurement for every measured value of the crash-test rows (SI).
+
+    Only rows with ``outcome_source == "measurement"`` and only their finite values
+    (NaN = not measured) enter; see :attr:`Comparison.measured`.
+    """
+    cols = ["case_id", "outcome", "measured", "sd", "model", "difference", "z"]
+    if "outcome_source" not in reconstruction.columns:
+        return pd.DataFrame(columns=cols)
+    rec = reconstruction[reconstruction["outcome_source"] == "measurement"]
+    if rec.empty:
+        return pd.DataFrame(columns=cols)
+    model = vfs.drop_duplicates("case_id").set_index("case_id")
+    out = []
+    for col in MEASURABLE:
+        if col not in rec.columns or col not in model.columns:
+            continue
+        meas = pd.to_numeric(rec[col], errors="coerce").to_numpy(float)
+        ok = np.isfinite(meas)
+        if not ok.any():
+            continue
+        ids = rec["case_id"].to_numpy()[ok]
+        sd = (pd.to_numeric(rec[f"{col}_sd"], errors="coerce").to_numpy(float)[ok]
+              if f"{col}_sd" in rec.columns else np.full(ok.sum(), np.nan))
+        mod = pd.to_numeric(model[col].reindex(ids), errors="coerce").to_numpy(float)
+        diff = mod - meas[ok]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(sd > 0, diff / sd, np.nan)
+        out.append(pd.DataFrame({"case_id": ids, "outcome": col, "measured": meas[ok],
+                                 "sd": sd, "model": mod, "difference": diff, "z": z}))
+    if not out:
+        return pd.DataFrame(columns=cols)
+    return pd.concat(out, ignore_index=True).sort_values(["case_id", "outcome"],
+                                                         ignore_index=True)
 
 
 def _poi_local(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:

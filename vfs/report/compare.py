@@ -624,6 +624,44 @@ def _table(df: pd.DataFrame) -> Table:
     return Table.from_frame(df, empty="(no rows)")
 
 
+def _display(outcome: str) -> tuple[str, float]:
+    """Display unit and factor from SI of a measurable outcome column."""
+    if outcome == "energy_loss":
+        return "kJ", 1e-3
+    if outcome.startswith(("pdof", "velocity_angle_change", "rest_yaw")):
+        return "deg", float(np.degrees(1.0))
+    if outcome.startswith("yaw_rate"):
+        return "deg/s", float(np.degrees(1.0))
+    if outcome.startswith(("rest_x", "rest_y")):
+        return "m", 1.0
+    return "km/h", KMH_PER_MS
+
+
+def measured_blocks(c: Comparison) -> list[Block]:
+    """Crash tests: model against every measured value, with its stated uncertainty."""
+    m = c.measured
+    if m is None or len(m) == 0:
+        return []
+    rows = []
+    for r in m.itertuples(index=False):
+        unit, f = _display(str(r.outcome))
+        sd = "" if not np.isfinite(r.sd) else f"{r.sd * f:.2f}"
+        z = "" if not np.isfinite(r.z) else f"{r.z:+.1f}"
+        rel = (f"{100 * r.difference / r.measured:+.1f} %" if r.measured else "")
+        rows.append((str(r.case_id), f"{r.outcome} [{unit}]", f"{r.measured * f:.2f}", sd,
+                     f"{r.model * f:.2f}", f"{r.difference * f:+.2f}", rel, z))
+    return [
+        Heading("Measured outcomes (crash tests)", 2),
+        Paragraph("Cases whose reference is a measurement (outcome_source = measurement): "
+                  "every measured value against the model, with the stated measurement "
+                  "uncertainty (sd) and the difference in units of it (z). Outcomes the test "
+                  "did not measure are left out; the statistics below then have few or no "
+                  "pairs. docs/validation.md discusses them."),
+        Table(("case", "outcome", "measured", "sd", "model", "model - measured", "relative",
+               "z"), tuple(rows)),
+    ]
+
+
 def impact_parameter_sentence(c: Comparison) -> str:
     """The report's first line: which restitution and contact friction the simulation used."""
     from vfs.physics.impact import ImpactParams
@@ -662,6 +700,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   "tests (section 8). Differences are VFS - reconstruction; speeds in km/h, "
                   "angles in degrees. The analysis follows Tomasch et al. (seed 001: Figures "
                   "4-6, Table 1); formulas and conventions: docs/compare.md."),
+        *measured_blocks(c),
         Heading("1 Impact type (seed 001, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "

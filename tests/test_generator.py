@@ -194,7 +194,8 @@ def test_cli_generate_then_validate(tmp_path, capsys):
     assert "25 cases" in text and "restitution" not in text  # the truth stays hidden
     summary = json.loads((out / GROUND_TRUTH_FILE).read_text())
     assert summary["hidden_effects"] == [
-        {"name": "restitution_speed", "parameters": {"exponent": 1.2, "reference_speed": 15.0}}]
+        {"name": "restitution_speed", "parameters": {"exponent": 1.2, "reference_speed": 15.0,
+                                                     "cap": 0.3}}]
     assert summary["noise"]["scale"] == 0.0
     assert main(["db", "validate", str(out)]) == 0
     assert main(["generate", "--out", str(tmp_path / "x"), "--hidden", "warp_drive"]) == 2

@@ -29,12 +29,28 @@ def _print_problems(error: DataError) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    """``vfs db validate DIR``: print "OK: ..." or every problem (exit code 1)."""
+    """``vfs db validate DIR [--strict]``: print "OK: ..." or every problem (exit code 1)."""
+    from vfs.database.plausibility import check_plausibility
+
     try:
         db = load_any(_path(args.directory), validate=True)
     except DataError as error:
         _print_problems(error)
         return 1
+    found = check_plausibility(db)
+    if found.errors:  # what loading does not check: an empty database
+        print(f"{len(found.errors)} problem(s):")
+        for problem in found.errors:
+            print(f"  - {problem}")
+        return 1
+    warnings = found.warnings
+    if warnings:
+        print(f"{len(warnings)} plausibility warning(s) (a real database can contain these; "
+              f"--strict makes them errors):")
+        for problem in warnings:
+            print(f"  - {problem}")
+        if args.strict:
+            return 1
     print(
         f"OK: {db.n_cases} cases, {len(db.participants)} participants, "
         f"{len(db.trajectories)} trajectory samples, {len(db.reconstruction)} "
@@ -103,6 +119,9 @@ def add_parsers(
 
     validate = commands.add_parser("validate", help="check a database against the schema")
     validate.add_argument("directory", type=Path, help="Parquet, CSV or PCM folder, or 'default'")
+    validate.add_argument("--strict", action="store_true",
+                          help="plausibility warnings (speeds vs positions, yaw vs direction "
+                          "of travel, limits of road vehicles) count as errors (exit code 1)")
     validate.set_defaults(func=cmd_validate)
 
     convert = commands.add_parser("convert", help="convert between database formats")

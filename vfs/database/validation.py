@@ -410,7 +410,11 @@ def validate_database(db: Database) -> list[DataProblem]:
     has a trajectory of at least 2 samples with strictly increasing time and
     spacing <= 0.1 s; vehicle layout (:func:`vfs.physics.vehicle.validate_vehicle_values`);
     ``collision=True`` cases have a reconstruction row and ``collision=False``
-    cases none (skipped when ``meta["has_reconstruction"]`` is false).
+    cases none (skipped when ``meta["has_reconstruction"]`` is false); then, on
+    schema-valid data, the physical plausibility errors of
+    :func:`vfs.database.plausibility.check_plausibility` (jumps, km/h in m/s columns,
+    yaw in degrees, physical limits, an empty database, impact times outside the
+    trajectories; its warnings are for ``vfs db validate``).
 
     Parameters
     ----------
@@ -435,6 +439,11 @@ def validate_database(db: Database) -> list[DataProblem]:
     _check_trajectories(report, db)
     _check_collision(report, db)
     _check_outcome_source(report, db.reconstruction)
+    if not report.problems:  # physics on schema-valid data only (types and keys known)
+        from vfs.database.plausibility import check_plausibility
+
+        # a selection (--where) may match no case: emptiness is vfs db validate's check
+        report.problems += check_plausibility(db, require_cases=False).errors
     return report.problems
 
 

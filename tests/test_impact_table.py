@@ -77,3 +77,37 @@ def test_missing_column_and_cli_round_trip(tmp_path, capsys):
                  "--output", str(tmp_path / "out.parquet")]) == 0
     out = pd.read_parquet(tmp_path / "out.parquet")
     assert len(out) == len(df) and "ees1" in out.columns
+
+
+def test_unreadable_empty_and_overflowing_inputs_end_in_one_clear_error(tmp_path):
+    import numpy as np
+
+    from vfs.cli import main
+    from vfs.database.impact_table import read_table, solve_impact_table
+    from vfs.errors import DataError
+    from vfs.scenarios.examples import example_impact_table
+
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(bytes(range(128, 256)) * 4)
+    header_only = tmp_path / "header.csv"
+    header_only.write_text(",".join(example_impact_table().columns) + "\n")
+    for path, text in ((empty, "is empty"), (binary, "not a readable CSV"),
+                       (header_only, "has no rows")):
+        with pytest.raises(DataError, match=text):
+            read_table(path)
+        assert main(["impact", "--input", str(path), "--output", str(tmp_path / "o.csv")]) == 2
+    # overflowing and documented-invalid values: an error naming column, row and range
+    t = example_impact_table()
+    t.loc[0, "vx1"] = 1e300
+    t["stiffness_ratio"] = np.nan
+    t.loc[1, "stiffness_ratio"] = 0.0
+    with pytest.raises(DataError) as info:
+        solve_impact_table(t)
+    text = str(info.value)
+    assert "'vx1', row 0" in text and "[-150, 150]" in text
+    assert "stiffness_ratio=0.0 not allowed" in text and "np." not in text
+    out = solve_impact_table(t, on_error="record")
+    assert list(out["impact_type"][:2]) == ["error", "error"]
+    assert np.isfinite(out.loc[2:, "delta_v1"]).all() and np.isfinite(out.loc[2:, "ees1"]).all()

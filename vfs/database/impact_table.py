@@ -51,12 +51,24 @@ def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
     p = Path(path)
     if not p.exists():
         raise DataError(DataProblem(p.name, "", None, None, f"file {p} does not exist"))
-    if p.suffix.lower() in (".parquet", ".pq"):
-        return pd.read_parquet(p)
-    if p.suffix.lower() == ".csv":
-        return pd.read_csv(p)
-    raise DataError(DataProblem(p.name, "", None, None,
-                                f"unknown table format {p.suffix!r}; use .parquet or .csv"))
+    suffix = p.suffix.lower()
+    if suffix not in (".parquet", ".pq", ".csv"):
+        raise DataError(DataProblem(p.name, "", None, None,
+                                    f"unknown table format {p.suffix!r}; use .parquet or .csv"))
+    try:
+        df = pd.read_parquet(p) if suffix in (".parquet", ".pq") else pd.read_csv(p)
+    except pd.errors.EmptyDataError:
+        raise DataError(DataProblem(p.name, "", None, None,
+                                    f"file {p} is empty (expected a header row with the "
+                                    "columns of docs/data-format.md, 'Impact tables')")) from None
+    except (UnicodeDecodeError, pd.errors.ParserError, OSError, ValueError) as exc:
+        kind = "Parquet" if suffix in (".parquet", ".pq") else "CSV (UTF-8 text)"
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise DataError(DataProblem(p.name, "", None, None,
+                                    f"file {p} is not a readable {kind} table: {first}")) from None
+    if df.empty:
+        raise DataError(DataProblem(p.name, "", None, None, f"file {p} has no rows"))
+    return df
 
 
 def write_table_atomic(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
@@ -129,15 +141,27 @@ def solve_impact_table(
             messages[row] = f"{messages[row]}; {text}" if messages[row] else text
             problems.append(DataProblem(table, field, int(row), df["case_id"].iloc[row],
                                         f"value {value!r} not allowed ({describe_range(field)})"))
-    if problems and on_error == "raise":
-        raise DataError(problems, header=f"{len(problems)} problem(s) in impact table '{table}' "
-                        "(use --on-error record to solve the valid rows):")
     stiffness = None
     if "stiffness_ratio" in df.columns:
         stiffness = pd.to_numeric(df["stiffness_ratio"], errors="coerce").to_numpy(float)
+        # documented "> 0" (k1 / k2); NaN selects the mass rule
+        with np.errstate(invalid="ignore"):
+            wrong = ~np.isnan(stiffness) & ~((stiffness > 0) & (stiffness < 1e6))
+        for row in np.flatnonzero(wrong):
+            text = (f"stiffness_ratio={float(stiffness[row])!r} not allowed (finite, > 0 and "
+                    "< 1e6; empty = mass rule)")
+            messages[row] = f"{messages[row]}; {text}" if messages[row] else text
+            problems.append(DataProblem(table, "stiffness_ratio", int(row),
+                                        df["case_id"].iloc[row], text))
+        bad_rows |= wrong
+        stiffness = np.where(wrong, np.nan, stiffness)
+    if problems and on_error == "raise":
+        raise DataError(problems, header=f"{len(problems)} problem(s) in impact table '{table}' "
+                        "(use --on-error record to solve the valid rows):")
     # solve valid rows only; bad rows are filled with a harmless configuration
-    safe = ImpactConfig(*(np.where(bad_rows, np.nan_to_num(a, nan=1.0), a) for a in config))
-    safe = safe._replace(
+    safe = ImpactConfig(*(np.where(bad_rows, 0.0, a) for a in config))
+    safe = safe._replace(x2=np.where(bad_rows, 1.0, safe.x2),  # at rest, apart: no impact
+
         m1=np.where(bad_rows, 1.0, safe.m1), m2=np.where(bad_rows, 1.0, safe.m2),
         izz1=np.where(bad_rows, 1.0, safe.izz1), izz2=np.where(bad_rows, 1.0, safe.izz2),
         restitution=np.where(bad_rows, 0.0, safe.restitution),

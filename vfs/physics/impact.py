@@ -309,11 +309,23 @@ def fixed_object(mass: npt.ArrayLike, yaw_inertia: npt.ArrayLike) -> np.ndarray:
 
 
 #: Allowed ranges of the configuration fields (closed intervals).
+#: Allowed ranges of the configuration fields (SI).  Beyond the physical ones (masses > 0,
+#: restitution in [0, 1], friction >= 0) the bounds keep every product in the formulas far
+#: from overflow (a speed of 1e300 m/s would give delta-v = inf and EES = NaN) while
+#: admitting every road vehicle: masses up to 200 t, yaw inertias up to 1e7 kg m^2, speeds
+#: up to 150 m/s (540 km/h), yaw rates up to 50 rad/s, positions within 1,000 km of the
+#: origin, angles within +-1,000 rad, contact friction up to 10.
 CONFIG_RANGES: dict[str, tuple[float, float]] = {
-    "m1": (np.nextafter(0.0, 1.0), np.inf), "m2": (np.nextafter(0.0, 1.0), np.inf),
-    "izz1": (np.nextafter(0.0, 1.0), np.inf), "izz2": (np.nextafter(0.0, 1.0), np.inf),
+    "m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),
+    "izz1": (np.nextafter(0.0, 1.0), 1.0e7), "izz2": (np.nextafter(0.0, 1.0), 1.0e7),
+    "x1": (-1e6, 1e6), "y1": (-1e6, 1e6), "x2": (-1e6, 1e6), "y2": (-1e6, 1e6),
+    "poi_x": (-1e6, 1e6), "poi_y": (-1e6, 1e6),
+    "yaw1": (-1e3, 1e3), "yaw2": (-1e3, 1e3), "cp_angle": (-1e3, 1e3),
+    "vx1": (-150.0, 150.0), "vy1": (-150.0, 150.0), "vx2": (-150.0, 150.0),
+    "vy2": (-150.0, 150.0),
+    "yaw_rate1": (-50.0, 50.0), "yaw_rate2": (-50.0, 50.0),
     "restitution": (0.0, 1.0),
-    "contact_friction": (0.0, np.inf),
+    "contact_friction": (0.0, 10.0),
 }
 
 
@@ -333,11 +345,11 @@ def config_problems(config: ImpactConfig) -> dict[str, np.ndarray]:
     for name in ImpactConfig._fields:
         v = getattr(config, name)
         mask = ~np.isfinite(v)
-        if name[:-1] in ("m", "izz"):  # a fixed object: both infinite, the other body free
-            mask &= ~((fixed1 & ~fixed2) if name.endswith("1") else (fixed2 & ~fixed1))
         lo, hi = CONFIG_RANGES.get(name, (-np.inf, np.inf))
         with np.errstate(invalid="ignore"):
             mask |= (v < lo) | (v > hi)
+        if name[:-1] in ("m", "izz"):  # a fixed object: both infinite, the other body free
+            mask &= ~((fixed1 & ~fixed2) if name.endswith("1") else (fixed2 & ~fixed1))
         if mask.any():
             bad[name] = mask
     return bad
@@ -347,7 +359,8 @@ def describe_range(name: str) -> str:
     """Human-readable allowed range of a configuration field."""
     lo, hi = CONFIG_RANGES.get(name, (-np.inf, np.inf))
     if name in ("m1", "m2", "izz1", "izz2"):
-        return "finite and > 0 (or mass and inertia both inf: a fixed object, not both)"
+        return (f"finite, > 0 and <= {hi:g} (or mass and inertia both inf: a fixed object, "
+                "not both)")
     if np.isinf(lo) and np.isinf(hi):
         return "finite"
     return f"finite, in [{lo:g}, {hi:g}]"

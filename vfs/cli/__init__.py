@@ -69,6 +69,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except VfsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a full disk, a read-only folder: one line, not a traceback
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
 
 
 __all__ = ["COMMAND_GROUPS", "build_parser", "main"]

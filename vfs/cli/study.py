@@ -47,7 +47,12 @@ def cmd_study(args: argparse.Namespace) -> int:
     print(result.summary())
     if result.complete:
         print(f"runs -> {result.path / 'runs.parquet'}")
-    return 0
+        return 0
+    from vfs.study.run import EXIT_INCOMPLETE
+
+    print(f"the study is incomplete; continue it with the same command and --resume "
+          f"(exit code {EXIT_INCOMPLETE})", file=sys.stderr)
+    return EXIT_INCOMPLETE
 
 
 def cmd_report_effectiveness(args: argparse.Namespace) -> int:

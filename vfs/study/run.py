@@ -133,6 +133,59 @@ class _ChunkWriter:
             self.on_chunk(task.chunk, self.cases_run)
 
 
+#: Exit code of ``vfs study`` for a study that ended incomplete (resume it).
+EXIT_INCOMPLETE = 3
+
+
+def lock_path(out: Path) -> Path:
+    """The lock file of study folder ``out`` (beside it: ``--overwrite`` replaces the folder)."""
+    return out.parent / f".{out.name}.lock"
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by another user
+        return True
+    return True
+
+
+def acquire_lock(out: Path) -> Path:
+    """Claim study folder ``out`` for this process: a lock file with pid, host and time.
+
+    A lock of a process that no longer runs on this host is stale and taken over; a live
+    one (or one from another host) is refused with a message naming its owner.
+    """
+    import json
+    import socket
+
+    lock = lock_path(out)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    me = {"pid": os.getpid(), "host": socket.gethostname(), "started": now()}
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                owner = json.loads(lock.read_text() or "{}")
+            except (OSError, ValueError):
+                owner = {}
+            pid, host = owner.get("pid"), owner.get("host")
+            if host == me["host"] and isinstance(pid, int) and not _pid_alive(pid):
+                lock.unlink(missing_ok=True)  # stale: its process is gone
+                continue
+            raise ParameterError(
+                f"study folder {out} is in use by process {pid} on {host} (since "
+                f"{owner.get('started')}); wait for it, or delete {lock} if that process is "
+                "gone") from None
+        with os.fdopen(fd, "w") as fh:
+            json.dump(me, fh)
+        return lock
+    raise ParameterError(f"could not lock study folder {out} ({lock})")
+
+
 def _progress_bar(total: int, show: bool | None) -> Any:
     from tqdm import tqdm
 
@@ -246,16 +299,61 @@ def run_study(
     names = [str(s.name) for s in system_objs]
 
     selection = select_database(db, where)
-    database, folder = selection.database, selection.folder
-    ids = database.case_ids
+    ids = selection.database.case_ids
     if ids.size == 0:
         raise DataError(DataProblem("cases", "", None, None,
                                     "no case selected" + (f" by {where!r}" if where else "")))
     chunks = [ids[i:i + chunk_size] for i in range(0, ids.size, chunk_size)]
     out_dir = Path(out)
+    lock = acquire_lock(out_dir)
+    try:
+        return _run_locked(out_dir, selection, where, chunk_size, chunks, system_objs, names,
+                           equip, seed, impact_parameters, params, engine, resume, overwrite,
+                           max_chunks, workers, scheduler, dask_processes, progress,
+                           on_chunk, started, executor)
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: int,
+                chunks: list[np.ndarray], system_objs: list[Any], names: list[str], equip: str,
+                seed: int, impact_parameters: str, params: SimulationParams, engine: str,
+                resume: bool, overwrite: bool, max_chunks: int | None, workers: int | None,
+                scheduler: str | None, dask_processes: bool, progress: bool | None,
+                on_chunk: Callable[[int, int], None] | None, started: float,
+                executor: Any) -> StudyResult:
+    """The study in its locked folder (see :func:`run_study`)."""
+    database, folder = selection.database, selection.folder
+    ids = database.case_ids
     manifest = prepare_folder(
         out_dir, _new_manifest(selection, where, chunk_size, len(chunks), system_objs, equip,
                                seed, impact_parameters, params, engine), resume, overwrite)
+    try:
+        return _run_chunks(out_dir, manifest, database, folder, ids, chunk_size, chunks,
+                           system_objs, names, equip, seed, impact_parameters, params, engine,
+                           max_chunks, workers, scheduler, dask_processes, progress, on_chunk,
+                           started, executor, selection.fmt)
+    except BaseException as exc:
+        # whatever failed (a full disk included), the manifest must not say "running"
+        if manifest.get("status") == "running":
+            manifest.update(status="interrupted" if isinstance(exc, KeyboardInterrupt)
+                            else "failed", updated=now(), error=error_text(exc))
+            try:
+                write_json(out_dir / MANIFEST_FILE, manifest)
+            except OSError:
+                pass  # the disk refuses even the manifest: the old one says "running"
+        raise
+
+
+def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: Any,
+                ids: np.ndarray, chunk_size: int, chunks: list[np.ndarray],
+                system_objs: list[Any], names: list[str], equip: str, seed: int,
+                impact_parameters: str, params: SimulationParams, engine: str,
+                max_chunks: int | None, workers: int | None, scheduler: str | None,
+                dask_processes: bool, progress: bool | None,
+                on_chunk: Callable[[int, int], None] | None, started: float, executor: Any,
+                fmt: Any) -> StudyResult:
+    """Write the folder's inputs, run the chunks still to do, combine them."""
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = database.cases.reset_index(drop=True)
@@ -276,21 +374,15 @@ def run_study(
         for j, system in enumerate(runners):
             tasks.append(RunTask(
                 chunk=k, case_ids=chunks[k], system_index=j, system=system, db_path=folder,
-                db_format=selection.fmt, batch=sub, equip=equip, seed=seed, params=params,
+                db_format=fmt, batch=sub, equip=equip, seed=seed, params=params,
                 impact_parameters=impact_parameters))
     n_workers = 1 if engine == "serial" else (
         workers if workers else max(1, min(cpu_count(), len(tasks))))
     bar = _progress_bar(sum(chunks[k].size for k in todo), progress)
     writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, on_chunk)
-    try:
+    try:  # chunks written so far stay; the study can be resumed
         if tasks:
             executor(tasks, writer, ExecutorOptions(n_workers, scheduler, dask_processes))
-    except BaseException as exc:
-        # chunks written so far stay; the study can be resumed
-        manifest.update(status="interrupted" if isinstance(exc, KeyboardInterrupt) else "failed",
-                        updated=now(), error=error_text(exc))
-        write_json(out_dir / MANIFEST_FILE, manifest)
-        raise
     finally:
         bar.close()
     manifest.pop("error", None)
@@ -314,4 +406,5 @@ def run_study(
     return StudyResult(out_dir, table, manifest)
 
 
-__all__ = ["IMPACT_PARAMETER_SOURCES", "run_study"]
+__all__ = ["EXIT_INCOMPLETE", "IMPACT_PARAMETER_SOURCES", "acquire_lock", "lock_path",
+           "run_study"]

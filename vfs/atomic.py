@@ -13,7 +13,7 @@ import math
 import os
 import shutil
 import uuid
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -93,8 +93,19 @@ def write_json(path: PathLike, data: Any, *, strict: bool = True) -> Path:
     return write_text(path, json.dumps(payload, indent=2, default=json_default) + "\n")
 
 
-def write_table(path: PathLike, df: pd.DataFrame) -> Path:
+def write_table(path: PathLike, df: pd.DataFrame,
+                field_metadata: Mapping[str, Mapping[str, str]] | None = None) -> Path:
     """Write a table atomically as Parquet (``.parquet``/``.pq``) or CSV (``.csv``).
+
+    Parameters
+    ----------
+    path : path
+        Target file.
+    df : pandas.DataFrame
+        The table (its index is not written).
+    field_metadata : mapping, optional
+        Per column, key-value pairs (e.g. ``unit``, ``description``) written as Parquet
+        field metadata (UTF-8); ignored for CSV.
 
     Raises
     ------
@@ -103,11 +114,33 @@ def write_table(path: PathLike, df: pd.DataFrame) -> Path:
     """
     suffix = Path(path).suffix.lower()
     if suffix in (".parquet", ".pq"):
-        return write_atomic(path, lambda p: df.to_parquet(p, index=False))
+        if not field_metadata:
+            return write_atomic(path, lambda p: df.to_parquet(p, index=False))
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = with_field_metadata(pa.Table.from_pandas(df, preserve_index=False),
+                                    field_metadata)
+        return write_atomic(path, lambda p: pq.write_table(table, p))
     if suffix == ".csv":
         return write_atomic(path, lambda p: df.to_csv(p, index=False))
     raise DataError(DataProblem(Path(path).name, "", None, None,
                                 f"unknown table format {suffix!r} (use .parquet or .csv)"))
+
+
+def with_field_metadata(table: Any, field_metadata: Mapping[str, Mapping[str, str]]) -> Any:
+    """A pyarrow Table whose fields carry ``field_metadata`` (per column, str -> str)."""
+    import pyarrow as pa
+
+    fields = []
+    for f in table.schema:
+        meta = field_metadata.get(f.name)
+        if meta:
+            merged = dict(f.metadata or {})
+            merged.update({k.encode(): str(v).encode() for k, v in meta.items()})
+            f = f.with_metadata(merged)
+        fields.append(f)
+    return table.cast(pa.schema(fields, metadata=table.schema.metadata))
 
 
 def write_figure(path: PathLike, fig: Figure, **savefig: Any) -> Path:

@@ -59,6 +59,24 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_schema(args: argparse.Namespace) -> int:
+    """``vfs db schema [--format json|frictionless] [--out FILE]``."""
+    import json
+
+    from vfs.database.metadata import frictionless_schema, schema_json
+
+    doc = frictionless_schema() if args.format == "frictionless" else schema_json()
+    text = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+    if args.out:
+        from vfs.atomic import write_text
+
+        write_text(args.out, text)
+        print(f"schema ({args.format}) -> {args.out}")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def cmd_convert(args: argparse.Namespace) -> int:
     """``vfs db convert SRC DST --to {parquet,csv,pcm}``."""
     try:
@@ -123,6 +141,18 @@ def add_parsers(
                           help="plausibility warnings (speeds vs positions, yaw vs direction "
                           "of travel, limits of road vehicles) count as errors (exit code 1)")
     validate.set_defaults(func=cmd_validate)
+
+    schema = commands.add_parser(
+        "schema", help="print the database schema (JSON or a Frictionless Table Schema)",
+        description="Print the schema of the database tables: per column its type, unit (as "
+        "stored in the files), description and allowed values. --format frictionless gives "
+        "a Frictionless Data Package (Table Schema per table, the unit as the custom field "
+        "property 'unit'). The same units and descriptions are in the field metadata of "
+        "every Parquet file vfs writes.")
+    schema.add_argument("--format", choices=("json", "frictionless"), default="json",
+                        help="output format (default json)")
+    schema.add_argument("--out", type=Path, help="write to this file instead of stdout")
+    schema.set_defaults(func=cmd_schema)
 
     convert = commands.add_parser("convert", help="convert between database formats")
     convert.add_argument("source", type=Path, help="Parquet, CSV or PCM folder")

@@ -87,7 +87,7 @@ def post_impact_speed(distance: npt.ArrayLike, rotation: npt.ArrayLike,
     A straight slide of 6.37 m on locked wheels, mu = 0.8: V' = sqrt(2 mu g s).
 
     >>> round(float(post_impact_speed(6.37, 0.0, 4.5, 0.8)), 2)
-    9.99
+    10.0
     """
     s = np.asarray(distance, float)
     k = np.where(s > 0.0, rotation_factor(rotation, length, np.where(s > 0, s, 1.0)), 0.0)

@@ -37,6 +37,7 @@ import pandas as pd
 
 from vfs.atomic import write_json, write_table
 from vfs.database import Database, DatabaseSelection, select_database
+from vfs.database.metadata import field_metadata
 from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
 from vfs.simulation import CaseBatch, SimulationParams
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
@@ -127,7 +128,8 @@ class _ChunkWriter:
             return
         del self.pending[task.chunk]
         chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
-        write_table(chunk_path(self.out, task.chunk), chunk_table)
+        write_table(chunk_path(self.out, task.chunk), chunk_table,
+                    field_metadata(chunk_table.columns))
         self.cases_run += n
         if self.on_chunk is not None:
             self.on_chunk(task.chunk, self.cases_run)
@@ -357,7 +359,8 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = database.cases.reset_index(drop=True)
-    write_table(out_dir / CASES_FILE, cases_meta)
+    write_table(out_dir / CASES_FILE, cases_meta,
+                field_metadata(cases_meta.columns, table="cases"))
 
     todo = [k for k in range(len(chunks)) if not chunk_path(out_dir, k).exists()]
     if max_chunks is not None:
@@ -395,7 +398,8 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
                                "workers": n_workers}
     table = None
     if len(done) == len(chunks):
-        write_table(out_dir / RUNS_FILE, combine_chunks(out_dir, ids, [BASELINE, *names]))
+        runs = combine_chunks(out_dir, ids, [BASELINE, *names])
+        write_table(out_dir / RUNS_FILE, runs, field_metadata(runs.columns))
         table = pd.read_parquet(out_dir / RUNS_FILE)  # dtypes exactly as load_study gives
         summary["systems"] = counts_summary(table, names)
         manifest["status"] = "complete"

@@ -213,7 +213,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     from vfs.uncertainty.reconstruct import OBSERVABLES
 
     p = subparsers.add_parser(
-        "uncertainty", help="Monte-Carlo bands of every outcome (seed 002's +- percent)",
+        "uncertainty", help="Monte-Carlo bands of every outcome (the Collision Calculation "
+        "Uncertainty paper's +- percent)",
         description="Sample the uncertain inputs (road friction, restitution, contact friction, "
         "POI shift, contact-plane angle, penetration time, speeds at impact, masses, post-crash "
         "wheel brakes) from the distributions of the configuration, solve impact and run-out "
@@ -230,7 +231,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
     s = subparsers.add_parser(
         "sensitivity", help="Sobol indices of the outcomes on the uncertain inputs, full vs "
-        "sliding impacts (seed 001's ANOVA)",
+        "sliding impacts (the Momentum Based Impact Model paper's ANOVA)",
         description="Saltelli sampling and the Saltelli (2010) / Jansen (1999) estimators of "
         "first-order and total Sobol indices per case, averaged over the cases whose nominal "
         "impact is full and those whose nominal impact is sliding, with bootstrap intervals, "
@@ -254,7 +255,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "with the observed rest positions and headings (optionally EES and post-impact "
         "directions) within their tolerances. Every observation enters as a residual scaled "
         "by its standard deviation (database _sd columns, the flags below, or documented "
-        "defaults). Monte-Carlo acceptance (seed 002), a local optimiser "
+        "defaults). Monte-Carlo acceptance (the Collision Calculation Uncertainty paper), a local "
+        "optimiser "
         "(scipy least_squares) and chains exploring the feasible set; reports the feasible "
         "set, its 5-95 % spread and the optimum with its scaled residuals. Details: "
         "docs/uncertainty.md.")

@@ -238,6 +238,10 @@ def test_cli_writes_the_report(tmp_path, capsys) -> None:
     metrics = pd.read_csv(folder / "metrics.csv")
     assert set(metrics["system"]) == {"a", "b"}
     assert {"all", "211", "241", "321"} <= set(metrics["group"].astype(str))
+    # accident types appear with their catalogue names in the report tables
+    for label in ("211 left turn, oncoming", "241 head-on, straight road",
+                  "321 crossing at a junction"):
+        assert label in md, label
     # incomplete studies and non-studies are refused (exit code 2)
     write_study(tmp_path / "half", runs, status="incomplete")
     assert main(["report", "effectiveness", str(tmp_path / "half")]) == 2

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.accident_types import accident_type_label
 from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
@@ -196,7 +197,7 @@ def _group_table(eff: Effectiveness, system: str, metrics: Sequence[str],
     by = m.set_index(["group", "metric"])
     rows = []
     for group in groups:
-        cells = [str(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
+        cells = [accident_type_label(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
         cells += [_fmt_ci(by.loc[(group, name)]) for name in metrics]
         rows.append(cells)
     return pd.DataFrame(rows, columns=["accident type", "cases", *labels])
@@ -211,6 +212,7 @@ def _per_type_table(eff: Effectiveness, metric: str) -> pd.DataFrame:
     table = table[[p.system for p in eff.pairs if p.system in table.columns]]
     n = m.drop_duplicates("group").set_index("group")["n_cases"]
     table.insert(0, "cases", n.reindex(table.index).astype(int).astype(str))
+    table.index = [accident_type_label(g) for g in table.index]
     return table.reset_index(names="accident type")
 
 
@@ -315,7 +317,8 @@ def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
                          d["high"].to_numpy(float) * 100 - est_v])
         ax.bar(x, est_v, width, yerr=np.nan_to_num(np.clip(err, 0, None)), capsize=3,
                color=_COLORS[(i + 1) % len(_COLORS)], label=s, alpha=0.85)
-    ax.set_xticks(np.arange(len(groups)), [str(g) for g in groups])
+    ax.set_xticks(np.arange(len(groups)), [accident_type_label(g) for g in groups],
+                  rotation=20, ha="right")
     ax.set_xlabel("accident type")
     ax.set_ylabel(f"baseline crashes avoided [%] ({pct} % CI)")
     ax.set_ylim(0, 105)

@@ -249,3 +249,19 @@ def test_cli_writes_the_report(tmp_path, capsys) -> None:
     assert main(["report", "effectiveness", str(tmp_path)]) == 2
     with pytest.raises(DataError, match="not a study"):
         write_effectiveness_report(tmp_path)
+
+
+def test_shares_at_the_edges_get_wilson_intervals() -> None:
+    """Avoided share 2/2 (type 241) and 0/1 (type 601): intervals of positive width that
+    contain the estimate, equal to Wilson's with n = number of baseline crashes."""
+    from statsmodels.stats.proportion import proportion_confint
+    eff = effectiveness(hand_table(), n_boot=300)
+    m = eff.metrics[(eff.metrics["system"] == "aeb") & (eff.metrics["metric"] == "avoided_share")]
+    by = m.set_index("group")
+    assert by.loc[241, "estimate"] == 1.0 and by.loc[241, "high"] == 1.0
+    assert by.loc[241, "low"] == pytest.approx(proportion_confint(2, 2, method="wilson")[0])
+    assert by.loc[601, "estimate"] == 0.0 and by.loc[601, "low"] == 0.0
+    assert by.loc[601, "high"] == pytest.approx(proportion_confint(0, 1, method="wilson")[1])
+    assert by.loc[ALL, "low"] == pytest.approx(proportion_confint(2, 3, method="wilson")[0])
+    cdf = eff.cdf[eff.cdf["system"] == "aeb"]
+    assert (cdf["high"] > cdf["low"]).all()

@@ -1,6 +1,6 @@
 """Coverage of 95 % intervals of a share: percentile bootstrap vs Wilson (docs/statistics.md).
 
-Run from the repository root: ``python examples/share_interval_coverage.py`` (about 10 s).
+Run from the repository root: ``python -m examples.share_interval_coverage`` (about 10 s).
 """
 
 import numpy as np

@@ -265,3 +265,14 @@ def test_shares_at_the_edges_get_wilson_intervals() -> None:
     assert by.loc[ALL, "low"] == pytest.approx(proportion_confint(2, 3, method="wilson")[0])
     cdf = eff.cdf[eff.cdf["system"] == "aeb"]
     assert (cdf["high"] > cdf["low"]).all()
+
+
+def test_study_without_crashes_says_so(tmp_path, capsys) -> None:
+    runs = pd.DataFrame([row(i, s, False) for i in (1, 2, 3) for s in ("baseline", "a")])
+    study = tmp_path / "quiet"
+    write_study(study, runs)
+    assert main(["report", "effectiveness", str(study), "--bootstrap", "50"]) == 0, \
+        capsys.readouterr().err
+    md = (study / "report" / "report.md").read_text()
+    assert "No crash in the baseline" in md
+    assert not list((study / "report").glob("*.png"))

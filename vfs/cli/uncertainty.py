@@ -288,7 +288,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--k-sigma", dest="k_sigma", type=float, default=2.0,
                    help="accept when every |scaled residual| <= K (default 2; --criterion box)")
     r.add_argument("--criterion", choices=("box", "chi2"), default="box",
-                   help="box: every |r| <= K; chi2: sum r^2 <= chi2 quantile 0.95")
+                   help="box (default): every |r| <= K; chi2: sum r^2 <= chi2 quantile 0.95")
     r.add_argument("--samples", type=int, default=20_000,
                    help="Monte-Carlo samples of the acceptance stage (default 20000)")
     r.add_argument("--starts", type=int, default=6,

@@ -27,6 +27,7 @@ from vfs.report.render import (
     BulletList,
     Figure,
     Heading,
+    Note,
     Paragraph,
     Report,
     Table,
@@ -68,6 +69,12 @@ def _metric_table(eff: Effectiveness, metrics: Sequence[str], group: object = AL
     return pd.DataFrame(data, index=pd.Index(systems, name="system")).reset_index()
 
 
+def baseline_crashes(eff: Effectiveness) -> float:
+    """Weighted number of baseline crashes over all compared cases."""
+    m = eff.metrics[(eff.metrics["group"] == ALL) & (eff.metrics["metric"] == "crashes_baseline")]
+    return float(m["estimate"].max()) if len(m) else 0.0
+
+
 def _figure_block(figures: dict[str, str], key: str, caption: str) -> list[Block]:
     """The figure ``key`` as a one-block list, or no block when it was not drawn."""
     return [Figure(figures[key], caption)] if figures.get(key) else []
@@ -92,9 +99,16 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         BulletList(tuple(f"`{s['name']}`: {s.get('description', '')}" for s in systems)),
         Paragraph(f"Every system is compared case by case with the baseline (the recorded "
                   f"behaviour), weighted by the cases' `weight` (frequency weights). Brackets: "
-                  f"{pct} % percentile bootstrap confidence intervals over cases ({eff.n_boot} "
-                  f"resamples, seed {eff.seed}). Speeds in km/h. Definitions and formulas: "
+                  f"{pct} % confidence intervals: Wilson score intervals for shares, BCa "
+                  f"bootstrap over cases for means and relative reductions, percentile "
+                  f"bootstrap for totals ({eff.n_boot} resamples, seed {eff.seed}; why: "
+                  f"docs/statistics.md). Speeds in km/h. Definitions and formulas: "
                   f"docs/study.md."),
+        *([] if baseline_crashes(eff) > 0 else [Note(
+            f"No crash in the baseline: none of the {n_valid} compared cases collides without "
+            "a system, so there is nothing to avoid. Shares, mean speeds and risk reductions "
+            "are undefined (shown as '-') and no figures are drawn; the tables below still "
+            "count crashes that happen only with a system.", "warning")]),
         Heading("Crashes avoided", 2),
         Table.from_frame(_metric_table(
             eff, ["crashes_baseline", "crashes_treatment", "crashes_avoided", "crashes_new",
@@ -369,7 +383,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
                         confidence=confidence, seed=seed)
     folder = Path(out) if out is not None else result.path / "report"
     folder.mkdir(parents=True, exist_ok=True)
-    figures = write_figures(eff, folder)
+    figures = write_figures(eff, folder) if baseline_crashes(eff) > 0 else {}
     manifest = {**result.manifest, "name": result.path.name}
     blocks = _report_blocks(eff, manifest, figures)
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))

@@ -90,10 +90,11 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
     samples = _positive(args.samples, "--samples", integer=True)
     cases = _load_cases(args)
     result = run_uncertainty(cases, _config(args), n_samples=samples, seed=args.seed,
-                             keep_samples=args.save_samples)
+                             keep_samples=args.save_samples, sampling=args.sampling)
     files = write_uncertainty_report(result, args.out, plots=not args.no_plots)
     summary = result.summary()
-    print(f"{cases.size} cases x {samples} samples = {cases.size * samples} model runs in "
+    print(f"{cases.size} cases x {samples} samples ({args.sampling}) = "
+          f"{cases.size * samples} model runs in "
           f"{result.seconds:.1f} s")
     print("median relative half-width (p95 - p5) / (2 median) over the cases "
           "[all / nominal full / nominal sliding]:")
@@ -211,6 +212,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``uncertainty``, ``sensitivity`` and ``reconstruct`` to the main parser."""
     from vfs.uncertainty import OUTCOME_NAMES
     from vfs.uncertainty.reconstruct import OBSERVABLES
+    from vfs.uncertainty.sampling import DEFAULT_SAMPLING, SAMPLING_METHODS
 
     p = subparsers.add_parser(
         "uncertainty", help="Monte-Carlo bands of every outcome (the Collision Calculation "
@@ -224,7 +226,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "cases.parquet, summary.csv, uncertainty.json, report.md/html and figures. Details: "
         "docs/uncertainty.md.")
     _common(p)
-    p.add_argument("--samples", type=int, default=1000, help="samples per case (default 1000)")
+    p.add_argument("--samples", type=int, default=1024,
+                   help="samples per case (default 1024; a power of two keeps Sobol' balanced)")
+    p.add_argument("--sampling", choices=SAMPLING_METHODS, default=DEFAULT_SAMPLING,
+                   help="random: plain Monte Carlo; sobol: scrambled Sobol' per case; lhs: "
+                   f"Latin hypercube per case (default {DEFAULT_SAMPLING}: fewest samples for "
+                   "a given band accuracy, docs/uncertainty.md)")
     p.add_argument("--save-samples", dest="save_samples", action="store_true",
                    help="also write every model run to samples.parquet")
     p.set_defaults(func=cmd_uncertainty)

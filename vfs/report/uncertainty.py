@@ -213,6 +213,7 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     n_cases = len(result.cases)
     files["json"] = write_json(folder / "uncertainty.json", {
         "n_cases": n_cases, "n_samples": result.n_samples, "seed": result.seed,
+        "sampling": result.sampling,
         "model_runs": n_cases * result.n_samples, "seconds": result.seconds,
         "config": result.config.source,
         "runout_dt_s": result.config.runout_dt,
@@ -240,7 +241,8 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
         Paragraph(f"{n_cases} cases x {result.n_samples} samples = "
                   f"{n_cases * result.n_samples} model runs (impact from the reconstruction's "
                   f"configuration, run-out at dt = {result.config.runout_dt * 1e3:g} ms) in "
-                  f"{result.seconds:.1f} s, seed {result.seed}. Nominal impact types: "
+                  f"{result.seconds:.1f} s, seed {result.seed}, sampling {result.sampling}. "
+                  "Nominal impact types: "
                   + ", ".join(f"{k} {v}" for k, v in types.items())
                   + f". Configuration: {result.config.source}. Method and definitions: "
                   "docs/uncertainty.md (" + cite("collision-uncertainty") + ": +-13 % for a "

@@ -763,3 +763,23 @@ def test_bca_falls_back_to_percentiles_when_undefined() -> None:
     boot = np.array([1.0, 2.0, 3.0, 4.0])
     assert bca_interval(boot, 10.0, [1.0, 1.0]) == (1.0, 4.0)
     assert np.isnan(bca_interval([np.nan], 1.0, [1.0, 2.0])[0])
+
+
+def test_bootstrap_ci_bca_matches_scipy() -> None:
+    from scipy.stats import bootstrap
+    rng = np.random.default_rng(5)
+    x = rng.lognormal(sigma=1.0, size=30)
+    est, low, high = bootstrap_ci(np.mean, x, n_boot=20000, rng=np.random.default_rng(6),
+                                  method="bca")
+    ref = bootstrap((x,), np.mean, method="BCa", n_resamples=20000,
+                    rng=np.random.default_rng(7)).confidence_interval
+    width = ref.high - ref.low
+    assert est == pytest.approx(x.mean())
+    assert low == pytest.approx(ref.low, abs=0.05 * width)
+    assert high == pytest.approx(ref.high, abs=0.05 * width)
+    # the same with a statistic called per sample (no axis parameter)
+    _, low2, high2 = bootstrap_ci(lambda v: float(np.mean(v)), x, n_boot=4000,
+                                  rng=np.random.default_rng(6), method="bca")
+    assert low2 == pytest.approx(ref.low, abs=0.1 * width)
+    with pytest.raises(ParameterError):
+        bootstrap_ci(np.mean, x, rng=np.random.default_rng(0), method="basic")

@@ -656,8 +656,9 @@ def _distance_stats(distance: np.ndarray, group_case: np.ndarray,
             def case_mean(values: np.ndarray, axis: int = 0) -> np.ndarray:
                 return np.nanmean(values.reshape(values.shape[:axis] + (-1,)), axis=axis)
 
+            # distances are positive and right-skewed: BCa (docs/statistics.md)
             _, low, high = bootstrap_ci(case_mean, per_case, n_boot=BOOTSTRAP_SAMPLES,
-                                        confidence=confidence, rng=rng)
+                                        confidence=confidence, rng=rng, method="bca")
         rows.append({
             "group": g, "n": n, "n_cases": int(per_case.shape[0]),
             "mean": float(np.mean(d)) if n else math.nan,

@@ -964,8 +964,9 @@ def bootstrap_ci(
     rng: np.random.Generator,
     weights: npt.ArrayLike | None = None,
     vectorized: bool | None = None,
+    method: str = "percentile",
 ) -> tuple[float, float, float]:
-    """Percentile bootstrap confidence interval of a statistic, resampling cases.
+    """Percentile or BCa bootstrap confidence interval of a statistic, resampling cases.
 
     Parameters
     ----------
@@ -995,6 +996,11 @@ def bootstrap_ci(
     vectorized : bool or None, optional
         Force (True) or forbid (False) the batched call; default: batched if
         ``statistic`` has a parameter named ``axis``.
+    method : {"percentile", "bca"}, optional
+        ``percentile`` (default) or ``bca``: bias-corrected and accelerated
+        (:func:`vfs.analysis.intervals.bca_interval`), for skewed statistics such
+        as means of distances or ratios; its acceleration comes from the n
+        leave-one-case-out values of the statistic.
 
     Returns
     -------
@@ -1035,6 +1041,8 @@ def bootstrap_ci(
         raise ParameterError(f"n_boot={n_boot!r} must be a positive integer")
     n_boot = int(n_boot)
     confidence = _check_open_unit(confidence, "confidence")
+    if method not in ("percentile", "bca"):
+        raise ParameterError(f"method={method!r} must be 'percentile' or 'bca'")
     data = [np.asarray(a) for a in arrays]
     problems = [
         DataProblem(f"arrays[{i}]", "", None, None, "is 0-d; the first axis must hold the cases")
@@ -1096,6 +1104,20 @@ def bootstrap_ci(
             ])
         boot[start:start + size] = values
 
+    if method == "bca":
+        if np.isnan(boot).any() or n < 3:
+            return estimate, math.nan, math.nan
+        loo = np.array([np.delete(np.arange(n), i) for i in range(n)])  # (n, n - 1)
+        if batched:
+            jack = np.asarray(call([a[loo] for a in data],
+                                   None if case_weights is None else case_weights[loo],
+                                   axis=1), dtype=float)
+        else:
+            jack = np.array([_as_scalar(call([a[row] for a in data],
+                                             None if case_weights is None
+                                             else case_weights[row])) for row in loo])
+        low, high = bca_interval(boot, estimate, jack, confidence)
+        return estimate, low, high
     low, high = np.quantile(boot, [0.5 * (1.0 - confidence), 0.5 * (1.0 + confidence)])
     return estimate, float(low), float(high)
 

@@ -1,4 +1,4 @@
-"""Tests of ``vfs compare``: baseline VFS against the reconstructions (seed 001)."""
+"""Tests of ``vfs compare``: VFS against the reconstructions (Momentum Based Impact Model paper)."""
 
 from __future__ import annotations
 
@@ -40,7 +40,8 @@ from vfs.units import KMH_PER_MS
 
 @pytest.fixture(scope="module")
 def study36():
-    """seed 001's sample (structure-aware POI and realistic noise hidden in the data).
+    """the Momentum Based Impact Model paper's sample (structure-aware POI and realistic noise
+    hidden in the data).
 
     Seed 0 (measured: 13 both full, 16 full -> sliding, 7 both sliding): the
     chi-squared test is significant and none of the full-impact t-tests is
@@ -82,7 +83,7 @@ def small_db():
 
 
 # ----------------------------------------------------------------------------
-# Seed 001 reproduced on the synthetic study36 sample
+# The Momentum Based Impact Model paper reproduced on the synthetic study36 sample
 # ----------------------------------------------------------------------------
 
 

@@ -147,7 +147,8 @@ def test_vehicles_aligned_and_default_inertia(example_db: Database) -> None:
     for k, case_id in enumerate(example_db.case_ids):
         row2 = parts[rows_of(parts, case_id, 2)].iloc[0]
         assert v2.mass[k] == row2["mass"]
-        # yaw_inertia of participant 2 is NaN -> default formula I = m L1 L2 (seed 003)
+        # yaw_inertia of participant 2 is NaN -> default formula I = m L1 L2 (the Front-to-Side
+        # Energy Balance paper)
         expected = yaw_inertia_axle_product(row2["mass"], row2["cg_to_front_axle"],
                                             row2["wheelbase"] - row2["cg_to_front_axle"],
                                             row2["length"], row2["width"], row2["wheelbase"])

@@ -238,6 +238,10 @@ def test_cli_writes_the_report(tmp_path, capsys) -> None:
     metrics = pd.read_csv(folder / "metrics.csv")
     assert set(metrics["system"]) == {"a", "b"}
     assert {"all", "211", "241", "321"} <= set(metrics["group"].astype(str))
+    # accident types appear with their catalogue names in the report tables
+    for label in ("211 left turn, oncoming", "241 head-on, straight road",
+                  "321 crossing at a junction"):
+        assert label in md, label
     # incomplete studies and non-studies are refused (exit code 2)
     write_study(tmp_path / "half", runs, status="incomplete")
     assert main(["report", "effectiveness", str(tmp_path / "half")]) == 2
@@ -245,3 +249,30 @@ def test_cli_writes_the_report(tmp_path, capsys) -> None:
     assert main(["report", "effectiveness", str(tmp_path)]) == 2
     with pytest.raises(DataError, match="not a study"):
         write_effectiveness_report(tmp_path)
+
+
+def test_shares_at_the_edges_get_wilson_intervals() -> None:
+    """Avoided share 2/2 (type 241) and 0/1 (type 601): intervals of positive width that
+    contain the estimate, equal to Wilson's with n = number of baseline crashes."""
+    from statsmodels.stats.proportion import proportion_confint
+    eff = effectiveness(hand_table(), n_boot=300)
+    m = eff.metrics[(eff.metrics["system"] == "aeb") & (eff.metrics["metric"] == "avoided_share")]
+    by = m.set_index("group")
+    assert by.loc[241, "estimate"] == 1.0 and by.loc[241, "high"] == 1.0
+    assert by.loc[241, "low"] == pytest.approx(proportion_confint(2, 2, method="wilson")[0])
+    assert by.loc[601, "estimate"] == 0.0 and by.loc[601, "low"] == 0.0
+    assert by.loc[601, "high"] == pytest.approx(proportion_confint(0, 1, method="wilson")[1])
+    assert by.loc[ALL, "low"] == pytest.approx(proportion_confint(2, 3, method="wilson")[0])
+    cdf = eff.cdf[eff.cdf["system"] == "aeb"]
+    assert (cdf["high"] > cdf["low"]).all()
+
+
+def test_study_without_crashes_says_so(tmp_path, capsys) -> None:
+    runs = pd.DataFrame([row(i, s, False) for i in (1, 2, 3) for s in ("baseline", "a")])
+    study = tmp_path / "quiet"
+    write_study(study, runs)
+    assert main(["report", "effectiveness", str(study), "--bootstrap", "50"]) == 0, \
+        capsys.readouterr().err
+    md = (study / "report" / "report.md").read_text()
+    assert "No crash in the baseline" in md
+    assert not list((study / "report").glob("*.png"))

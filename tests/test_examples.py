@@ -18,6 +18,7 @@ def test_bundled_table_is_current():
 
 def test_examples_solve_with_the_expected_pattern():
     out = solve_impact_table(example_impact_table())
-    # full overlap -> full impact; 25 % overlap at 80/80 km/h -> sliding (seed 001 pattern)
+    # full overlap -> full impact; 25 % overlap at 80/80 km/h -> sliding (the Momentum Based
+    # Impact Model paper pattern)
     assert out.loc[0, "impact_type"] == "full" and out.loc[2, "impact_type"] == "sliding"
     assert out.loc[2, "delta_v1"] < 0.5 * out.loc[0, "delta_v1"]

@@ -30,7 +30,7 @@ pytestmark = pytest.mark.filterwarnings("error")
 ALL_NAMES = sorted(RISK_CURVES)
 DV_GRID_MS = np.linspace(0.0, 120.0, 2401)  # 0 to 432 km/h [m/s]
 
-# Coefficients copied from REFERENCES.md (independent of the module's table):
+# Coefficients copied from docs/references.md (independent of the module's table):
 # P = 1 / (1 + exp(-(a + b dv))), dv in mph
 NHTSA = {
     "nhtsa2022_all_mais2": (-5.1331, 0.1479),

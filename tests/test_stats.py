@@ -698,3 +698,88 @@ def test_multiple_testing_nan_shape_and_errors() -> None:
         holm_bonferroni([0.5, 1.5])
     with pytest.raises(ParameterError):
         benjamini_hochberg([-0.1])
+
+
+# ----------------------------------------------------------------------------
+# Wilson and BCa intervals
+# ----------------------------------------------------------------------------
+
+
+def test_wilson_against_hand_computed_value() -> None:
+    from vfs.analysis.stats import wilson_interval
+    # 3 of 10 at 95 %: z = 1.959964, z^2 = 3.841459; centre (0.3 + z^2/20) / (1 + z^2/10)
+    # = 0.355507, half-width z sqrt(0.021 + z^2/400) / (1 + z^2/10) = 0.247716
+    low, high = wilson_interval(3, 10)
+    assert float(low) == pytest.approx(0.355507 - 0.247716, abs=2e-6)
+    assert float(high) == pytest.approx(0.355507 + 0.247716, abs=2e-6)
+
+
+@pytest.mark.parametrize(("k", "n", "conf"), [(0, 7, 0.95), (7, 7, 0.95), (13, 40, 0.9),
+                                              (1, 1000, 0.99), (250, 500, 0.95)])
+def test_wilson_matches_statsmodels(k: int, n: int, conf: float) -> None:
+    from statsmodels.stats.proportion import proportion_confint
+
+    from vfs.analysis.stats import wilson_interval
+    low, high = wilson_interval(k, n, conf)
+    ref = proportion_confint(k, n, alpha=1 - conf, method="wilson")
+    assert (float(low), float(high)) == pytest.approx(ref, abs=1e-12)
+
+
+def test_wilson_at_the_edges_is_not_a_point() -> None:
+    from vfs.analysis.stats import wilson_interval
+    low, high = wilson_interval(np.array([0, 20]), np.array([20, 20]))
+    assert low[0] == 0.0 and high[0] > 0.0
+    assert high[1] == 1.0 and low[1] < 1.0
+    z2 = 1.959964 ** 2
+    assert high[0] == pytest.approx(z2 / (20 + z2), rel=1e-6)   # closed form at k = 0
+    nan_low, _ = wilson_interval(0, 0)
+    assert np.isnan(nan_low)
+    with pytest.raises(ParameterError):
+        wilson_interval(5, 3)
+
+
+def test_bca_matches_scipy_for_a_skewed_mean() -> None:
+    from scipy.stats import bootstrap
+
+    from vfs.analysis.stats import bca_interval
+    rng = np.random.default_rng(3)
+    x = rng.exponential(size=25) ** 2            # strongly right-skewed
+    b = 40000
+    boot = x[rng.integers(0, x.size, size=(b, x.size))].mean(axis=1)
+    jack = (x.sum() - x) / (x.size - 1)
+    low, high = bca_interval(boot, float(x.mean()), jack)
+    ref = bootstrap((x,), np.mean, method="BCa", n_resamples=b,
+                    rng=np.random.default_rng(4)).confidence_interval
+    width = ref.high - ref.low
+    assert low == pytest.approx(ref.low, abs=0.04 * width)
+    assert high == pytest.approx(ref.high, abs=0.04 * width)
+    # the percentile interval of the same replicates sits lower: BCa corrects the skew
+    p_low, p_high = np.quantile(boot, [0.025, 0.975])
+    assert high > p_high
+
+
+def test_bca_falls_back_to_percentiles_when_undefined() -> None:
+    from vfs.analysis.stats import bca_interval
+    boot = np.array([1.0, 2.0, 3.0, 4.0])
+    assert bca_interval(boot, 10.0, [1.0, 1.0]) == (1.0, 4.0)
+    assert np.isnan(bca_interval([np.nan], 1.0, [1.0, 2.0])[0])
+
+
+def test_bootstrap_ci_bca_matches_scipy() -> None:
+    from scipy.stats import bootstrap
+    rng = np.random.default_rng(5)
+    x = rng.lognormal(sigma=1.0, size=30)
+    est, low, high = bootstrap_ci(np.mean, x, n_boot=20000, rng=np.random.default_rng(6),
+                                  method="bca")
+    ref = bootstrap((x,), np.mean, method="BCa", n_resamples=20000,
+                    rng=np.random.default_rng(7)).confidence_interval
+    width = ref.high - ref.low
+    assert est == pytest.approx(x.mean())
+    assert low == pytest.approx(ref.low, abs=0.05 * width)
+    assert high == pytest.approx(ref.high, abs=0.05 * width)
+    # the same with a statistic called per sample (no axis parameter)
+    _, low2, high2 = bootstrap_ci(lambda v: float(np.mean(v)), x, n_boot=4000,
+                                  rng=np.random.default_rng(6), method="bca")
+    assert low2 == pytest.approx(ref.low, abs=0.1 * width)
+    with pytest.raises(ParameterError):
+        bootstrap_ci(np.mean, x, rng=np.random.default_rng(0), method="basic")

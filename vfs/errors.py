@@ -8,11 +8,33 @@ row or case id, and the allowed range.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+
+#: numpy scalar reprs (numpy >= 2): np.int64(1), np.float64(nan), np.str_('a'), np.True_.
+_NUMPY_REPR = re.compile(r"\bnp\.(?:u?int|float|complex|longdouble|str_|bytes_|bool)\w*"
+                         r"\(([^()]*)\)")
+_NUMPY_BOOL = re.compile(r"\bnp\.(True|False)_")
+
+
+def plain_numbers(text: str) -> str:
+    """``text`` with numpy scalar reprs replaced by their plain values.
+
+    >>> plain_numbers("n=np.int64(1), x=np.float64(nan), s=np.str_('a'), b=np.True_")
+    "n=1, x=nan, s='a', b=True"
+    """
+    return _NUMPY_BOOL.sub(r"\1", _NUMPY_REPR.sub(r"\1", text))
 
 
 class VfsError(Exception):
-    """Base class of all errors raised by vfs for user-caused problems."""
+    """Base class of all errors raised by vfs for user-caused problems.
+
+    Its message prints plain numbers: numpy scalar reprs that reach a message through
+    ``{value!r}`` (``np.int64(1)``, ``np.float64(nan)``) are shown as ``1`` and ``nan``.
+    """
+
+    def __str__(self) -> str:
+        return plain_numbers(super().__str__())
 
 
 class ParameterError(VfsError, ValueError):

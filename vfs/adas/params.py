@@ -1,7 +1,7 @@
 """Parameters of the generic AEB systems: sensor, decision logic and driver.
 
 Frozen dataclasses with validated defaults; every default names its source
-(``/work/shared/REFERENCES.md``, section "Generic AEB and driver", and seed
+(``docs/references.md``, section "Generic AEB and driver", and seed
 004 for the driver) or says that it has none.  The presets built from them
 live in :mod:`vfs.adas.systems`; the formulas are in docs/aeb.md.
 """
@@ -44,10 +44,10 @@ class SensorParams:
     ----------
     range : float
         Detection range [m] from the mounting point; ``inf`` allowed.  Default
-        150 m (openPASS AEB sensor profiles: 150-300 m, REFERENCES.md).
+        150 m (openPASS AEB sensor profiles: 150-300 m, docs/references.md).
     field_of_view : float
         Horizontal opening angle [rad], in (0, 2 pi]; 2 pi = all around.
-        Default 0.35 rad (openPASS profiles: 0.26-0.35 rad, REFERENCES.md).
+        Default 0.35 rad (openPASS profiles: 0.26-0.35 rad, docs/references.md).
     mount_x : float
         Longitudinal position of the sensor [m] relative to the centre of the
         front bumper, positive forward.  Default 0 (on the front bumper).
@@ -63,7 +63,7 @@ class SensorParams:
     latency : float
         Time [s] from a measurement to the moment its decision acts (sensor
         processing, decision, bus).  Default 0 (openPASS: latency 0,
-        REFERENCES.md).
+        docs/references.md).
     detection_probability : float
         Probability [-] that a visible object is detected in a cycle (one
         uniform draw per cycle and visible object).  Default 1 (no firm source).
@@ -132,7 +132,7 @@ class AEBParams:
         TTC threshold of partial braking [s].  Default None.
     partial_deceleration : float
         Partial-braking demand [m/s^2].  Default 4.0 (about 40 % of full
-        braking on a dry road, Applied Sciences 2024, 14(1):173, REFERENCES.md).
+        braking on a dry road, Applied Sciences 2024, 14(1):173, docs/references.md).
     full_ttc : float or None
         TTC threshold of full braking [s].  Default 0.6 s (same source).
     full_deceleration : float
@@ -232,14 +232,14 @@ class DriverParams:
         rate ``reaction_rate``).  Default None.
     reaction_shape : float
         Gamma shape [-].  Default 7 (J. Adv. Transp. 2021, 4430730, Table 4,
-        REFERENCES.md).
+        docs/references.md).
     reaction_rate : float
-        Gamma rate [1/s] (mean = shape / rate = 1.0 s, within seed 004's
+        Gamma rate [1/s] (mean = shape / rate = 1.0 s, within the Reconstruction chapter's
         0.5-1.5 s).  Default 7 (same source).
     brake_lag : float
         Time [s] from the end of the reaction to the start of the driver's
         braking demand (pedal travel); the system's actuator then builds the
-        deceleration up.  Default 0.2 s (middle of seed 004's 0.1-0.3 s).
+        deceleration up.  Default 0.2 s (middle of the Reconstruction chapter's 0.1-0.3 s).
     brake_share : float
         Share [-] of drivers who brake at all.  Default 0.7 (J. Adv. Transp.
         2021, Table 4).

@@ -3,7 +3,7 @@
 An :class:`AEBSystem` bundles the AEB logic and sensor (:class:`AEBParams`),
 the reaction of the equipped vehicle's driver (:class:`DriverParams`) and the
 brake actuator (:class:`vfs.physics.precrash.BrakeActuatorParams`).  Built-in
-presets (:data:`SYSTEM_NAMES`; sources in docs/aeb.md and REFERENCES.md):
+presets (:data:`SYSTEM_NAMES`; sources in docs/aeb.md and docs/references.md):
 
 ``none``
     No AEB; the record is replayed.

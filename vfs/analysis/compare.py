@@ -1,6 +1,7 @@
 """Baseline virtual forward simulation (VFS) against the reconstructions (``vfs compare``).
 
-Reproduces the analysis of seed 001 (Tomasch et al.: VFS with the geometric
+Reproduces the analysis of the Momentum Based Impact Model paper (Tomasch et al.: VFS with the
+geometric
 POI / contact-plane rule against the reconstructions of 36 head-on accidents)
 and adds the statistics reviewers expect for paired data:
 
@@ -63,7 +64,8 @@ GROUP_FULL = "both full"
 GROUP_SLIDING = "both sliding"
 #: Impact type differs between reconstruction and VFS (either direction).
 GROUP_CHANGED = "type changed"
-#: The groups of every grouped table, in table order (seed 001, section 6).
+#: The groups of every grouped table, in table order (the Momentum Based Impact Model paper,
+# section 6).
 GROUPS: tuple[str, ...] = (GROUP_ALL, GROUP_FULL, GROUP_SLIDING, GROUP_CHANGED)
 
 #: Case compared (the VFS found an impact).
@@ -173,7 +175,7 @@ OUTCOMES_BY_NAME: Mapping[str, ComparedOutcome] = MappingProxyType({o.name: o fo
 _ALIASES: Mapping[str, str] = MappingProxyType(
     {o.outcome.name: o.name for o in OUTCOMES if o.outcome.name != o.name})
 
-#: The three parameters of seed 001's Table 1 and Figure 6.
+#: The three parameters of the Momentum Based Impact Model paper's Table 1 and Figure 6.
 TABLE1_OUTCOMES: tuple[str, ...] = ("delta_v", "ees", "velocity_angle_change")
 
 #: Outcomes whose margin-scaled error ranks the cases (worst first).
@@ -333,7 +335,8 @@ class Comparison:
         of the two vehicles) and Holm-adjusted p-values ``t_pvalue_holm``,
         ``wilcoxon_pvalue_holm``, ``tost_pvalue_holm`` (family: all rows).
     table1 : pandas.DataFrame
-        Seed 001's Table 1 in report units (km/h, deg): ``parameter``, ``n``,
+        The Momentum Based Impact Model paper's Table 1 in report units (km/h, deg):
+        ``parameter``, ``n``,
         ``mean_reconstruction``, ``mean_vfs``, ``p_value`` and extra columns.
     case_errors : pandas.DataFrame
         Errors per compared case ranked worst first (``score``: largest
@@ -704,8 +707,9 @@ def _distance_stats(distance: np.ndarray, group_case: np.ndarray,
             def case_mean(values: np.ndarray, axis: int = 0) -> np.ndarray:
                 return np.nanmean(values.reshape(values.shape[:axis] + (-1,)), axis=axis)
 
+            # distances are positive and right-skewed: BCa (docs/statistics.md)
             _, low, high = bootstrap_ci(case_mean, per_case, n_boot=BOOTSTRAP_SAMPLES,
-                                        confidence=confidence, rng=rng)
+                                        confidence=confidence, rng=rng, method="bca")
         rows.append({
             "group": g, "n": n, "n_cases": int(per_case.shape[0]),
             "mean": float(np.mean(d)) if n else math.nan,
@@ -904,7 +908,8 @@ def _paired_table(values: Mapping[str, tuple[np.ndarray, np.ndarray]], group_cas
 
 
 def _table1(paired: pd.DataFrame) -> pd.DataFrame:
-    """Seed 001's Table 1: paired t-tests of delta-v, EES and change of velocity
+    """The Momentum Based Impact Model paper's Table 1: paired t-tests of delta-v, EES and change
+    of velocity
     angle for full and sliding impacts (same type in both), km/h and degrees.
     """
     rows = []

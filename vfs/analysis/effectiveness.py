@@ -23,8 +23,11 @@ weight w_i, baseline crash indicator b_i and treatment crash indicator c_i:
   number of injured drivers is the *sum* over its two vehicles; expected
   injured drivers avoided = ``sum w (R_b - R_t)``.
 
-Confidence intervals: percentile bootstrap over cases (cases resampled with
-replacement within the group, each keeping its weight; all figures of a
+Confidence intervals (docs/statistics.md, "Intervals at the edges"): shares of the
+baseline crashes (avoided share, the impact-speed distribution) get the Wilson score
+interval with Kish's effective number of cases; ratios of sums (mean speeds, relative
+reductions) the BCa bootstrap; totals the percentile bootstrap.  The bootstrap resamples
+cases with replacement within the group, each keeping its weight (all figures of a
 (system, group) from the same resamples), drawn from
 ``numpy.random.default_rng([seed, system index, group index])``.  Cases with
 an error in any run of the study are excluded from every comparison and
@@ -47,6 +50,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.risk import RiskCurve, default_risk_curve, get_risk_curve
+from vfs.analysis.stats import bca_interval, wilson_interval
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.units import KMH_PER_MS
 
@@ -58,6 +62,9 @@ DEFAULT_RISK_LEVELS: tuple[str, ...] = ("MAIS3+", "fatal")
 
 #: Label of the group of all cases.
 ALL = "all"
+
+#: Metrics that are shares (proportions of the baseline crashes): Wilson intervals.
+SHARE_METRICS: frozenset[str] = frozenset({"avoided_share"})
 
 #: Impact-type categories of the crosstab: no crash, the two impact types, and a
 #: contact whose impulse was zero (the vehicles were already separating).
@@ -268,6 +275,24 @@ class _Sums:
         self.estimate = dict(zip(self.names, matrix.sum(axis=0), strict=True))
         boot = bootstrap_sums(matrix, n_boot, rng)
         self.boot = {name: boot[:, i] for i, name in enumerate(self.names)}
+        self.column = dict(zip(self.names, self.columns, strict=True))
+
+    def jackknife(self, num: str, den: str) -> np.ndarray:
+        """Leave-one-case-out values of the ratio num / den (one per case)."""
+        return np.asarray(_ratio(self.estimate[num] - self.column[num],
+                                 self.estimate[den] - self.column[den]))
+
+    def share_interval(self, num: str, den: str, confidence: float) -> tuple[float, float]:
+        """Wilson interval of the share num / den, n = Kish's effective number of the
+        denominator's cases, (sum w)^2 / sum w^2 (= the count for unit weights).
+        """
+        total = float(self.estimate[den])
+        sq = float(np.sum(self.column[den] ** 2))
+        if total <= 0.0 or sq <= 0.0:
+            return math.nan, math.nan
+        n_eff = total * total / sq
+        lo, hi = wilson_interval(float(self.estimate[num]) / total * n_eff, n_eff, confidence)
+        return float(lo), float(hi)
 
 
 def _ratio(num: float | np.ndarray, den: float | np.ndarray) -> Any:
@@ -478,8 +503,13 @@ def effectiveness(runs: pd.DataFrame, *, risk_curves: Iterable[str] | None = Non
             for metric, unit, num, den, text in specs:
                 est = sums.estimate[num] if den is None else _ratio(sums.estimate[num],
                                                                     sums.estimate[den])
-                boot = sums.boot[num] if den is None else _ratio(sums.boot[num], sums.boot[den])
-                lo, hi = _interval(boot, confidence)
+                if metric in SHARE_METRICS:
+                    lo, hi = sums.share_interval(num, str(den), confidence)
+                elif den is None:
+                    lo, hi = _interval(sums.boot[num], confidence)
+                else:
+                    lo, hi = bca_interval(_ratio(sums.boot[num], sums.boot[den]), float(est),
+                                          sums.jackknife(num, den), confidence)
                 rows.append((pair.system, group, metric, unit, text, float(est), lo, hi,
                              part.size, float(part.weight.sum())))
             if group == ALL:
@@ -487,8 +517,7 @@ def effectiveness(runs: pd.DataFrame, *, risk_curves: Iterable[str] | None = Non
                     if which == "b" and si > 1:
                         continue
                     for g, x in enumerate(grid):
-                        share = _ratio(sums.boot[f"cdf_{which}_{g}"], sums.boot["b"])
-                        lo, hi = _interval(share, confidence)
+                        lo, hi = sums.share_interval(f"cdf_{which}_{g}", "b", confidence)
                         cdf_rows.append((label, x, float(_ratio(
                             sums.estimate[f"cdf_{which}_{g}"], sums.estimate["b"])), lo, hi))
     metrics = pd.DataFrame(rows, columns=["system", "group", "metric", "unit", "description",

@@ -5,7 +5,7 @@ Every curve is a frozen dataclass registered by name in :data:`RISK_CURVES`.
 vfs), converts it to the unit the curve was fitted in (:attr:`RiskCurve.input_unit`)
 and returns probabilities in [0, 1], element-wise, with NaN for NaN.
 
-Curves (coefficients from the project's REFERENCES.md, "Injury risk from
+Curves (coefficients from docs/references.md, "Injury risk from
 delta-v"):
 
 * NHTSA DOT HS 813 219 (2022), logistic in mph: all directions MAIS2+/MAIS3+/
@@ -318,7 +318,7 @@ def default_risk_curve(injury_level: str) -> RiskCurve:
 
 _NHTSA_2022 = (
     "NHTSA (2022), report DOT HS 813 219: logistic injury-risk curves of "
-    "delta-v [mph] (coefficients as listed in REFERENCES.md)"
+    "delta-v [mph] (coefficients as listed in docs/references.md)"
 )
 _NHTSA_LOGISTIC: dict[tuple[str, str], tuple[float, float]] = {
     # (direction, level): (a, b), dv in mph
@@ -366,7 +366,7 @@ register_risk_curve(
         ),
         source=(
             "Kusano K.D., Gabler H.C.: MAIS2+ injury-risk function of delta-v "
-            "(coefficients as listed in REFERENCES.md; publication not verified here)"
+            "(coefficients as listed in docs/references.md; publication not verified here)"
         ),
         injury_level="MAIS2+",
         input_unit="km/h",

@@ -14,6 +14,10 @@ a small functional API that returns frozen result records:
   test of the paper (which treats the samples as independent), McNemar,
   Stuart-Maxwell, Bowker and Cohen's kappa;
 * :func:`bootstrap_ci` -- vectorised percentile bootstrap over cases;
+* :func:`wilson_interval` -- score interval of a share (proportion), sound at 0 and 100 %
+  (defined in :mod:`vfs.analysis.intervals`, re-exported here);
+* :func:`bca_interval` -- bias-corrected and accelerated (BCa) bootstrap interval for
+  skewed statistics (ratios), from bootstrap replicates and jackknife values;
 * :func:`holm_bonferroni` and :func:`benjamini_hochberg` -- multiple testing.
 
 Formulas, assumptions and the conventions for degenerate inputs are written
@@ -47,6 +51,7 @@ import pandas as pd
 from scipy import stats as sps
 from statsmodels.stats.contingency_tables import mcnemar as _sm_mcnemar
 
+from vfs.analysis.intervals import bca_interval, wilson_interval
 from vfs.errors import DataError, DataProblem, ParameterError
 
 #: Minimum number of complete pairs for which test statistics, p-values and
@@ -959,8 +964,9 @@ def bootstrap_ci(
     rng: np.random.Generator,
     weights: npt.ArrayLike | None = None,
     vectorized: bool | None = None,
+    method: str = "percentile",
 ) -> tuple[float, float, float]:
-    """Percentile bootstrap confidence interval of a statistic, resampling cases.
+    """Percentile or BCa bootstrap confidence interval of a statistic, resampling cases.
 
     Parameters
     ----------
@@ -990,6 +996,11 @@ def bootstrap_ci(
     vectorized : bool or None, optional
         Force (True) or forbid (False) the batched call; default: batched if
         ``statistic`` has a parameter named ``axis``.
+    method : {"percentile", "bca"}, optional
+        ``percentile`` (default) or ``bca``: bias-corrected and accelerated
+        (:func:`vfs.analysis.intervals.bca_interval`), for skewed statistics such
+        as means of distances or ratios; its acceleration comes from the n
+        leave-one-case-out values of the statistic.
 
     Returns
     -------
@@ -1030,6 +1041,8 @@ def bootstrap_ci(
         raise ParameterError(f"n_boot={n_boot!r} must be a positive integer")
     n_boot = int(n_boot)
     confidence = _check_open_unit(confidence, "confidence")
+    if method not in ("percentile", "bca"):
+        raise ParameterError(f"method={method!r} must be 'percentile' or 'bca'")
     data = [np.asarray(a) for a in arrays]
     problems = [
         DataProblem(f"arrays[{i}]", "", None, None, "is 0-d; the first axis must hold the cases")
@@ -1091,12 +1104,29 @@ def bootstrap_ci(
             ])
         boot[start:start + size] = values
 
+    if method == "bca":
+        if np.isnan(boot).any() or n < 3:
+            return estimate, math.nan, math.nan
+        loo = np.array([np.delete(np.arange(n), i) for i in range(n)])  # (n, n - 1)
+        if batched:
+            jack = np.asarray(call([a[loo] for a in data],
+                                   None if case_weights is None else case_weights[loo],
+                                   axis=1), dtype=float)
+        else:
+            jack = np.array([_as_scalar(call([a[row] for a in data],
+                                             None if case_weights is None
+                                             else case_weights[row])) for row in loo])
+        low, high = bca_interval(boot, estimate, jack, confidence)
+        return estimate, low, high
     low, high = np.quantile(boot, [0.5 * (1.0 - confidence), 0.5 * (1.0 + confidence)])
     return estimate, float(low), float(high)
 
 
 # ----------------------------------------------------------------------------
 # Multiple testing
+
+
+
 # ----------------------------------------------------------------------------
 
 
@@ -1192,9 +1222,11 @@ __all__ = [
     "ContingencyComparison",
     "PairedComparison",
     "benjamini_hochberg",
+    "bca_interval",
     "bootstrap_ci",
     "contingency_comparison",
     "holm_bonferroni",
     "paired_comparison",
     "paired_comparison_table",
+    "wilson_interval",
 ]

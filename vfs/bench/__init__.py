@@ -28,6 +28,7 @@ BENCHMARKS.add("case_runs", kernels.bench_case_runs)
 BENCHMARKS.add("generate", kernels.bench_generate)
 BENCHMARKS.add("timestep_convergence", kernels.bench_timestep_convergence)
 BENCHMARKS.add("uncertainty", uncertainty.bench_uncertainty)
+BENCHMARKS.add("uncertainty_sampling", uncertainty.bench_uncertainty_sampling)
 BENCHMARKS.add("gym_env", gym.bench_gym_env)
 
 

@@ -12,10 +12,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     names = ", ".join(f"{o.name} [{o.display_unit}]" for o in OUTCOMES)
     p = subparsers.add_parser(
         "compare", help="compare the baseline VFS of every reconstructed case with its "
-        "reconstruction (impact types, POI, Table 1 of seed 001, agreement statistics)",
+        "reconstruction (impact types, POI, Table 1 of the Momentum Based Impact Model paper, "
+        "agreement statistics)",
         description="Compare the baseline virtual forward simulation (no ADAS) of every "
         "reconstructed case with its reconstruction: impact-type contingency (chi-squared as in "
-        "seed 001, McNemar, Bowker, kappa), POI distances in vehicle coordinates, paired tests "
+        "the Momentum Based Impact Model paper, McNemar, Bowker, kappa), POI distances in vehicle "
+        "coordinates, paired tests "
         "of delta-v, EES, change of velocity angle, post-impact speed, rest positions and more "
         "(t-test, Wilcoxon, Bland-Altman, TOST, Holm), errors per case. Writes comparison.json, "
         "CSV/Parquet tables, report.md, report.html and figures. Details: docs/compare.md.",

@@ -157,7 +157,8 @@ def add_parsers(
     convert = commands.add_parser("convert", help="convert between database formats")
     convert.add_argument("source", type=Path, help="Parquet, CSV or PCM folder")
     convert.add_argument("destination", type=Path, help="output folder (replaced)")
-    convert.add_argument("--to", choices=FORMATS, required=True, help="output format")
+    convert.add_argument("--to", choices=FORMATS, required=True,
+                         help="output format: " + ", ".join(FORMATS))
     convert.set_defaults(func=cmd_convert)
 
     pcm = commands.add_parser("import-pcm", help="PreCrash-Matrix CSV folder -> Parquet")

@@ -207,7 +207,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--alpha", type=float, default=0.05, help="test level (default 0.05)")
     p.add_argument("--min-reduction", dest="min_reduction", type=float, default=0.01,
                    help="smallest CV RMSE reduction that counts as helping (default 0.01)")
-    p.add_argument("--worst", type=int, default=6, help="worst cases listed and sketched")
+    p.add_argument("--worst", type=int, default=6,
+                   help="worst cases listed and sketched (default 6)")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

@@ -80,7 +80,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="factor on the preset's measurement noise, or 'none'")
     p.add_argument("--sample-interval", type=float, default=None, metavar="SECONDS",
                    help="trajectory sampling [s] (default: the preset's, 0.01)")
-    p.add_argument("--format", choices=("parquet", "csv"), default="parquet")
+    p.add_argument("--format", choices=("parquet", "csv"), default="parquet",
+                   help="file format of the database (default parquet)")
     p.add_argument("--truth", default=None, metavar="FILE",
                    help="ground-truth JSON file (default OUT/ground_truth.json)")
     p.add_argument("--list-effects", action="store_true",

@@ -85,7 +85,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="participant braked by the policy (default 1)")
     p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
     p.add_argument("--engine", choices=("serial", "process", "dask"), default="process",
-                   help="executor (serial for policies that cannot be pickled)")
+                   help="executor (default process; serial for policies that cannot be pickled)")
     p.add_argument("--workers", type=int, help="parallel workers")
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     p.add_argument("--bootstrap", type=int, default=2000,

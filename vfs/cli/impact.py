@@ -16,7 +16,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--output", required=True, help="output table (.parquet or .csv)")
     p.add_argument("--on-error", choices=("raise", "record"), default="raise",
                    help="'raise': stop on the first bad table and list every bad row; "
-                   "'record': write an error column and solve the valid rows")
+                   "'record': write an error column and solve the valid rows (default raise)")
     p.set_defaults(func=cmd_impact)
 
 

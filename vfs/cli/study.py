@@ -130,7 +130,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r = report.add_parser(
         "effectiveness", help="effectiveness of the systems of a study versus the baseline",
         description="Crashes avoided, impact-speed and delta-v reduction, impact types and "
-        "injury risk per system and accident type, with bootstrap confidence intervals; "
+        "injury risk per system and accident type, with confidence intervals (Wilson for "
+        "shares, BCa bootstrap for ratios); "
         "writes STUDY/report/report.md, report.html and PNG figures.",
     )
     r.add_argument("study", help="study folder (results/NAME)")

@@ -90,10 +90,11 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
     samples = _positive(args.samples, "--samples", integer=True)
     cases = _load_cases(args)
     result = run_uncertainty(cases, _config(args), n_samples=samples, seed=args.seed,
-                             keep_samples=args.save_samples)
+                             keep_samples=args.save_samples, sampling=args.sampling)
     files = write_uncertainty_report(result, args.out, plots=not args.no_plots)
     summary = result.summary()
-    print(f"{cases.size} cases x {samples} samples = {cases.size * samples} model runs in "
+    print(f"{cases.size} cases x {samples} samples ({args.sampling}) = "
+          f"{cases.size * samples} model runs in "
           f"{result.seconds:.1f} s")
     print("median relative half-width (p95 - p5) / (2 median) over the cases "
           "[all / nominal full / nominal sliding]:")
@@ -211,9 +212,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``uncertainty``, ``sensitivity`` and ``reconstruct`` to the main parser."""
     from vfs.uncertainty import OUTCOME_NAMES
     from vfs.uncertainty.reconstruct import OBSERVABLES
+    from vfs.uncertainty.sampling import DEFAULT_SAMPLING, SAMPLING_METHODS
 
     p = subparsers.add_parser(
-        "uncertainty", help="Monte-Carlo bands of every outcome (seed 002's +- percent)",
+        "uncertainty", help="Monte-Carlo bands of every outcome (the Collision Calculation "
+        "Uncertainty paper's +- percent)",
         description="Sample the uncertain inputs (road friction, restitution, contact friction, "
         "POI shift, contact-plane angle, penetration time, speeds at impact, masses, post-crash "
         "wheel brakes) from the distributions of the configuration, solve impact and run-out "
@@ -223,14 +226,19 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "cases.parquet, summary.csv, uncertainty.json, report.md/html and figures. Details: "
         "docs/uncertainty.md.")
     _common(p)
-    p.add_argument("--samples", type=int, default=1000, help="samples per case (default 1000)")
+    p.add_argument("--samples", type=int, default=1024,
+                   help="samples per case (default 1024; a power of two keeps Sobol' balanced)")
+    p.add_argument("--sampling", choices=SAMPLING_METHODS, default=DEFAULT_SAMPLING,
+                   help="random: plain Monte Carlo; sobol: scrambled Sobol' per case; lhs: "
+                   f"Latin hypercube per case (default {DEFAULT_SAMPLING}: fewest samples for "
+                   "a given band accuracy, docs/uncertainty.md)")
     p.add_argument("--save-samples", dest="save_samples", action="store_true",
                    help="also write every model run to samples.parquet")
     p.set_defaults(func=cmd_uncertainty)
 
     s = subparsers.add_parser(
         "sensitivity", help="Sobol indices of the outcomes on the uncertain inputs, full vs "
-        "sliding impacts (seed 001's ANOVA)",
+        "sliding impacts (the Momentum Based Impact Model paper's ANOVA)",
         description="Saltelli sampling and the Saltelli (2010) / Jansen (1999) estimators of "
         "first-order and total Sobol indices per case, averaged over the cases whose nominal "
         "impact is full and those whose nominal impact is sliding, with bootstrap intervals, "
@@ -254,7 +262,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "with the observed rest positions and headings (optionally EES and post-impact "
         "directions) within their tolerances. Every observation enters as a residual scaled "
         "by its standard deviation (database _sd columns, the flags below, or documented "
-        "defaults). Monte-Carlo acceptance (seed 002), a local optimiser "
+        "defaults). Monte-Carlo acceptance (the Collision Calculation Uncertainty paper), a local "
+        "optimiser "
         "(scipy least_squares) and chains exploring the feasible set; reports the feasible "
         "set, its 5-95 % spread and the optimum with its scaled residuals. Details: "
         "docs/uncertainty.md.")
@@ -286,7 +295,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--k-sigma", dest="k_sigma", type=float, default=2.0,
                    help="accept when every |scaled residual| <= K (default 2; --criterion box)")
     r.add_argument("--criterion", choices=("box", "chi2"), default="box",
-                   help="box: every |r| <= K; chi2: sum r^2 <= chi2 quantile 0.95")
+                   help="box (default): every |r| <= K; chi2: sum r^2 <= chi2 quantile 0.95")
     r.add_argument("--samples", type=int, default=20_000,
                    help="Monte-Carlo samples of the acceptance stage (default 20000)")
     r.add_argument("--starts", type=int, default=6,

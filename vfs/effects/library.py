@@ -36,7 +36,7 @@ class RestitutionSpeed(Effect):
 
     eps = min(eps_0 (v_ref / max(v_c, 2 m/s))^k, eps_max), with eps_0 the case's
     restitution (the value the model uses), v_c the closing speed normal to
-    the contact plane.  Seeds 004 ("the higher the deformations, the lower
+    the contact plane.  The Reconstruction chapter ("the higher the deformations, the lower
     the coefficient of restitution; only for very small deformations are
     values higher than 0.3 possible"), 002 ("nonlinearly and inversely
     proportional to the relative velocity") and 000 (identified 0 -> 0.24).
@@ -72,7 +72,7 @@ class TyreImpulse(Effect):
     lasts about 0.08-0.15 s, during which braked tyres keep pulling against
     the motion.  Each vehicle receives the extra impulse
     -b mu_road m g T u/|u| (u: its velocity before the impact), never more
-    than would stop it.  Seed 003 (Table 2): tyre-road work during the
+    than would stop it.  The Front-to-Side Energy Balance paper (Table 2): tyre-road work during the
     contact is 5-9 % of the initial kinetic energy.
     """
 
@@ -112,7 +112,8 @@ class BodyFriction(Effect):
     deformation.  Friction work W = |S_t| |u_t + u_t'| / 2 (tangential
     impulse times the mean tangential sliding speed at the POI); a share f of
     it is taken from the deformation energies in proportion to their split.
-    Seed 003 (Table 2): friction between the bodies is 2-5 % of the initial
+    The Front-to-Side Energy Balance paper (Table 2): friction between the bodies is 2-5 % of the
+    initial
     energy and deformation work only 70-75 % of the contact-phase loss.
     """
 
@@ -144,10 +145,12 @@ class BodyFriction(Effect):
 class PenetrationDepth(Effect):
     """Penetration depth growing with closing speed and falling overlap.
 
-    Instead of a fixed time (30 ms, seed 001) the outlines penetrate to a
+    Instead of a fixed time (30 ms, the Momentum Based Impact Model paper) the outlines penetrate
+    to a
     depth d = d_0 (v_c / 20 m/s)^a (1 + c (1 - overlap)), i.e. for the time
     d / v_c, clipped to [5, 150] ms; v_c = |v1 - v2| at first contact,
-    overlap = :func:`vfs.physics.geometry.swept_overlap` at first contact.  Seed 001
+    overlap = :func:`vfs.physics.geometry.swept_overlap` at first contact.  The Momentum Based
+    Impact Model paper
     (outlook): "it would be necessary to find a correlation between the
     closing speed, the overlap and the penetration depth".  With d_0 = 0.6 m,
     a = 1, c = 0 it is the fixed 30 ms.
@@ -236,7 +239,7 @@ class StructurePOI(Effect):
     share p; the contact plane turns from the line through the outline
     intersections towards the mean direction of the two engaged faces by
     the share s.
-    Seed 001: the geometric rules give more sliding impacts than the
+    The Momentum Based Impact Model paper: the geometric rules give more sliding impacts than the
     reconstructions and POIs 0.19 m away on average.
     """
 
@@ -278,7 +281,7 @@ class StructurePOI(Effect):
 class WheelLock(Effect):
     """Front wheels locked by frontal deformation.
 
-    Seed 000: in a frontal crash test the front wheels of the car were
+    The Modeling Head-On Collisions paper: in a frontal crash test the front wheels of the car were
     blocked 35 ms into the impact by the deforming front, which made it
     pull back after the impact; its conclusions ask for "automatic
     identification of wheel blocking in the function of the body depth
@@ -316,7 +319,7 @@ class EESStiffness(Effect):
 
     The model splits the deformation energy E1 / E2 = m2 / m1 (stiffness
     proportional to mass).  Here k_i = m_i^a * (side factor if the engaged
-    face is a side), E1 / E2 = k2 / k1 (shared/REFERENCES.md: with known
+    face is a side), E1 / E2 = k2 / k1 (docs/references.md: with known
     stiffness E1 / E2 = k2 / k1; sides are softer than fronts).  Nominal
     a = 0.2, side factor 0.2: at 0.5 / 0.5 the change of the EES (0.85 of
     the recorded 8 % EES noise, standardised RMS) was too small to be found
@@ -349,7 +352,8 @@ class EESStiffness(Effect):
 class YawInertia(Effect):
     """Yaw inertia different from the model's default formula.
 
-    Where the data give no yaw inertia the model uses I = m L1 L2 (seed 003);
+    Where the data give no yaw inertia the model uses I = m L1 L2 (the Front-to-Side Energy
+    Balance paper);
     the box formula m (l^2 + w^2) / 12 (openPASS) and 0.1269 m R L (Zeidler)
     differ from it by 10-30 %.  This effect scales the unknown inertias by a
     factor.  Its nominal value 0.86 is the one measured yaw inertia in the

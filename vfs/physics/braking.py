@@ -41,12 +41,12 @@ class BrakeActuatorParams:
         'first_order': dd/dt = (demand - d) / ``time_constant``.
     jerk : float
         Build-up rate [m/s^3].  Default 40 m/s^3: 8 m/s^2 after 0.2 s, inside
-        the 0.1-0.3 s brake lag of seed 004 ("Lag").
+        the 0.1-0.3 s brake lag of the Reconstruction chapter ("Lag").
     release_jerk : float
         Release rate [m/s^3], default 40.
     time_constant : float
         First-order time constant [s], default 0.1 (63 % after 0.1 s, 95 %
-        after 0.3 s: seed 004's brake lag range).
+        after 0.3 s: the Reconstruction chapter's brake lag range).
     max_deceleration : float
         Brake-system limit [m/s^2] before the road limit; default 10.
     """

@@ -3,7 +3,8 @@
 Everything here works on arrays of N vehicle pairs at once (shape ``(N, ...)``)
 and on one pair (N = 1); there is no per-pair Python loop.
 
-The rules follow seed 001, section 3.2.1 (Tomasch et al., the X-RATE/PC-Crash
+The rules follow the Momentum Based Impact Model paper, section 3.2.1 (Tomasch et al., the
+X-RATE/PC-Crash
 VFS): the outlines are rectangles, the overlap region is found by the
 Sutherland-Hodgman algorithm, the point of impact (POI) is the centroid of the
 overlap polygon (Nuernberg's formulas = shoelace area and centroid), and the
@@ -96,7 +97,7 @@ class ContactGeometry(NamedTuple):
 #: Contact-plane rules, by code (see :func:`contact_plane` and docs/physics.md).
 CP_RULES: dict[int, str] = {
     0: "no contact",
-    1: "line through the two intersection points (seed 001)",
+    1: "line through the two intersection points (the Momentum Based Impact Model paper)",
     2: "line through the two intersection points farthest apart (more than two)",
     3: "perpendicular to the line between the CGs (containment or coincident points)",
     4: "along the touching edges (zero overlap area)",
@@ -333,7 +334,8 @@ def _shoelace(px: np.ndarray, py: np.ndarray, nonempty: np.ndarray) -> tuple[np.
 
     A = 1/2 sum (x_i y_{i+1} - x_{i+1} y_i),
     C = 1/(6A) sum (p_i + p_{i+1}) (x_i y_{i+1} - x_{i+1} y_i)
-    (shoelace area and centroid, Nuernberg's formulas, seed 001 ref. [27]).
+    (shoelace area and centroid, Nuernberg's formulas, the Momentum Based Impact Model paper ref.
+    [27]).
     Coordinates are taken relative to the first vertex against cancellation.
     """
     ox, oy = px[:, 0:1], py[:, 0:1]
@@ -462,7 +464,8 @@ def contact_plane(
     Rules (codes of :data:`CP_RULES`):
 
     1. Exactly two distinct intersection points: the CP is the line through
-       them (seed 001, section 3.2.1).  This covers one corner penetrating an
+       them (the Momentum Based Impact Model paper, section 3.2.1).  This covers one corner
+       penetrating an
        edge (both points lie on that edge) and corner-to-corner overlaps.
     2. More than two points (an outline crossing the other completely, a
        deep penetration): the line through the two points farthest apart,
@@ -525,7 +528,8 @@ def contact_plane(
 
 def contact_geometry(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
                      cg1: npt.ArrayLike, cg2: npt.ArrayLike) -> ContactGeometry:
-    """POI and contact plane of N pairs of outlines (seed 001, section 3.2.1).
+    """POI and contact plane of N pairs of outlines (the Momentum Based Impact Model paper,
+    section 3.2.1).
 
     The overlap polygon comes from :func:`overlap` (Sutherland-Hodgman), the
     POI is its centroid (for touching outlines the mean of the touching
@@ -578,7 +582,8 @@ def swept_overlap(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
     length of the common part of the two projections divided by the shorter
     projection, in [0, 1].  For a head-on or rear-end collision this is the
     usual lateral overlap (width of the engaged front over the vehicle
-    width, seed 001); for a front-to-side collision it is the engaged share
+    width, the Momentum Based Impact Model paper); for a front-to-side collision it is the engaged
+    share
     of the striking front.  NaN where ``direction`` is zero.
     """
     o1 = np.asarray(outline1, float)

@@ -2,21 +2,25 @@
 
 Two rigid bodies exchange an impulse S at the point of impact (POI).  The
 impulse is split into a compression part S_C and a restitution part
-S_R = eps S_C, S = (1 + eps) S_C (seed 001, eqs. 3-5; seed 004, "Collision
-model").  Two impact types (seed 004; seed 001, sections 3.1.2-3.1.3):
+S_R = eps S_C, S = (1 + eps) S_C (the Momentum Based Impact Model paper,
+eqs. 3-5; the Reconstruction chapter, "Collision model").  Two impact types
+(the Reconstruction chapter; the Momentum Based Impact Model paper, sections
+3.1.2-3.1.3):
 
 * **full impact**: at the end of compression the POI velocities of the two
   bodies are equal in both directions; valid while the impulse lies inside
-  the friction cone, |T| <= mu N (seed 001, eq. 6: rho = arctan mu);
+  the friction cone, |T| <= mu N (the Momentum Based Impact Model paper, eq. 6: rho = arctan mu);
 * **sliding impact**: otherwise the bodies slide along the contact plane:
   |T| = mu N, with the tangential impulse taking the sign of the full-impact
   solution, and only the normal POI velocities are equal at the end of
   compression.
 
 In both, eps multiplies both components (PC-Crash convention,
-shared/REFERENCES.md), so in a sliding impact T/N = mu holds for the total
-impulse too.  Momentum balance (seed 002, eqs. 6-9) and angular momentum
-balance about each CG (seed 002, eqs. 10-11, whose levers point from the POI
+docs/references.md), so in a sliding impact T/N = mu holds for the total
+impulse too.  Momentum balance (the Collision Calculation Uncertainty paper, eqs. 6-9) and angular
+momentum
+balance about each CG (the Collision Calculation Uncertainty paper, eqs. 10-11, whose levers point
+from the POI
 to the CG) close the system.
 
 Conventions (docs/physics.md has the figure):
@@ -37,7 +41,7 @@ The compliance matrix K maps an impulse on vehicle 1 to the change of u,
 du = K S, with K = (1/m1 + 1/m2) 1 + r1p r1p^T / I1 + r2p r2p^T / I2 and
 r_ip = r_i turned by +90 deg (r_i = POI - CG_i).  In (t, n) components
 K_tt = 1/m1 + 1/m2 + r1n^2/I1 + r2n^2/I2, K_nn = 1/m1 + 1/m2 + r1t^2/I1 +
-r2t^2/I2, K_tn = -(r1t r1n / I1 + r2t r2n / I2) (Brach; REFERENCES.md gives
+r2t^2/I2, K_tn = -(r1t r1n / I1 + r2t r2n / I2) (Brach; docs/references.md gives
 the same entries up to the sign of the off-diagonal term, which depends on
 the tangent's orientation).
 
@@ -89,11 +93,13 @@ class ImpactParams:
     ----------
     restitution : float
         Impulse ratio eps = S_R / S_C, in [0, 1].  Default 0.1, the value
-        seed 001 uses for car accidents ("applicable for a wide range of
-        closing speeds"); seed 004 gives 0.1-0.3 for real crashes.
+        the Momentum Based Impact Model paper uses for car accidents
+        ("applicable for a wide range of closing speeds"); the Reconstruction
+        chapter gives 0.1-0.3 for real crashes.
     contact_friction : float
         Friction coefficient between the bodies at the POI (tan rho of the
-        friction cone, seed 002), >= 0.  Default 0.6; there is no firm
+        friction cone, the Collision Calculation Uncertainty paper), >= 0.  Default 0.6; there is
+        no firm
         source for a universal value (openPASS hard-codes 0.3), so studies
         should vary it (see `vfs uncertainty`).
     restitution_mode : {"impulse", "normal"}
@@ -239,7 +245,7 @@ class ImpactResult(NamedTuple):
     energy_loss : ndarray
         Kinetic energy lost, translational plus rotational [J] (>= 0).
     ees1, ees2 : ndarray
-        Energy equivalent speed [m/s]: E_i = m_i EES_i^2 / 2 (seed 004) with
+        Energy equivalent speed [m/s]: E_i = m_i EES_i^2 / 2 (the Reconstruction chapter) with
         the loss split by :func:`energy_split`.
     velocity_angle_change1, velocity_angle_change2 : ndarray
         Angle between the CG velocity vectors before and after [rad], in
@@ -381,7 +387,7 @@ def energy_split(
     the deformation energies are F^2 / (2 k_i), so E1 / E2 = k2 / k1.
 
     * default (``stiffness_ratio`` None or NaN): stiffness proportional to
-      mass, E1 / E2 = m2 / m1 (shared/REFERENCES.md);
+      mass, E1 / E2 = m2 / m1 (docs/references.md);
     * ``stiffness_ratio`` = k1 / k2 given: E1 / E2 = k2 / k1.
 
     Returns
@@ -406,7 +412,7 @@ def energy_split(
 
 def deformation_energy(mass: npt.ArrayLike, ees: npt.ArrayLike) -> np.ndarray:
     """Deformation energy [J] of a vehicle of ``mass`` [kg] with an EES [m/s]:
-    E = m EES^2 / 2 (seed 004).
+    E = m EES^2 / 2 (the Reconstruction chapter).
     """
     return 0.5 * np.asarray(mass) * np.asarray(ees) ** 2
 
@@ -418,7 +424,7 @@ def velocity_change(dvx: npt.ArrayLike, dvy: npt.ArrayLike) -> np.ndarray:
 
 
 def ees_from_energy(energy: npt.ArrayLike, mass: npt.ArrayLike) -> np.ndarray:
-    """EES [m/s] from a deformation energy [J]: E = m EES^2 / 2 (seed 004)."""
+    """EES [m/s] from a deformation energy [J]: E = m EES^2 / 2 (the Reconstruction chapter)."""
     return np.sqrt(2.0 * np.maximum(np.asarray(energy, float), 0.0) / np.asarray(mass, float))
 
 
@@ -593,7 +599,7 @@ def _solve_block(config: ImpactConfig,
     k_tn = -(r1t * r1n / i1 + r2t * r2n / i2)
     det = k_tt * k_nn - k_tn**2  # > 0: K is positive definite
 
-    # full impact: u + K S_c = 0 at the end of compression (seed 004, eq. 24).
+    # full impact: u + K S_c = 0 at the end of compression (the Reconstruction chapter, eq. 24).
     # Normal-only restitution (Brach): the whole impulse solves u_t' = 0,
     # u_n' = -eps u_n, i.e. K S = (-u_t, -(1 + eps) u_n); it is found here as
     # the "compression" impulse of the target (u_t, (1 + eps) u_n) with gain 1.
@@ -611,14 +617,16 @@ def _solve_block(config: ImpactConfig,
         lam = np.where(full, 0.0, -un_eff / np.where(jam, 1.0, denom))
     comp_t = np.where(full, sc_t, s * mu * lam)
     comp_n = np.where(full, sc_n, lam)
-    # total impulse S = (1 + eps) S_C (seed 001, eq. 5; seed 004, eqs. 25-26); in
+    # total impulse S = (1 + eps) S_C (the Momentum Based Impact Model paper, eq. 5; the
+    # Reconstruction chapter, eqs. 25-26); in
     # the normal-only mode the restitution is already in the target velocity
     gain = np.where(approaching, 1.0 if normal_only else 1.0 + eps, 0.0)
     s_t, s_n = gain * comp_t, gain * comp_n
     impulse_x = s_t * tx + s_n * nx
     impulse_y = s_t * ty + s_n * ny
 
-    # momentum and angular momentum balances (seed 002, eqs. 6-11)
+    # momentum and angular momentum balances (the Collision Calculation Uncertainty paper, eqs.
+    # 6-11)
     vx1p = c.vx1 + impulse_x / m1
     vy1p = c.vy1 + impulse_y / m1
     vx2p = c.vx2 - impulse_x / m2

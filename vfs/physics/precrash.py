@@ -22,7 +22,7 @@ Contact: every step, a broad phase (CG distance against the sum of the
 outlines' circumradii) selects candidate pairs; :func:`vfs.physics.geometry.overlap`
 decides.  The first contact is refined by bisection to below 1 ms between
 the last free step and the first overlapping one; the vehicles then move on
-for the penetration time (30 ms by default, seed 001) and the impact
+for the penetration time (30 ms by default, the Momentum Based Impact Model paper) and the impact
 configuration (poses, velocities, yaw rates, POI and contact plane by the
 geometric rules) is taken there.  A case without contact is "avoided" and
 reports the minimum outline distance and the time of closest approach.
@@ -95,12 +95,12 @@ class PrecrashParams:
         Time step [s], default 0.01 (the PreCrash-Matrix sampling).
     penetration_time : float
         Time the outlines move on after first contact [s], default 0.030
-        (seed 001).
+        (the Momentum Based Impact Model paper).
     contact_tolerance : float
         First contact is located to within this [s] by bisection; default
         0.05 ms.  1 ms would do for the contact time itself, but the impact
         configuration 30 ms later inherits the error, and sliding impacts
-        amplify it (seed 001), so the tolerance is kept small; it costs
+        amplify it (the Momentum Based Impact Model paper), so the tolerance is kept small; it costs
         only a few extra bisection steps on the colliding cases.
     extra_time : float
         How long [s] to simulate beyond the end of the longer record, so

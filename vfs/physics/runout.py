@@ -2,12 +2,14 @@
 
 After the impact each vehicle moves as a planar rigid body with three degrees
 of freedom (CG position x, y and yaw) on four wheels, steering angle 0, until
-the tyre forces have dissipated its kinetic energy.  Seed 004 ("Postcrash
+the tyre forces have dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash
 movement"): whether a vehicle was "rolling or sliding ... has a huge influence
 on the amount of energy dissipated", which is why a time-forward vehicle model
-replaces an assumed mean deceleration; seed 002: the rest positions are the
+replaces an assumed mean deceleration; the Collision Calculation Uncertainty paper: the rest
+positions are the
 criterion a simulation is judged by (its Marquard run-out is the energy-only
-alternative); seed 000: frontal deformation can lock wheels, hence a brake
+alternative); the Modeling Head-On Collisions paper: frontal deformation can lock wheels, hence a
+brake
 factor per wheel.
 
 Wheels sit at (L1, +-track/2) and (-L2, +-track/2) in the vehicle frame, in the
@@ -104,8 +106,8 @@ class RunoutParams:
         1 = locked, sliding wheel; b < 1 = rolling wheel braked with b mu N.
         Default 0.8 on every wheel: the driver brakes after the crash and ABS
         keeps the wheels rolling at 80 % of the friction limit.  There is no
-        firm source for this value (seed 004 leaves the post-crash driver
-        action to the user, seed 000 shows wheels locked by frontal
+        firm source for this value (the Reconstruction chapter leaves the post-crash driver
+        action to the user, the Modeling Head-On Collisions paper shows wheels locked by frontal
         deformation); vary it, or pass ``wheel_brake`` per vehicle.
     rolling_resistance : float
         Rolling-resistance coefficient f_r of a rolling wheel [-], in [0, 0.5].

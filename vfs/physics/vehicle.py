@@ -32,7 +32,7 @@ def yaw_inertia_axle_product(
     mass: npt.ArrayLike, cg_to_front_axle: npt.ArrayLike, cg_to_rear_axle: npt.ArrayLike,
     length: npt.ArrayLike, width: npt.ArrayLike, wheelbase: npt.ArrayLike,
 ) -> np.ndarray:
-    """Yaw inertia I = m * L1 * L2 [kg m^2] (seed 003, Vangi et al., "front-to-side").
+    """Yaw inertia I = m * L1 * L2 [kg m^2] (the Front-to-Side Energy Balance paper).
 
     L1, L2 [m] are the distances from the CG to the front and rear axle.  This
     is the default of vfs: it depends only on data every database has and gives
@@ -119,7 +119,7 @@ class VehicleParams:
     yaw_inertia : float | None
         Yaw moment of inertia about the CG [kg m^2]; ``None`` means unknown, in
         which case :attr:`izz` uses :data:`DEFAULT_YAW_INERTIA_FORMULA`
-        (I = m L1 L2, seed 003).
+        (I = m L1 L2, the Front-to-Side Energy Balance paper).
     name : str
         Free label (make/model), not used by the physics.
     """

@@ -1,6 +1,6 @@
 """Report of ``vfs compare``: tables (CSV/Parquet/JSON), Markdown, HTML and figures.
 
-The figures follow seed 001 (Tomasch et al.) so that a reader of the paper
+The figures follow the Momentum Based Impact Model paper so that a reader of the paper
 recognises them: Figure 4 (impact types with the flows from full to sliding),
 Figure 5 (POIs in vehicle coordinates: reconstruction circles, VFS
 triangles), Figure 6 (boxplots per impact type) and Table 1 (paired t-tests
@@ -36,6 +36,7 @@ from vfs.analysis.compare import (
 )
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.figures import new_figure, save_figure
+from vfs.report.references import cite
 from vfs.report.render import (
     Block,
     BulletList,
@@ -51,7 +52,8 @@ from vfs.units import KMH_PER_MS
 if TYPE_CHECKING:  # pragma: no cover
     from vfs.database import Database
 
-#: Colours of seed 001's Figure 5: reconstruction full / sliding (circles),
+#: Colours of the Momentum Based Impact Model paper's Figure 5: reconstruction full / sliding
+# (circles),
 #: VFS full / sliding (triangles).
 REC_COLORS = {"full": "#1f4e9c", "sliding": "#2ca02c"}
 VFS_COLORS = {"full": "#d62728", "sliding": "#e6b800"}
@@ -105,7 +107,8 @@ def _p(value: Any) -> str:
 
 
 def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> None:
-    """Seed 001's Figure 4: impact types in reconstruction and VFS with the flows.
+    """The Momentum Based Impact Model paper's Figure 4: impact types in reconstruction and VFS
+    with the flows.
 
     Two stacked columns (reconstruction left, VFS right) with the counts per
     impact type; bands connect the categories of the same cases, arrows
@@ -194,7 +197,7 @@ def _poi_plot_coordinates(pairs: pd.DataFrame, prefix: str) -> tuple[np.ndarray,
 
 
 def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> None:
-    """Seed 001's Figure 5: POIs in vehicle coordinates.
+    """The Momentum Based Impact Model paper's Figure 5: POIs in vehicle coordinates.
 
     Reconstruction POIs as circles (full blue, sliding green), VFS POIs as
     triangles (full red, sliding yellow), thin lines joining the two POIs of a
@@ -244,7 +247,8 @@ def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> 
 
 
 def plot_boxplots(comparison: Comparison, path: str | os.PathLike[str]) -> None:
-    """Seed 001's Figure 6: boxplots of delta-v, EES and the change of velocity angle
+    """The Momentum Based Impact Model paper's Figure 6: boxplots of delta-v, EES and the change
+    of velocity angle
     for (a) both full and (b) both sliding, reconstruction vs VFS, equal axes;
     whiskers at the minimum and maximum.
     """
@@ -698,10 +702,11 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   + ", ".join(f"{k} {v}" for k, v in counts.items() if v)
                   + ". Cases avoided by the VFS or with an error are excluded from the paired "
                   "tests (section 8). Differences are VFS - reconstruction; speeds in km/h, "
-                  "angles in degrees. The analysis follows Tomasch et al. (seed 001: Figures "
-                  "4-6, Table 1); formulas and conventions: docs/compare.md."),
+                  "angles in degrees. The analysis follows "
+                  f"{cite('momentum-impact-model')} (Figures 4-6, Table 1); formulas "
+                  "and conventions: docs/compare.md."),
         *measured_blocks(c),
-        Heading("1 Impact type (seed 001, Figure 4)", 2),
+        Heading("1 Impact type (the Momentum Based Impact Model paper, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "
                   f"{_num(cont.observed_agreement, 3)})."),
@@ -715,7 +720,8 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
         Figure("figures/fig4_impact_types.png",
                "Figure 4: impact types in reconstruction and VFS; bands and arrows show how "
                "the cases move between the types."),
-        Heading("2 Point of impact in vehicle coordinates (seed 001, Figure 5)", 2),
+        Heading("2 Point of impact in vehicle coordinates (the Momentum Based Impact Model "
+                "paper, Figure 5)", 2),
         Paragraph("Distance between the reconstruction POI (in the vehicle's frame at the "
                   "reconstruction's impact pose) and the VFS POI (in the same vehicle's frame "
                   "at the VFS impact pose), per vehicle (n = 2 x cases). The CI of the mean "
@@ -725,7 +731,8 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                "Figure 5: POIs in vehicle coordinates; circles reconstruction (blue full, "
                "green sliding), triangles VFS (red full, yellow sliding)."),
         Heading("3 Table 1: paired t-tests, same impact type in both", 2),
-        Paragraph("Seed 001's layout: per vehicle (n = 2 x cases) among the cases with the "
+        Paragraph("The Momentum Based Impact Model paper's layout: per vehicle (n = 2 x cases) "
+                  "among the cases with the "
                   "same impact type in reconstruction and VFS; p from the paired t-test."),
         _table(_table1_display(c.table1)),
         Paragraph("Beyond the paper: mean difference VFS - reconstruction with its 95 % "
@@ -735,7 +742,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   "equivalence test with its margin. A p-value above 0.05 is no evidence of "
                   "agreement: only the TOST (equivalent = yes) is."),
         _table(_table1_extra_display(c.table1)),
-        Heading("4 Boxplots per impact type (seed 001, Figure 6)", 2),
+        Heading("4 Boxplots per impact type (the Momentum Based Impact Model paper, Figure 6)", 2),
         Figure("figures/fig6_boxplots.png",
                "Figure 6: (a) both full, (b) both sliding; reconstruction blue, VFS red; "
                "whiskers at minimum and maximum, equal axes."),

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from vfs.accident_types import accident_type_label
 from vfs.analysis.diagnose import Diagnosis, summary_dict
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import new_figure, plot_case_topview, save_figure
@@ -159,7 +160,7 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
             row = diag.worst.iloc[k]
             fig = plot_case_topview(
                 batch, res, k,
-                title=(f"case {d.case_ids[i]} ({row['accident_type']}, "
+                title=(f"case {d.case_ids[i]} ({accident_type_label(row['accident_type'])}, "
                        f"{row['impact_type']} in the reconstruction): worst output "
                        f"{row['worst_output']}"))
             ax = fig.axes[0]
@@ -254,8 +255,10 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                             sort=False))
         n = st.drop_duplicates(["feature", "stratum"]).set_index(["feature", "stratum"])["n"]
         piv.insert(0, "n", n.reindex(piv.index).to_numpy())
-        doc += [Heading("Standardised RMSE by stratum (default model)", 3),
-                _table(piv.reset_index())]
+        piv = piv.reset_index()
+        is_type = piv["feature"] == "accident_type"
+        piv.loc[is_type, "stratum"] = [accident_type_label(s) for s in piv.loc[is_type, "stratum"]]
+        doc += [Heading("Standardised RMSE by stratum (default model)", 3), _table(piv)]
     columns = ["residual", "feature", "test", "n", "statistic", "p_adj"]
     a = diag.associations
     sig = a[a["significant"]] if len(a) else a
@@ -274,7 +277,11 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                else Paragraph("No significant association."))
     doc.append(Heading("Worst cases (default model)", 3))
     if len(diag.worst):
-        doc.append(_table(diag.worst.drop(columns=["index"])))
+        worst = diag.worst.drop(columns=["index"])
+        if "accident_type" in worst.columns:
+            worst = worst.assign(accident_type=[accident_type_label(v)
+                                                for v in worst["accident_type"]])
+        doc.append(_table(worst))
     for k, key in enumerate(sorted(k for k in figures if k.startswith("case_")), start=1):
         doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model; "
                           "X markers: the reconstruction's rest positions"))

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.accident_types import accident_type_label
 from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
@@ -26,6 +27,7 @@ from vfs.report.render import (
     BulletList,
     Figure,
     Heading,
+    Note,
     Paragraph,
     Report,
     Table,
@@ -67,6 +69,12 @@ def _metric_table(eff: Effectiveness, metrics: Sequence[str], group: object = AL
     return pd.DataFrame(data, index=pd.Index(systems, name="system")).reset_index()
 
 
+def baseline_crashes(eff: Effectiveness) -> float:
+    """Weighted number of baseline crashes over all compared cases."""
+    m = eff.metrics[(eff.metrics["group"] == ALL) & (eff.metrics["metric"] == "crashes_baseline")]
+    return float(m["estimate"].max()) if len(m) else 0.0
+
+
 def _figure_block(figures: dict[str, str], key: str, caption: str) -> list[Block]:
     """The figure ``key`` as a one-block list, or no block when it was not drawn."""
     return [Figure(figures[key], caption)] if figures.get(key) else []
@@ -91,9 +99,16 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         BulletList(tuple(f"`{s['name']}`: {s.get('description', '')}" for s in systems)),
         Paragraph(f"Every system is compared case by case with the baseline (the recorded "
                   f"behaviour), weighted by the cases' `weight` (frequency weights). Brackets: "
-                  f"{pct} % percentile bootstrap confidence intervals over cases ({eff.n_boot} "
-                  f"resamples, seed {eff.seed}). Speeds in km/h. Definitions and formulas: "
+                  f"{pct} % confidence intervals: Wilson score intervals for shares, BCa "
+                  f"bootstrap over cases for means and relative reductions, percentile "
+                  f"bootstrap for totals ({eff.n_boot} resamples, seed {eff.seed}; why: "
+                  f"docs/statistics.md). Speeds in km/h. Definitions and formulas: "
                   f"docs/study.md."),
+        *([] if baseline_crashes(eff) > 0 else [Note(
+            f"No crash in the baseline: none of the {n_valid} compared cases collides without "
+            "a system, so there is nothing to avoid. Shares, mean speeds and risk reductions "
+            "are undefined (shown as '-') and no figures are drawn; the tables below still "
+            "count crashes that happen only with a system.", "warning")]),
         Heading("Crashes avoided", 2),
         Table.from_frame(_metric_table(
             eff, ["crashes_baseline", "crashes_treatment", "crashes_avoided", "crashes_new",
@@ -196,7 +211,7 @@ def _group_table(eff: Effectiveness, system: str, metrics: Sequence[str],
     by = m.set_index(["group", "metric"])
     rows = []
     for group in groups:
-        cells = [str(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
+        cells = [accident_type_label(group), str(int(by.loc[(group, metrics[0]), "n_cases"]))]
         cells += [_fmt_ci(by.loc[(group, name)]) for name in metrics]
         rows.append(cells)
     return pd.DataFrame(rows, columns=["accident type", "cases", *labels])
@@ -211,6 +226,7 @@ def _per_type_table(eff: Effectiveness, metric: str) -> pd.DataFrame:
     table = table[[p.system for p in eff.pairs if p.system in table.columns]]
     n = m.drop_duplicates("group").set_index("group")["n_cases"]
     table.insert(0, "cases", n.reindex(table.index).astype(int).astype(str))
+    table.index = [accident_type_label(g) for g in table.index]
     return table.reset_index(names="accident type")
 
 
@@ -315,7 +331,8 @@ def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
                          d["high"].to_numpy(float) * 100 - est_v])
         ax.bar(x, est_v, width, yerr=np.nan_to_num(np.clip(err, 0, None)), capsize=3,
                color=_COLORS[(i + 1) % len(_COLORS)], label=s, alpha=0.85)
-    ax.set_xticks(np.arange(len(groups)), [str(g) for g in groups])
+    ax.set_xticks(np.arange(len(groups)), [accident_type_label(g) for g in groups],
+                  rotation=20, ha="right")
     ax.set_xlabel("accident type")
     ax.set_ylabel(f"baseline crashes avoided [%] ({pct} % CI)")
     ax.set_ylim(0, 105)
@@ -366,7 +383,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
                         confidence=confidence, seed=seed)
     folder = Path(out) if out is not None else result.path / "report"
     folder.mkdir(parents=True, exist_ok=True)
-    figures = write_figures(eff, folder)
+    figures = write_figures(eff, folder) if baseline_crashes(eff) > 0 else {}
     manifest = {**result.manifest, "name": result.path.name}
     blocks = _report_blocks(eff, manifest, figures)
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))

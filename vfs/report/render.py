@@ -326,12 +326,17 @@ a{color:inherit;text-decoration:none}
 _CI = re.compile(r"[\[(]\s*[-+\d.]+.*(?:,|\.\.)\s*[-+\d.]+.*[\])]")
 
 
+_LINK = re.compile(r"\[([^\]\[]+)\]\(([^()\s]+)\)")
+
+
 def inline_html(text: object) -> str:
-    """Escape text for HTML and render `backtick` spans as ``<code>``."""
+    """Escape text for HTML, render `backtick` spans as ``<code>`` and [text](url) as links."""
     parts = html.escape(str(text)).split("`")
     if len(parts) % 2 == 0:  # an unpaired backtick stays a backtick
         parts[-2:] = [parts[-2] + "`" + parts[-1]]
-    return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
+    return "".join(f"<code>{p}</code>" if i % 2
+                   else _LINK.sub(lambda m: f'<a href="{m.group(2)}">{m.group(1)}</a>', p)
+                   for i, p in enumerate(parts))
 
 
 def _html_table(t: Table) -> str:

@@ -21,6 +21,7 @@ import pandas as pd
 
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import new_figure, save_figure
+from vfs.report.references import cite
 from vfs.report.render import (
     Block,
     BulletList,
@@ -93,7 +94,8 @@ def _pct(v: Any) -> str:
 
 
 def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
-    """Box plots of the relative half-width (the +- % of seed 002) per ratio outcome,
+    """Box plots of the relative half-width (the +- % of the Collision Calculation Uncertainty
+    paper) per ratio outcome,
     full and sliding nominal impacts side by side.
     """
     data = bands[bands["kind"] == "ratio"]
@@ -118,7 +120,8 @@ def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     ax.axvline(13, color="grey", ls=":", lw=1)
     ax.axvline(28, color="grey", ls="--", lw=1)
     ax.text(13, -0.8, " 13 %", color="grey", fontsize=8)
-    ax.text(28, -0.8, " 28 % (seed 002)", color="grey", fontsize=8)
+    ax.text(28, -0.8, " 28 % (Collision Calculation\n Uncertainty paper)", color="grey",
+            fontsize=8)
     ax.legend(loc="lower right", fontsize=8)
     ax.set_title("Monte-Carlo uncertainty per case (whiskers 1.5 IQR)", fontsize=10)
     return _save(fig, path)
@@ -210,6 +213,7 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     n_cases = len(result.cases)
     files["json"] = write_json(folder / "uncertainty.json", {
         "n_cases": n_cases, "n_samples": result.n_samples, "seed": result.seed,
+        "sampling": result.sampling,
         "model_runs": n_cases * result.n_samples, "seconds": result.seconds,
         "config": result.config.source,
         "runout_dt_s": result.config.runout_dt,
@@ -237,10 +241,12 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
         Paragraph(f"{n_cases} cases x {result.n_samples} samples = "
                   f"{n_cases * result.n_samples} model runs (impact from the reconstruction's "
                   f"configuration, run-out at dt = {result.config.runout_dt * 1e3:g} ms) in "
-                  f"{result.seconds:.1f} s, seed {result.seed}. Nominal impact types: "
+                  f"{result.seconds:.1f} s, seed {result.seed}, sampling {result.sampling}. "
+                  "Nominal impact types: "
                   + ", ".join(f"{k} {v}" for k, v in types.items())
                   + f". Configuration: {result.config.source}. Method and definitions: "
-                  "docs/uncertainty.md (seed 002: +-13 % for a documented crash test, up to "
+                  "docs/uncertainty.md (" + cite("collision-uncertainty") + ": +-13 % for a "
+                  "documented crash test, up to "
                   "+-28 % with unknown road friction)."),
         Heading("Input distributions", 2),
         Table.from_frame(inputs, empty="(no rows)"),
@@ -255,7 +261,8 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     if plots:
         blocks += [
             Figure("figures/relative_half_width.png",
-                   "Relative half-width per case and outcome (seed 002's 13 % and 28 % "
+                   "Relative half-width per case and outcome (the Collision Calculation "
+                   "Uncertainty paper's 13 % and 28 % "
                    "dotted and dashed)."),
             Figure("figures/bands_delta_v1.png",
                    "Delta-v 1: 5-95 % band, median and reconstruction of the first "
@@ -385,7 +392,8 @@ def write_sensitivity_report(result: Any, out: str | os.PathLike[str], *, plots:
                   "the functional ANOVA), total index ST = including all its interactions; "
                   "estimators of Saltelli (2010) and Jansen (1999), per case, then averaged over "
                   "the cases whose nominal impact is full or sliding (intervals: bootstrap over "
-                  "cases). Answers seed 001's outlook (ANOVA of the most sensitive impact "
+                  "cases). Answers the Momentum Based Impact Model paper's outlook (ANOVA of the "
+                  "most sensitive impact "
                   "parameters). Details: docs/uncertainty.md."),
         Heading("Inputs", 2),
         Table.from_frame(result.inputs[["input", "label", "distribution"]], empty="(no rows)"),
@@ -423,7 +431,8 @@ def write_sensitivity_report(result: Any, out: str | os.PathLike[str], *, plots:
 def plot_reconstruction_speeds(rec: Any, path: Path, truth: Sequence[float] | None = None
                                ) -> Path:
     """Feasible impact speeds (speed 1 against speed 2) coloured by the road friction,
-    as seed 002's Figure 11, with the optimum and the database's speeds.
+    as the Collision Calculation Uncertainty paper's Figure 11, with the optimum and the
+    database's speeds.
     """
     k = DISPLAY_UNITS["speed"][1]
     f = rec.feasible
@@ -549,7 +558,8 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
         Paragraph(f"Unknowns: {', '.join(s['unknowns'])}; impact speed priors: "
                   f"{rec.settings.speed1.describe()} (1), {rec.settings.speed2.describe()} (2). "
                   f"Acceptance: {s['criterion']} (threshold {s['threshold']:.3g}) on the scaled "
-                  "residuals (model - observed) / sigma. Method: docs/uncertainty.md (seed 002's "
+                  "residuals (model - observed) / sigma. Method: docs/uncertainty.md (the "
+                  "Collision Calculation Uncertainty paper's "
                   "Monte-Carlo acceptance, a local optimiser, chains exploring the feasible "
                   "set)."),
         Heading("Observations", 2),
@@ -575,7 +585,8 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
         files["fig_rest"] = plot_reconstruction_rest(rec, folder / "figures" /
                                                      "rest_positions.png")
         blocks += [Figure("figures/speeds.png",
-                          "Feasible impact speeds coloured by road friction (seed 002, "
+                          "Feasible impact speeds coloured by road friction (the Collision "
+                          "Calculation Uncertainty paper, "
                           "Fig. 11)."),
                    Figure("figures/rest_positions.png",
                           "Rest positions of the feasible set.")]

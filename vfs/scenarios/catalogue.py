@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from vfs.accident_types import ACCIDENT_TYPES
 from vfs.errors import ParameterError
 from vfs.scenarios.validation import check_range, check_share
 from vfs.units import KMH_PER_MS
@@ -206,34 +207,35 @@ class ScenarioSpec:
 _HEAD_ON = dict(speed1=_kmh(60.0, 110.0), speed2=_kmh(50.0, 100.0), brake_prob=(0.3, 0.5),
                 evasive_prob=(0.0, 0.3), overlap=(0.1, 1.0))
 
-#: The accident types by code of the German/Austrian accident-type catalogue.
+#: The accident types by code of the German/Austrian accident-type catalogue; names from
+#: :data:`vfs.accident_types.ACCIDENT_TYPES`.
 SCENARIO_TYPES: dict[int, ScenarioSpec] = {
-    241: ScenarioSpec("head-on, straight road", "head_on",
+    241: ScenarioSpec(ACCIDENT_TYPES[241], "head_on",
                       "head-on on a straight road: participant 1 drifted into the oncoming "
                       "lane", **_HEAD_ON),  # type: ignore[arg-type]
-    242: ScenarioSpec("head-on in a bend", "head_on",
+    242: ScenarioSpec(ACCIDENT_TYPES[242], "head_on",
                       "head-on in a right bend: participant 1 was carried out of the bend "
                       "into the oncoming lane", bend=-1, **_HEAD_ON),  # type: ignore[arg-type]
-    243: ScenarioSpec("head-on in a bend, corner cut", "head_on",
+    243: ScenarioSpec(ACCIDENT_TYPES[243], "head_on",
                       "head-on in a left bend: participant 1 cut the corner into the "
                       "oncoming lane", bend=1, **_HEAD_ON),  # type: ignore[arg-type]
-    264: ScenarioSpec("head-on while overtaking", "overtaking",
+    264: ScenarioSpec(ACCIDENT_TYPES[264], "overtaking",
                       "head-on while overtaking: participant 1 overtook in the oncoming lane "
                       "and met participant 2", speed1=_kmh(80.0, 130.0),
                       speed2=_kmh(60.0, 100.0), brake_prob=(0.5, 0.5),
                       evasive_prob=(0.0, 0.3), evasive_time=(0.5, 1.2),
                       heading_angle=_deg(1.0, 12.0)),
-    601: ScenarioSpec("rear-end", "rear_end",
+    601: ScenarioSpec(ACCIDENT_TYPES[601], "rear_end",
                       "rear-end: participant 1 ran into participant 2 ahead in the same lane",
                       speed1=_kmh(40.0, 100.0), speed2=_kmh(5.0, 60.0), standing2_share=0.3,
                       min_closing_speed=2.0, brake_prob=(0.6, 0.4), evasive_prob=(0.2, 0.15),
                       evasive_angle=_deg(2.0, 7.0), overlap=(0.3, 1.0)),
-    321: ScenarioSpec("crossing at a junction", "crossing",
+    321: ScenarioSpec(ACCIDENT_TYPES[321], "crossing",
                       "crossing paths at a junction: participant 1 struck the side of "
                       "participant 2", speed1=_kmh(25.0, 70.0), speed2=_kmh(25.0, 70.0),
                       brake_prob=(0.4, 0.4), evasive_prob=(0.0, 0.0),
                       impact_position=(0.1, 0.9)),
-    211: ScenarioSpec("left turn, oncoming", "left_turn",
+    211: ScenarioSpec(ACCIDENT_TYPES[211], "left_turn",
                       "left turn: participant 1 turned left across the path of oncoming "
                       "participant 2", speed1=_kmh(10.0, 30.0), speed2=_kmh(40.0, 90.0),
                       brake_prob=(0.3, 0.5), evasive_prob=(0.0, 0.2),

@@ -13,8 +13,8 @@ impact with Newton restitution:
 
 (e.g. Brach & Brach, Vehicle Accident Analysis and Reconstruction Methods).
 The energy loss is split E1 / E2 = m2 / m1 (equal contact force, stiffness
-proportional to mass; /work/shared/REFERENCES.md) and EES_i = sqrt(2 E_i / m_i)
-(seed 004).  After the impact each vehicle slides straight to rest,
+proportional to mass; docs/references.md) and EES_i = sqrt(2 E_i / m_i)
+(the Reconstruction chapter).  After the impact each vehicle slides straight to rest,
 d = u'^2 / (2 mu g).  Nothing here is real accident data.
 """
 

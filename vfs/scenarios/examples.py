@@ -3,7 +3,7 @@
 The table is built from first principles, not typed in: two cars approach on
 given paths, the outlines are placed at a given penetration depth, and the
 POI and contact plane follow from :func:`vfs.physics.geometry.contact_geometry`
-(seed 001 rules).  ``vfs/data/example_impacts.csv`` is this table;
+(the Momentum Based Impact Model paper rules).  ``vfs/data/example_impacts.csv`` is this table;
 a test checks that the file is what this function produces.
 """
 

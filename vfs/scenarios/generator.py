@@ -126,8 +126,8 @@ class ExpertChoice:
     Attributes
     ----------
     restitution : tuple of float
-        Uniform range of eps [-]; default (0.05, 0.25) (seed 004: 0.1-0.3,
-        seed 001: 0.1).
+        Uniform range of eps [-]; default (0.05, 0.25) (the Reconstruction chapter: 0.1-0.3,
+        the Momentum Based Impact Model paper: 0.1).
     contact_friction : tuple of float
         Uniform range of the inter-vehicle friction mu [-]; default (0.4, 0.8).
     """
@@ -158,11 +158,12 @@ class Preset:
     noise : NoiseModel
     expert : ExpertChoice
     exclude_secondary_collisions : bool
-        Drop cases whose vehicles collide again in the run-out (seed 001's
+        Drop cases whose vehicles collide again in the run-out (the Momentum Based Impact Model
+        paper's
         sampling criterion).
     frontal_only : bool
         Keep only collisions whose PDOF is 10, 11, 12, 1 or 2 o'clock for
-        both vehicles (seed 001's sampling criterion, STAIRS protocol).
+        both vehicles (the Momentum Based Impact Model paper's sampling criterion, STAIRS protocol).
     sample_interval : float
         Trajectory sampling [s].
     """
@@ -183,7 +184,8 @@ class Preset:
 
 
 def _study36_specs() -> dict[int, ScenarioSpec]:
-    """Seed 001's fatal frontal collisions: delta-v about 50 km/h (its Table 1) needs
+    """The Momentum Based Impact Model paper's fatal frontal collisions: delta-v about 50 km/h
+    (its Table 1) needs
     closing speeds of about 90-100 km/h at impact, so somewhat lower travel speeds
     and more late braking than the default head-on scenes, overlaps from 15 %.
     """
@@ -212,7 +214,8 @@ PRESETS: dict[str, Preset] = {
     ),
     "study36": Preset(
         name="study36",
-        description=("mirrors seed 001's sample: 36 fatal frontal collisions of two cars "
+        description=("mirrors the Momentum Based Impact Model paper's sample: 36 fatal "
+                     "frontal collisions of two cars "
                      "driving in opposite directions, no secondary collisions, "
                      "241 > 242 > 264 as in its Figure 3 (the remaining codes are ours), "
                      "structure-aware POI/contact-plane rule and realistic noise"),

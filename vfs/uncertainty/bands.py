@@ -1,6 +1,7 @@
 """Monte-Carlo bands of the collision outcomes and their summary statistics.
 
-Seed 002 (Krzemien et al., uncertainty of vehicle collision calculations) shows
+The Collision Calculation Uncertainty paper (Krzemien et al., uncertainty of vehicle collision
+calculations) shows
 that impact speeds computed from a Kudlich-Slibar impact and a post-impact
 motion carry +-13 % uncertainty even for a documented crash test and up to
 +-28 % when the road friction is sampled; it samples the unknowns uniformly by
@@ -9,8 +10,9 @@ Monte-Carlo and keeps the combinations consistent with the rest positions.
 (:mod:`vfs.uncertainty.config`, :mod:`vfs.uncertainty.sampling`) through the
 model (:mod:`vfs.uncertainty.model`) and reports, per case and outcome, the
 median, the 5-95 % band and the relative half-width (p95 - p5) / (2 median),
-the "+- %" of seed 002; :func:`band_summary` and :func:`coverage` summarise
-the bands over the cases.  SI units inside; km/h and degrees only in reports.
+the "+- %" of the Collision Calculation Uncertainty paper; :func:`band_summary`
+and :func:`coverage` summarise the bands over the cases.  SI units inside; km/h
+and degrees only in reports.
 """
 
 from __future__ import annotations
@@ -28,7 +30,13 @@ from vfs.uncertainty.cases import CaseSet, recorded_outcomes
 from vfs.uncertainty.config import INPUT_NAMES, INPUTS, UncertaintyConfig, default_config
 from vfs.uncertainty.model import evaluate, nominal_runs
 from vfs.uncertainty.outcomes import OUTCOME_NAMES, OUTCOMES, SI_UNITS
-from vfs.uncertainty.sampling import ResolvedInputs, make_rng, resolve_inputs, sample_inputs
+from vfs.uncertainty.sampling import (
+    DEFAULT_SAMPLING,
+    ResolvedInputs,
+    make_rng,
+    resolve_inputs,
+    sample_inputs,
+)
 from vfs.units import wrap_angle
 
 
@@ -69,6 +77,8 @@ class UncertaintyResult(NamedTuple):
     seconds : float
         Wall time of sampling, model and statistics.
     config : UncertaintyConfig
+    sampling : str
+        Sampling method (:data:`vfs.uncertainty.sampling.SAMPLING_METHODS`).
     """
 
     bands: pd.DataFrame
@@ -79,6 +89,7 @@ class UncertaintyResult(NamedTuple):
     seed: int | None
     seconds: float
     config: UncertaintyConfig
+    sampling: str = "random"
 
     def summary(self, by: str = "nominal_type") -> pd.DataFrame:
         """Relative half-widths over the cases (:func:`band_summary`)."""
@@ -124,7 +135,8 @@ def _quantiles(values: np.ndarray, kind: str) -> dict[str, np.ndarray]:
 
 def run_uncertainty(cases: CaseSet, config: UncertaintyConfig | None = None,
                     n_samples: int = 1000, seed: int | np.random.Generator | None = 0,
-                    keep_samples: bool = False) -> UncertaintyResult:
+                    keep_samples: bool = False, sampling: str = DEFAULT_SAMPLING,
+                    ) -> UncertaintyResult:
     """Monte-Carlo bands of every outcome for every case.
 
     Parameters
@@ -138,6 +150,10 @@ def run_uncertainty(cases: CaseSet, config: UncertaintyConfig | None = None,
         Source of all randomness (reproducible for an int seed).
     keep_samples : bool
         Also return every run as :attr:`UncertaintyResult.samples`.
+    sampling : {"random", "sobol", "lhs"}
+        Plain Monte Carlo or randomised quasi-Monte Carlo
+        (:func:`vfs.uncertainty.sampling.unit_samples`); default
+        :data:`vfs.uncertainty.sampling.DEFAULT_SAMPLING`.
 
     Returns
     -------
@@ -147,7 +163,7 @@ def run_uncertainty(cases: CaseSet, config: UncertaintyConfig | None = None,
     config = config or default_config()
     rng, seed_int = make_rng(seed)
     resolved = resolve_inputs(cases, config)
-    x = sample_inputs(resolved, int(n_samples), rng)
+    x = sample_inputs(resolved, int(n_samples), rng, sampling)
     runs = evaluate(cases, x, config)
     nom = nominal_runs(cases, config)
     rec = recorded_outcomes(cases)
@@ -198,7 +214,7 @@ def run_uncertainty(cases: CaseSet, config: UncertaintyConfig | None = None,
         samples["impact_type"] = impact_type_names(runs.impact_type)
     inputs = input_table(resolved, config, x.clipped, x.rows.shape[0])
     return UncertaintyResult(bands, case_table, inputs, samples, s, seed_int,
-                             time.perf_counter() - t0, config)
+                             time.perf_counter() - t0, config, sampling)
 
 
 def band_summary(bands: pd.DataFrame, by: str | None = "nominal_type") -> pd.DataFrame:

@@ -29,7 +29,8 @@ from vfs.simulation import impact_parameters_or_default
 from vfs.uncertainty.config import INPUT_NAMES
 from vfs.uncertainty.outcomes import OUTCOME_NAMES, OUTCOMES
 
-#: Penetration time assumed where it cannot be estimated [s] (seed 001; the
+#: Penetration time assumed where it cannot be estimated [s] (the Momentum Based Impact Model
+# paper; the
 #: simulation's default, :attr:`vfs.physics.precrash.PrecrashParams.penetration_time`).
 DEFAULT_PENETRATION = PrecrashParams().penetration_time
 #: Largest penetration time the estimate searches [s].

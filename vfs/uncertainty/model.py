@@ -11,7 +11,7 @@ impact.  One sample is
    penetration time (the contact pose is estimated by moving both vehicles
    back along their velocities until the outlines just touch,
    :func:`vfs.uncertainty.cases.estimate_penetration`); POI and contact plane
-   move by the change of the geometric POI / contact plane (seed 001's
+   move by the change of the geometric POI / contact plane (the Momentum Based Impact Model paper's
    Sutherland-Hodgman rule, :func:`vfs.physics.geometry.contact_geometry`)
    between the recorded and the moved pose, so that the expert's POI is kept
    at the nominal penetration;
@@ -22,7 +22,8 @@ impact.  One sample is
    consistent with I = m L1 L2), restitution and contact friction;
 4. the simulation's impact stage (:func:`vfs.simulation.impact_stage`: the
    Kudlich-Slibar impulse impact of :func:`vfs.physics.impact.solve_impact`,
-   seed 002 eqs. 6-11) and its run-out stage (:func:`vfs.simulation.runout_stage`)
+   the Collision Calculation Uncertainty paper eqs. 6-11) and its run-out stage
+   (:func:`vfs.simulation.runout_stage`)
    of both vehicles to rest with the sampled road friction and post-crash
    wheel brake factors, at a coarser time step than the simulation (20 ms:
    docs/uncertainty.md gives its accuracy).

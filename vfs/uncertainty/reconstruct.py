@@ -7,7 +7,8 @@ uncertain parameters that is consistent with it within the stated
 tolerances, and report that *feasible set* and its spread rather than a
 single number.
 
-Seed 002 (Krzemien et al.) samples the pre-impact speeds uniformly by
+The Collision Calculation Uncertainty paper (Krzemien et al.) samples the pre-impact speeds
+uniformly by
 Monte-Carlo, runs the Kudlich-Slibar impact and the post-impact motion and
 keeps the speed pairs that reach the observed rest positions; it shows that
 the built-in optimisers of commercial programs combine incomparable
@@ -33,7 +34,8 @@ raw.
    are more unknowns than observations); the Jacobian is a batched forward
    difference (one vectorised model call per iteration).
 3. **Exploring the feasible set.**  The feasible set is a thin, often
-   curved region of the input space (seed 002, Figs. 10-11: a lower road
+   curved region of the input space (the Collision Calculation Uncertainty paper, Figs. 10-11: a
+   lower road
    friction with a lower speed reaches the same rest position), which prior
    samples rarely hit.  Parallel random-walk chains, started from the
    accepted prior samples and the accepted samples of Gaussians around the

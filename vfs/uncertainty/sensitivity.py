@@ -1,7 +1,7 @@
 """Global sensitivity of the collision outcomes: Sobol indices (``vfs sensitivity``).
 
-Seed 001 (Tomasch et al.) ends its outlook with "an ANOVA could be used to find
-the most sensitive pre-collision impact parameters ... POI, angle of the CP,
+The Momentum Based Impact Model paper ends its outlook with "an ANOVA could be
+used to find the most sensitive pre-collision impact parameters ... POI, angle of the CP,
 penetration depth, masses of the vehicles and others".  Sobol indices are
 that analysis of variance for a non-linear model: the variance of an outcome
 Y = f(X_1, ..., X_d) with independent inputs splits into the shares of the

@@ -11,6 +11,10 @@ figures of a notebook user stay untouched (no ``pyplot``, no
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,6 +32,60 @@ COLORS = ("#1f77b4", "#d62728")
 
 #: Resolution of saved report figures [dots per inch].
 DEFAULT_DPI = 110
+
+#: Formats ``--figure-format`` accepts (matplotlib writers).
+FIGURE_FORMATS: tuple[str, ...] = ("png", "svg", "pdf")
+
+
+@dataclass(frozen=True)
+class FigureOptions:
+    """How report figures are saved (``--figure-format``, ``--dpi``).
+
+    Attributes
+    ----------
+    formats : tuple of str
+        Formats written for every figure, beside each other (same name, other suffix);
+        the reports embed the PNG, which is therefore always written.
+    dpi : float or None
+        Resolution of raster output [dots per inch]; None = each figure's own.
+    """
+
+    formats: tuple[str, ...] = ("png",)
+    dpi: float | None = None
+
+
+_OPTIONS: ContextVar[FigureOptions] = ContextVar("vfs_figure_options",
+                                                 default=FigureOptions())  # noqa: B039 (frozen)
+
+
+@contextmanager
+def figure_options(formats: Sequence[str] | str = ("png",),
+                   dpi: float | None = None) -> Iterator[FigureOptions]:
+    """Save the figures of the enclosed calls in ``formats`` at ``dpi`` (a context).
+
+    Parameters
+    ----------
+    formats : sequence of str or "png,svg,pdf"
+        Formats of :data:`FIGURE_FORMATS`; PNG is added (the reports embed it).
+    dpi : float, optional
+        Resolution [dots per inch], 30-1200.
+    """
+    from vfs.errors import ParameterError
+
+    names = [f.strip().lower() for f in (formats.split(",") if isinstance(formats, str)
+                                         else formats) if f.strip()]
+    unknown = [f for f in names if f not in FIGURE_FORMATS]
+    if unknown:
+        raise ParameterError(f"--figure-format {','.join(names)}: unknown {unknown}; use "
+                             f"{', '.join(FIGURE_FORMATS)}")
+    if dpi is not None and not 30 <= dpi <= 1200:
+        raise ParameterError(f"--dpi {dpi:g} outside 30-1200")
+    ordered = tuple(dict.fromkeys(["png", *names]))
+    token = _OPTIONS.set(FigureOptions(ordered, dpi))
+    try:
+        yield _OPTIONS.get()
+    finally:
+        _OPTIONS.reset(token)
 
 
 def new_figure(figsize: tuple[float, float] | None = None, *, layout: Any = None,
@@ -83,11 +141,24 @@ def save_figure(fig: Figure, path: str | os.PathLike[str], *, dpi: float = DEFAU
     Returns
     -------
     Path
-        The file written.
+        The file written (``path``).
+
+    Notes
+    -----
+    Inside :func:`figure_options` (the commands' ``--figure-format`` and ``--dpi``) the
+    other formats are written beside ``path`` (same name, their suffix), and its dpi
+    replaces ``dpi``.
     """
     if tight:
         fig.tight_layout()
-    return write_figure(path, fig, dpi=dpi, **savefig)
+    opts = _OPTIONS.get()
+    dpi = opts.dpi if opts.dpi is not None else dpi
+    target = Path(path)
+    out = write_figure(target, fig, dpi=dpi, **savefig)
+    for fmt in opts.formats:
+        if f".{fmt}" != target.suffix.lower():
+            write_figure(target.with_suffix(f".{fmt}"), fig, dpi=dpi, **savefig)
+    return out
 
 
 def _outline_patch(ax: Any, corners: np.ndarray, color: str, style: str, label: str | None,
@@ -190,4 +261,5 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
     return fig
 
 
-__all__ = ["COLORS", "DEFAULT_DPI", "new_figure", "plot_case_topview", "save_figure"]
+__all__ = ["COLORS", "DEFAULT_DPI", "FIGURE_FORMATS", "FigureOptions", "figure_options",
+           "new_figure", "plot_case_topview", "save_figure"]

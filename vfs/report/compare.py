@@ -90,6 +90,12 @@ def _p_eq(value: Any) -> str:
     return f"p {text}" if text.startswith("<") else f"p = {text}"
 
 
+def _p_is(value: Any) -> str:
+    """'p = 0.093' or 'p < 0.001'."""
+    text = _p(value)
+    return f"p {text}" if text.startswith("<") else f"p = {text}"
+
+
 def _p(value: Any) -> str:
     """A p-value: three decimals, '< 0.001' below."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
@@ -666,6 +672,34 @@ def measured_blocks(c: Comparison) -> list[Block]:
     ]
 
 
+def summary_blocks(c: Comparison) -> list[Block]:
+    """The one-screen summary: impact types, delta-v per impact type, POI distance."""
+    cont = c.contingency
+    if cont.n == 0:
+        return []
+    items = [f"The impact type (full/sliding) agrees in {cont.n_agree} of {cont.n} cases "
+             f"(kappa {_num(cont.kappa, 2)}; chi-squared {_p_is(cont.chi2_pvalue)})."]
+    p = c.paired.set_index(["outcome", "group"])
+    for group, label in (("both full", "full impacts"), ("both sliding", "sliding impacts")):
+        if ("delta_v", group) not in p.index:
+            continue
+        r = p.loc[("delta_v", group)]
+        if not np.isfinite(r["mean_difference"]):
+            continue
+        f = float(r["display_factor"])
+        items.append(
+            f"Delta-v of {label}: VFS - reconstruction {r['mean_difference'] * f:+.1f} km/h "
+            f"[{r['ci_low'] * f:+.1f}, {r['ci_high'] * f:+.1f}] over {int(r['n'])} vehicles "
+            f"(t-test {_p_is(r['t_pvalue'])}).")
+    poi = c.poi_distances.set_index("group")
+    if "all" in poi.index and np.isfinite(poi.loc["all", "mean"]):
+        row = poi.loc["all"]
+        items.append(f"The geometric POI lies {row['mean']:.2f} m "
+                     f"[{row['mean_ci_low']:.2f}, {row['mean_ci_high']:.2f}] from the "
+                     f"reconstruction's on average ({int(row['n'])} vehicles).")
+    return [Heading("In short", 2), BulletList(tuple(items))]
+
+
 def impact_parameter_sentence(c: Comparison) -> str:
     """The report's first line: which restitution and contact friction the simulation used."""
     from vfs.physics.impact import ImpactParams
@@ -696,6 +730,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
     b: list[Block] = [
         Heading("Virtual forward simulation vs reconstruction", 1),
         Paragraph(impact_parameter_sentence(c)),
+        *summary_blocks(c),
         Paragraph(f"VFS source: {c.source}; model: default"
                   + (f" with effects {effects}" if effects else "") + ". "
                   f"{len(c.cases)} cases with a reconstruction: "

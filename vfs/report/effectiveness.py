@@ -80,6 +80,33 @@ def _figure_block(figures: dict[str, str], key: str, caption: str) -> list[Block
     return [Figure(figures[key], caption)] if figures.get(key) else []
 
 
+def summary_blocks(eff: Effectiveness) -> list[Block]:
+    """The one-screen summary: per system one sentence with the headline figures."""
+    m = eff.metrics[eff.metrics["group"] == ALL].set_index(["metric", "system"])
+    level = next(iter(eff.curves), None)
+    crashes = baseline_crashes(eff)
+    if crashes <= 0:
+        return []
+    pct = int(round(100 * eff.confidence))
+
+    def cell(metric: str, system: str) -> str:
+        return _fmt_ci(m.loc[(metric, system)]) if (metric, system) in m.index else "-"
+
+    items = []
+    for pair in eff.pairs:
+        s = pair.system
+        new = m.loc[("crashes_new", s), "estimate"] if ("crashes_new", s) in m.index else 0
+        text = (f"`{s}` avoids {cell('avoided_share', s)} of the {crashes:g} baseline crashes"
+                + (f", lowers the expected {level} injuries by "
+                   f"{cell(f'risk_{level}_reduction', s)}" if level else "")
+                + f" and the mean delta-v by {cell('dv_reduction_all', s)} km/h per baseline "
+                f"crash; it causes {new:g} new crash(es).")
+        items.append(text)
+    return [Heading("In short", 2), BulletList(tuple(items)),
+            Paragraph(f"Brackets: {pct} % confidence intervals. Details and definitions "
+                      "below.")]
+
+
 def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[str, str]
                    ) -> list[Block]:
     pct = int(round(100 * eff.confidence))
@@ -90,6 +117,7 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
     blocks: list[Block] = [
         Heading(f"AEB effectiveness: {manifest.get('name') or manifest.get('path', 'study')}",
                 1),
+        *summary_blocks(eff),
         Paragraph(f"Database `{manifest.get('db', '?')}` ({manifest.get('n_cases', '?')} cases"
                   + (f", selection `{manifest['where']}`" if manifest.get("where") else "")
                   + f"); equipped vehicles: {manifest.get('equip', '?')}; study seed "

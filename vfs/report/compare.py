@@ -90,12 +90,6 @@ def _p_eq(value: Any) -> str:
     return f"p {text}" if text.startswith("<") else f"p = {text}"
 
 
-def _p_is(value: Any) -> str:
-    """'p = 0.093' or 'p < 0.001'."""
-    text = _p(value)
-    return f"p {text}" if text.startswith("<") else f"p = {text}"
-
-
 def _p(value: Any) -> str:
     """A p-value: three decimals, '< 0.001' below."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
@@ -117,8 +111,8 @@ def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> N
     with the flows.
 
     Two stacked columns (reconstruction left, VFS right) with the counts per
-    impact type; bands connect the categories of the same cases, arrows
-    and counts mark the changes (e.g. full -> sliding).
+    impact type; bands connect the categories of the same cases; labelled
+    boxes on the bands count the changes (e.g. full -> sliding).
     """
     from matplotlib.patches import Rectangle
 
@@ -165,11 +159,14 @@ def plot_impact_types(comparison: Comparison, path: str | os.PathLike[str]) -> N
                             alpha=0.35 if i == j else 0.55, lw=0)
             mid = len(t) // 2
             if i != j:
-                ax.annotate("", xy=(xs[mid + 8], y_lo[mid + 8] + n / 2),
-                            xytext=(xs[mid - 8], y_lo[mid - 8] + n / 2),
-                            arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5})
-                ax.text(xs[mid], y_lo[mid] + 0.3 * n, f"{src} -> {dst}: {int(n)}", fontsize=10,
-                        va="center", ha="center", weight="bold")
+                # a change: its label on the band near the side it leaves (downward flows
+                # near the left, upward ones near the right), so that crossing bands'
+                # labels never meet, on a white box above the bands
+                k = len(t) // 5 if i < j else len(t) - 1 - len(t) // 5
+                ax.text(xs[k], y_lo[k] + n / 2, f"{src} \u2192 {dst}: {int(n)}", fontsize=9,
+                        va="center", ha="center", weight="bold", zorder=5,
+                        bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.4",
+                              "alpha": 0.9})
             else:
                 ax.text(xs[mid], y_lo[mid] + n / 2, f"{int(n)}", fontsize=9, va="center",
                         ha="center")
@@ -678,7 +675,7 @@ def summary_blocks(c: Comparison) -> list[Block]:
     if cont.n == 0:
         return []
     items = [f"The impact type (full/sliding) agrees in {cont.n_agree} of {cont.n} cases "
-             f"(kappa {_num(cont.kappa, 2)}; chi-squared {_p_is(cont.chi2_pvalue)})."]
+             f"(kappa {_num(cont.kappa, 2)}; chi-squared {_p_eq(cont.chi2_pvalue)})."]
     p = c.paired.set_index(["outcome", "group"])
     for group, label in (("both full", "full impacts"), ("both sliding", "sliding impacts")):
         if ("delta_v", group) not in p.index:
@@ -690,7 +687,7 @@ def summary_blocks(c: Comparison) -> list[Block]:
         items.append(
             f"Delta-v of {label}: VFS - reconstruction {r['mean_difference'] * f:+.1f} km/h "
             f"[{r['ci_low'] * f:+.1f}, {r['ci_high'] * f:+.1f}] over {int(r['n'])} vehicles "
-            f"(t-test {_p_is(r['t_pvalue'])}).")
+            f"(t-test {_p_eq(r['t_pvalue'])}).")
     poi = c.poi_distances.set_index("group")
     if "all" in poi.index and np.isfinite(poi.loc["all", "mean"]):
         row = poi.loc["all"]

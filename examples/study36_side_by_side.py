@@ -1,5 +1,6 @@
-"""The Momentum Based Impact Model paper's comparison on study36, seeds 0-4, under both impact-parameter
-settings: the Table 1 rows and the impact-type/POI table of docs/compare.md (Markdown).
+"""The Momentum Based Impact Model paper's comparison on study36, seeds 0-4, under both
+impact-parameter settings: the Table 1 rows and the impact-type/POI table of
+docs/compare.md (Markdown).
 
     python examples/study36_side_by_side.py [--seeds 5] [--hidden structure_poi,...]
 """

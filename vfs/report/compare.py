@@ -706,8 +706,9 @@ def impact_parameter_sentence(c: Comparison) -> str:
     if c.impact_parameters == "default":
         return (f"Impact parameters: the model's generic defaults for every case ({defaults}), "
                 "as in a prospective assessment, where no expert values exist (the protocol "
-                "of the Momentum Based Impact Model paper; `--impact-parameters reconstruction` gives "
-                "the simulation each case's reconstructed values instead).")
+                "of the Momentum Based Impact Model paper; `--impact-parameters "
+                "reconstruction` gives the simulation each case's reconstructed values "
+                "instead).")
     if c.impact_parameters == "reconstruction":
         return ("Impact parameters: each case's reconstructed restitution and contact friction "
                 f"(the defaults, {defaults}, where the reconstruction has none). This is NOT "

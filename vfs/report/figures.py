@@ -171,6 +171,37 @@ def _outline_patch(ax: Any, corners: np.ndarray, color: str, style: str, label: 
     ax.plot(corners[:2, 0], corners[:2, 1], "-", color=color, lw=3.0)
 
 
+def _impact_inset(ax: Any, batch: Any, results: Any, index: int,
+                  half_width: float = 5.0) -> None:
+    """An inset of the impact: both outlines at impact, POI and contact plane, +-
+    ``half_width`` [m] around the POI, linked to its place in the main view.
+    """
+    pre = results.precrash
+    poi = pre.poi[index]
+    axin = ax.inset_axes((0.6, 0.02, 0.38, 0.38))
+    n = batch.size
+    for j, veh in enumerate((batch.vehicle1, batch.vehicle2)):
+        st = pre.impact_state
+        v = veh.take([index])
+        o = vehicle_outline(v, st.x[index:index + 1, j], st.y[index:index + 1, j],
+                            st.yaw[index:index + 1, j])[0]
+        _outline_patch(axin, o, COLORS[j], "-", None, 0.25)
+        row = index + j * n
+        cnt = batch.paths.count[row]
+        axin.plot(batch.paths.x[row, :cnt], batch.paths.y[row, :cnt], ":", color=COLORS[j],
+                  lw=0.8)
+    ang = pre.cp_angle[index]
+    d = 2.5 * np.array([np.cos(ang), np.sin(ang)])
+    axin.plot([poi[0] - d[0], poi[0] + d[0]], [poi[1] - d[1], poi[1] + d[1]], "k-", lw=1.0)
+    axin.plot(*poi, "k*", ms=9)
+    axin.set_xlim(poi[0] - half_width, poi[0] + half_width)
+    axin.set_ylim(poi[1] - half_width, poi[1] + half_width)
+    axin.set_aspect("equal")
+    axin.tick_params(labelsize=6)
+    axin.set_title(f"impact, +-{half_width:g} m", fontsize=7)
+    ax.indicate_inset_zoom(axin, edgecolor="0.35")
+
+
 def plot_case_topview(batch: Any, results: Any, index: int = 0,
                       path: str | os.PathLike[str] | None = None, title: str | None = None
                       ) -> Figure:
@@ -254,7 +285,10 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
         ax.set_ylim(lo[1], hi[1])
     handles, labels = ax.get_legend_handles_labels()
     unique = dict(zip(labels, handles, strict=True))
-    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
+    zoom = bool(pre.collided[index]) and pts.size > 0 and float(np.max(hi - lo)) > 30.0
+    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left" if zoom else "best")
+    if zoom:  # a long run-out shrinks the crash to a dot: the impact as an inset
+        _impact_inset(ax, batch, results, index)
     fig.tight_layout()
     if path is not None:
         save_figure(fig, path, dpi=120)

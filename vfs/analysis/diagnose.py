@@ -19,7 +19,15 @@ database (never with a ground-truth file):
    output, gets a bootstrap CI over cases; the candidates are ranked by the
    overall reduction.  A candidate *helps significantly* if the lower bound
    of its CI (simultaneous over the candidates, Bonferroni) is above zero
-   and the reduction reaches ``min_reduction``.  Residual structure left
+   and the reduction reaches ``min_reduction`` (:func:`helps`, the one rule
+   of the table and the text); a further effect (stepwise) also needs the
+   CI of its reduction on top of the first effect, and of its reduction
+   when the first effect is refitted together with it, above zero.  Below
+   ``min_cases`` cases (or with held-out folds of fewer than
+   :data:`MIN_FOLD_CASES` cases) nothing is claimed: the result is reported as
+   unreliable.  With ``parameters="primary"`` the parameters that are not
+   fitted sit at their neutral values (that part of the effect off), not at
+   their nominal strengths.  Residual structure left
    after the best effect (significant associations of its held-out
    residuals) is reported with the strata it points to.
 
@@ -71,6 +79,12 @@ NUMERIC_FEATURES: Mapping[str, Quantity] = MappingProxyType({
     "restitution": QUANTITIES["dimensionless"],
     "contact_friction": QUANTITIES["dimensionless"],
 })
+#: Fewest cases for which the diagnosis claims anything (below: unreliable, nothing
+#: significant).
+MIN_CASES = 30
+#: Fewest held-out cases per fold for which the diagnosis claims anything.
+MIN_FOLD_CASES = 5
+
 #: Categorical case features.
 CATEGORICAL_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "road_surface")
 
@@ -304,9 +318,14 @@ class CandidateResult:
         Stepwise (ranks 2...): overall reduction when added to the model with
         the rank-1 effect, against that model; None for rank 1 or when no
         effect helps.
+    refit : Reduction or None
+        Stepwise, for candidates that help on top of rank 1: overall
+        reduction of the model with both effects fitted together (rank 1
+        refitted) against rank 1 alone (both cross-validated).
     significant : bool
-        Rank 1: helps alone; ranks 2...: helps on top of rank 1 (if rank 1
-        helps), else alone.
+        :func:`helps` for the overall reduction; ranks 2... (if rank 1
+        helps) also for ``given_best`` and ``refit``; always False when the
+        sample is too small (:attr:`Diagnosis.reliable`).
     rank : int
     variants : int
         Model variants its search asked for (shared simulation calls; the
@@ -323,6 +342,7 @@ class CandidateResult:
     rank: int = 0
     variants: int = 0
     given_best: Reduction | None = None
+    refit: Reduction | None = None
 
     def fitted(self) -> list[dict[str, Any]]:
         """Parameters fitted on all cases (empty if the default model fits better)."""
@@ -346,6 +366,7 @@ class Diagnosis:
     settings: dict[str, Any]
     stats: dict[str, Any] = field(default_factory=dict)
     database: str = ""
+    reliable: bool = True
 
     @property
     def ranking(self) -> list[str]:
@@ -371,6 +392,9 @@ class Diagnosis:
                 "reduction_given_best": c.given_best.estimate if c.given_best else np.nan,
                 "given_best_ci_low": c.given_best.low if c.given_best else np.nan,
                 "given_best_ci_high": c.given_best.high if c.given_best else np.nan,
+                "reduction_refit": c.refit.estimate if c.refit else np.nan,
+                "refit_ci_low": c.refit.low if c.refit else np.nan,
+                "refit_ci_high": c.refit.high if c.refit else np.nan,
                 "fitted": _format_params(c.fitted()),
                 "variants": c.variants,
             }
@@ -378,6 +402,12 @@ class Diagnosis:
                 row[f"reduction_{g}"] = r.estimate
             rows.append(row)
         return pd.DataFrame(rows)
+
+
+def helps(r: Reduction | None, min_reduction: float) -> bool:
+    """The significance rule: the CI lies above 0 and the estimate reaches ``min_reduction``."""
+    return bool(r is not None and np.isfinite(r.low) and r.low > 0
+                and r.estimate >= min_reduction)
 
 
 def _format_params(effects: list[dict[str, Any]]) -> str:
@@ -405,7 +435,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
              confidence: float = 0.95, n_boot: int = 2000, correction: str = "bh",
              alpha: float = 0.05, min_reduction: float = 0.01, worst: int = 6,
              params: SimulationParams | None = None, database: str = "",
-             stepwise: bool = True,
+             stepwise: bool = True, min_cases: int = MIN_CASES,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the default model against the reconstructions of ``db``.
 
@@ -422,8 +452,9 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         k-fold cross-validation by case; seed of the fold assignment and the
         bootstrap.
     parameters : {"primary", "all"}
-        Fit only each effect's primary parameter (others at their defaults)
-        or all its parameters (coordinate search, slower).
+        Fit only each effect's primary parameter (the others at their neutral
+        values where they have one, else their defaults) or all its
+        parameters (coordinate search, slower).
     grid_points, zoom_rounds : int
         Coarse grid and refinement rounds of :func:`vfs.analysis.calibrate.fit_folds`.
     confidence : float
@@ -447,7 +478,12 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         If the best candidate helps, cross-validate every other candidate
         added to the model with the best one (fitted on all cases) and rank
         them by that conditional reduction: a weaker effect masked by a
-        dominant one is found second.
+        dominant one is found second.  It is claimed only if it also helps
+        when the first effect is refitted together with it.
+    min_cases : int
+        Fewest cases (and :data:`MIN_FOLD_CASES` held-out cases per fold)
+        for which anything is claimed; below, the verdict says the result is
+        unreliable and no candidate is significant.
     progress : callable, optional
         Called with one line per finished step.
     """
@@ -457,6 +493,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     names = resolve_candidates(effects)
     sim = VariantSimulator(data, params)
     held = kfold_indices(data.n, folds, seed)
+    reliable = data.n >= min_cases and min(len(h) for h in held) >= MIN_FOLD_CASES
+    fixed = "neutral" if parameters == "primary" else "default"
     rng = np.random.default_rng(seed)
     features = case_features(data)
     base = cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False)
@@ -470,7 +508,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     fit_opts: dict[str, Any] = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
     classes = [get_effect(name) for name in names]
     t1, v1 = time.perf_counter(), sim.n_variants
-    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters) for cls in classes], held,
+    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters, fixed) for cls in classes], held,
                               names, allow_off=True, **fit_opts) if classes else []
     fit_seconds = time.perf_counter() - t1
     say(f"fitted {len(classes)} candidates: {sim.n_variants - v1} model variants in "
@@ -488,7 +526,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                                              confidence=confidence, n_boot=n_boot))
         c = CandidateResult(name, cv, Reduction(est, lo, hi), Reduction(a_est, a_lo, a_hi),
                             per, affected,
-                            significant=bool(lo > 0 and est >= min_reduction),
+                            significant=reliable and helps(Reduction(est, lo, hi),
+                                                           min_reduction),
                             variants=cv.variants)
         cands.append(c)
         say(f"candidate {name}: CV RMSE reduction {100 * est:.1f} % "
@@ -504,13 +543,25 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
             effects=tuple(p0.effects) + tuple(best_model)))
         base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
         cvs2 = cross_validate_many(
-            sim2, [FitSpace.of([get_effect(c.name)], parameters) for c in rest], held,
+            sim2, [FitSpace.of([get_effect(c.name)], parameters, fixed) for c in rest], held,
             [f"{best.name}+{c.name}" for c in rest], allow_off=True, **fit_opts)
         for c, cv2 in zip(rest, cvs2, strict=True):
             c.given_best = Reduction(*reduction_ci(cv2.errors, base2.errors, rng,
                                                    confidence=level, n_boot=n_boot))
-            c.significant = bool(c.given_best.low > 0
-                                 and c.given_best.estimate >= min_reduction)
+        # survive a refit of the first effect: both fitted together, against the first alone
+        keep = [c for c in rest
+                if helps(c.overall, min_reduction) and helps(c.given_best, min_reduction)]
+        best_cls = get_effect(best.name)
+        cvs3 = cross_validate_many(
+            sim, [FitSpace.of([best_cls, get_effect(c.name)], parameters, fixed) for c in keep],
+            held, [f"{best.name}+{c.name} (refit)" for c in keep], allow_off=True,
+            **fit_opts) if keep else []
+        for c, cv3 in zip(keep, cvs3, strict=True):
+            c.refit = Reduction(*reduction_ci(cv3.errors, best.cv.errors, rng,
+                                              confidence=level, n_boot=n_boot))
+        for c in rest:
+            c.significant = reliable and all(
+                helps(r, min_reduction) for r in (c.overall, c.given_best, c.refit))
         rest.sort(key=lambda c: (-np.nan_to_num(c.given_best.estimate, nan=-np.inf)
                                  if c.given_best else np.inf, c.name))
         cands = [cands[0], *rest]
@@ -531,11 +582,13 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 "zoom_rounds": zoom_rounds, "confidence": confidence,
                 "simultaneous_confidence": level, "n_boot": n_boot,
                 "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
-                "candidates": names,
+                "candidates": names, "min_cases": min_cases, "reliable": reliable,
+                "fixed_parameters": fixed,
                 "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
                 "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
     diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,
-                     after.label, worst_df, [], settings, database=database)
+                     after.label, worst_df, [], settings, database=database,
+                     reliable=reliable)
     diag.verdict = _verdict(diag)
     diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
                   "n_cases": data.n}
@@ -580,6 +633,13 @@ def _verdict(diag: Diagnosis) -> list[str]:
     sig = [c for c in diag.candidates if c.significant]
     if not diag.candidates:
         return ["No candidate effect was tested."]
+    if not diag.reliable:
+        n, k = diag.data.n, diag.settings["folds"]
+        out.append(
+            f"UNRELIABLE: {n} cases in {k} folds (fewer than "
+            f"{diag.settings['min_cases']} cases or fewer than {MIN_FOLD_CASES} held-out cases "
+            "per fold): the cross-validated reductions and their CIs below are not "
+            "trustworthy and no candidate is claimed to help significantly.")
     if not sig:
         top = diag.candidates[0]
         out.append(
@@ -605,8 +665,12 @@ def _verdict(diag: Diagnosis) -> list[str]:
             out.append(f"Added to the model with {b.name}, these effects lower the "
                        "cross-validated RMSE further (significantly; calibrate them together "
                        f"with vfs calibrate --effects {b.name},...): "
-                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} %)"
-                                   for c in sig[1:] if c.given_best) + ".")
+                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} % "
+                                   f"[{100 * c.given_best.low:.1f}, "
+                                   f"{100 * c.given_best.high:.1f}]; refitted together "
+                                   f"{100 * c.refit.estimate:.1f} % [{100 * c.refit.low:.1f}, "
+                                   f"{100 * c.refit.high:.1f}])"
+                                   for c in sig[1:] if c.given_best and c.refit) + ".")
     rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
         diag.remaining
     after = diag.remaining_model
@@ -644,6 +708,7 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
         "created_by": "vfs diagnose",
         "database": diag.database,
         "n_cases": d.n,
+        "reliable": diag.reliable,
         "settings": diag.settings,
         "default": {"cv_rmse": dict(zip(d.group_names, diag.default.rmse().tolist(),
                                         strict=True)),
@@ -660,6 +725,7 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
                 "reduction_affected": {**c.affected.as_dict(),
                                        "outputs": list(c.affected_outputs)},
                 "reduction_given_best": c.given_best.as_dict() if c.given_best else None,
+                "reduction_refit": c.refit.as_dict() if c.refit else None,
                 "reduction_per_output": {g: r.as_dict() for g, r in c.per_output.items()},
                 "cv_rmse": dict(zip(d.group_names, c.cv.rmse().tolist(), strict=True)),
                 "cv_rmse_overall": c.cv.overall_rmse(),
@@ -685,7 +751,8 @@ def output_names() -> list[str]:
 
 __all__ = [
     "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
-    "Diagnosis", "Reduction", "case_features", "diagnose",
+    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "Reduction", "case_features", "diagnose",
+    "helps",
     "output_names",
     "residual_associations", "residual_variables", "resolve_candidates",
     "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases",

@@ -168,7 +168,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "delta_v, ees, energy_loss, post_speed, velocity_angle_change, pdof, "
                    "rest_position, rest_yaw, runout_distance, impact_type")
     p.add_argument("--parameters", choices=("primary", "all"), default="primary",
-                   help="fit each effect's primary parameter (others at default) or all")
+                   help="fit each effect's primary parameter (diagnose: others at their "
+                   "neutral values, calibrate: at their defaults) or all")
     p.add_argument("--folds", type=int, default=None, help="k of the k-fold CV (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of folds and bootstrap")
     p.add_argument("--grid", type=int, default=None,

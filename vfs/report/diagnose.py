@@ -211,7 +211,14 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                 f"{_pct(lo)} .. {_pct(hi)}" for lo, hi in zip(rt["ci_low"], rt["ci_high"],
                                                               strict=True)],
             "own outputs [%]": [_pct(v) for v in rt["reduction_affected"]],
-            "added to rank 1 [%]": [_pct(v) for v in rt["reduction_given_best"]],
+            "added to rank 1 [%]": [
+                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
+                for v, lo, hi in zip(rt["reduction_given_best"], rt["given_best_ci_low"],
+                                     rt["given_best_ci_high"], strict=True)],
+            "rank 1 refitted with it [%]": [
+                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
+                for v, lo, hi in zip(rt["reduction_refit"], rt["refit_ci_low"],
+                                     rt["refit_ci_high"], strict=True)],
             "CV RMSE": rt["cv_rmse"], "fitted on all cases": rt["fitted"],
             "variants": rt["variants"],
         })))
@@ -221,7 +228,10 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
         "candidate helps if the CI lies above 0 and the reduction reaches "
         f"{100 * s['min_reduction']:.0f} %. Ranks 2 and below are ordered by the reduction "
         "they add to the model with the rank-1 effect (stepwise) when that one helps; "
-        "'helps' then means 'helps on top of rank 1'."))
+        "'helps' then means: its own CI, the CI on top of rank 1 and the CI with rank 1 "
+        "refitted together with it all lie above 0."
+        + ("" if diag.reliable else " UNRELIABLE: too few cases or folds, nothing is "
+           "claimed.")))
     if diag.candidates:
         per = pd.DataFrame({"output": list(d.group_names),
                             "default CV RMSE": diag.default.rmse()})

@@ -39,7 +39,7 @@ import pandas as pd
 from vfs.analysis.calibrate import CalibrationData, VariantSimulator
 from vfs.atomic import write_text
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.effects.learned import CHANNELS, ChannelLaw, law_effect_class
+from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig
 
@@ -227,6 +227,31 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
     return pd.concat(frames, ignore_index=True)
 
 
+def identification_features(data: CalibrationData) -> pd.DataFrame:
+    """Numeric case features of the laws (:data:`vfs.effects.learned.LAW_FEATURES`, SI)
+    from the reconstruction: those of :func:`vfs.analysis.diagnose.case_features` and
+    the normal closing speed of the POIs at the recorded contact plane (velocities at
+    impact with the yaw rates).
+    """
+    from vfs.analysis.diagnose import case_features
+
+    f = case_features(data)
+    rec = data.reconstruction
+
+    def col(name: str) -> np.ndarray:
+        return pd.to_numeric(rec[name], errors="coerce").to_numpy(float)
+
+    cp = col("cp_angle")
+    px, py = col("poi_x"), col("poi_y")
+    x1, y1, x2, y2 = col("x1"), col("y1"), col("x2"), col("y2")
+    w1 = np.nan_to_num(col("yaw_rate1")) if "yaw_rate1" in rec.columns else 0.0
+    w2 = np.nan_to_num(col("yaw_rate2")) if "yaw_rate2" in rec.columns else 0.0
+    ux = (col("vx1") - w1 * (py - y1)) - (col("vx2") - w2 * (py - y2))
+    uy = (col("vy1") + w1 * (px - x1)) - (col("vy2") + w2 * (px - x2))
+    f["normal_closing_speed"] = np.abs(-np.sin(cp) * ux + np.cos(cp) * uy)
+    return f[["case_id", *LAW_FEATURES, "impact_type", "accident_type"]]
+
+
 def write_identification(table: pd.DataFrame, features: pd.DataFrame, out: str | Path,
                          meta: dict[str, Any] | None = None) -> dict[str, Path]:
     """Write ``identified.parquet``, ``identified.csv`` (values joined with the case
@@ -259,5 +284,6 @@ def timed_identify(data: CalibrationData, channels: Sequence[str] | str | None =
     return t, time.perf_counter() - t0
 
 
-__all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "identify", "parse_channels",
+__all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "identification_features", "identify",
+           "parse_channels",
            "timed_identify", "write_identification"]

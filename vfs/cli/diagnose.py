@@ -179,7 +179,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true",
                    help="3 folds, grid 5, 2 zoom rounds, 500 bootstrap samples")
     p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
-                   help="import a module or .py file that registers effects (repeatable)")
+                   help="import a module, .py file or law.json (vfs learn) that registers "
+                   "effects (repeatable)")
     p.add_argument("--ledger", default=None, metavar="DIR",
                    help="folder of ledger.jsonl (default: the parent of --out)")
 

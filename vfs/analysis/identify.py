@@ -95,6 +95,35 @@ def _per_case_class(channel: str, n: int) -> type[ChannelLaw]:
     return PerCase
 
 
+def _probe_class(channel: str, n: int) -> type[ChannelLaw]:
+    """A law effect that leaves the channel unchanged and records the model's value."""
+    base = _constant_class(channel)
+
+    class Probe(base):  # type: ignore[valid-type, misc]
+        seen: np.ndarray = np.full(n, np.nan)
+
+        def value(self, ctx: ContactContext | ImpactContext, config: ImpactConfig | None,
+                  base_value: np.ndarray) -> np.ndarray:
+            self.seen[np.asarray(ctx.rows) % n] = base_value
+            return base_value
+
+    Probe.__name__ = f"Probe_{channel}"
+    return Probe
+
+
+def model_values(sim: VariantSimulator, channel: str) -> np.ndarray:
+    """The model's own value of a channel per case (0 for shift channels; NaN where the
+    case does not collide).
+    """
+    n = sim.data.n
+    if CHANNELS[channel].mode == "shift":
+        return np.zeros(n)
+    probe = _probe_class(channel, n)
+    setattr(probe, "seen", np.full(n, np.nan))  # noqa: B010
+    sim.simulate([(probe(),)])
+    return np.asarray(getattr(probe, "seen"), float)  # noqa: B009
+
+
 def chi2(data: CalibrationData, residuals: np.ndarray) -> np.ndarray:
     """Per-case chi^2 = sum of squared standardised residuals (n,); NaN columns skipped."""
     z = residuals / data.scales[data.column_group][None, :]
@@ -178,7 +207,8 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
     -------
     pandas.DataFrame
         One row per case and channel: case_id, channel, unit, mode, value,
-        low, high (interval chi^2 <= min + 1), chi2 (at the value), chi2_model
+        model_value (the model's own value; 0 for shift channels), low, high
+        (interval chi^2 <= min + 1), chi2 (at the value), chi2_model
         (the model's own value), chi2_span, n_columns, flat, multimodal,
         at_bound, identifiable.
     """
@@ -219,7 +249,8 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         low, high, flat, multi, at_b = _profile_interval(grid, prof, best, fmin)
         frames.append(pd.DataFrame({
             "case_id": data.case_ids, "channel": name, "unit": ch.unit, "mode": ch.mode,
-            "value": best, "low": low, "high": high, "chi2": fmin,
+            "value": best, "model_value": model_values(sim, name), "low": low, "high": high,
+            "chi2": fmin,
             "chi2_model": base_chi2, "chi2_span": np.ptp(prof, axis=0),
             "n_columns": ncol, "flat": flat, "multimodal": multi, "at_bound": at_b,
             "identifiable": ~(flat | multi | at_b),

@@ -20,7 +20,9 @@ The best (feature, form) is the one with the lowest CV error; a closed form
 is preferred to the spline when its CV error is at most 2 % higher (a
 formula the user can read).  The law is *significant* when the bootstrap
 CI (over cases, Bonferroni over the features) of its CV RMSE reduction
-against the constant lies above zero and the reduction reaches
+against the null model (the better of a constant and the model's own
+value of the channel, e.g. the EES stiffness ratio m1 / m2 of the default
+model) lies above zero and the reduction reaches
 ``min_reduction``; otherwise the channel is reported as "no structure".
 """
 
@@ -139,7 +141,8 @@ class ChannelLaw:
     law : dict or None
         The law (JSON-ready, :func:`vfs.effects.learned.law_effect_class`).
     reduction, low, high : float
-        CV RMSE reduction of the law against the constant, with its CI.
+        CV RMSE reduction of the law against the null (the better of a
+        constant and the model's own value, ``null``), with its CI.
     candidates : pandas.DataFrame
         feature, form, cv_mse, reduction (against the constant), coefficients.
     band : dict
@@ -156,6 +159,7 @@ class ChannelLaw:
     candidates: pd.DataFrame
     band: dict[str, list[float]] = field(default_factory=dict)
     note: str = ""
+    null: str = "constant"
 
     def text(self) -> str:
         """One line for reports."""
@@ -163,7 +167,8 @@ class ChannelLaw:
             return (f"{self.channel}: no structure ({self.note or 'nothing beats the constant'}"
                     f"; {self.n} identifiable cases)")
         return (f"{self.channel} follows f({self.law['feature']}): {law_text(self.law)}; "
-                f"CV reduction vs constant {100 * self.reduction:.1f} % "
+                f"CV reduction vs {'the model' if self.null == 'model' else 'a constant'} "
+                f"{100 * self.reduction:.1f} % "
                 f"[{100 * self.low:.1f}, {100 * self.high:.1f}] ({self.n} cases)")
 
 
@@ -181,6 +186,82 @@ def _cv_predictions(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
             coef = fit_form(form, x[tr], y[tr], w[tr])
             pred[h] = evaluate_law({"form": form, "coefficients": coef}, x[h])
     return pred
+
+
+def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarray,
+                                                          np.ndarray]:
+    """Identifiable rows of a channel, their values and weights 1 / sigma^2 (mean 1).
+
+    sigma is the half width of the chi^2 + 1 interval, floored at a tenth of
+    the standard deviation of the values.
+    """
+    t = table[table["channel"] == channel]
+    t = t[t["identifiable"].astype(bool) & np.isfinite(t["value"].to_numpy(float))]
+    y = t["value"].to_numpy(float)
+    if y.size == 0:
+        return t, y, y
+    sigma = 0.5 * (t["high"].to_numpy(float) - t["low"].to_numpy(float))
+    floor = 0.1 * float(np.std(y)) if np.std(y) > 0 else 1e-6
+    w = 1.0 / np.maximum(sigma, floor) ** 2
+    return t, y, w / w.mean()
+
+
+def refit_law(law: Mapping[str, Any], x: np.ndarray, y: np.ndarray, w: np.ndarray,
+              name: str | None = None) -> dict[str, Any]:
+    """The law's form refitted to (x, y, w) (closed form: WLS; table: spline)."""
+    out = dict(law)
+    if name is not None:
+        out["name"] = name
+    if law["form"] == "table":
+        spl = _spline(x, y, w)
+        xg = np.asarray(law["table"]["x"], float)
+        if spl is not None:
+            out["table"] = {"x": xg.tolist(),
+                            "y": predict_spline(spl, xg, x.min(), x.max()).tolist()}
+    else:
+        out["coefficients"] = fit_form(law["form"], x, y, w)
+    return out
+
+
+def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
+                       held: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Cross-validated outcome errors of a law used as an effect.
+
+    For each fold, the law's form is refitted to the identified values of
+    the training cases only (identification is per case, so the held-out
+    cases' outcomes do not enter), simulated on all cases (one stacked
+    call for all folds) and scored on the held-out cases.
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    table : pandas.DataFrame
+        Identification joined with features, rows of the simulator's cases.
+    law : mapping
+    held : sequence of int arrays
+        Held-out rows (positions in ``sim.data``).
+
+    Returns
+    -------
+    (residuals, errors)
+        Held-out residuals (n, n_columns) and per-case errors (n, n_groups).
+    """
+    from vfs.effects.learned import law_effect_class
+
+    data = sim.data
+    t, y, w = law_rows(table, law["channel"])
+    pos = pd.Index(data.case_ids).get_indexer(t["case_id"])
+    x = t[law["feature"]].to_numpy(float)
+    models = []
+    for k, h in enumerate(held):
+        tr = ~np.isin(pos, h)
+        lk = refit_law(law, x[tr], y[tr], w[tr], name=f"{law['name']}_cv{k}")
+        models.append((law_effect_class(lk)(),))
+    res = sim.residuals(models)
+    residuals = np.full_like(data.observed, np.nan)
+    for h, r in zip(held, res, strict=True):
+        residuals[h] = r[h]
+    return residuals, data.case_errors(residuals)
 
 
 def learn_channel(table: pd.DataFrame, channel: str,
@@ -217,24 +298,25 @@ def learn_channel(table: pd.DataFrame, channel: str,
     if t.empty:
         raise ParameterError(f"identification table: no rows of channel {channel!r} "
                              f"(channels: {sorted(set(table['channel']))})")
-    t = t[t["identifiable"].astype(bool) & np.isfinite(t["value"].to_numpy(float))]
+    t, y, w = law_rows(table, channel)
     feats = [f for f in features if f in t.columns]
-    y = t["value"].to_numpy(float)
     n = y.size
     empty = pd.DataFrame(columns=["feature", "form", "cv_mse", "reduction", "coefficients"])
     if n < MIN_LAW_CASES:
         return ChannelLaw(channel, n, False, None, math.nan, math.nan, math.nan, empty,
                           note=f"fewer than {MIN_LAW_CASES} identifiable cases")
-    sigma = 0.5 * (t["high"].to_numpy(float) - t["low"].to_numpy(float))
-    floor = 0.1 * float(np.std(y)) if np.std(y) > 0 else 1e-6
-    w = 1.0 / np.maximum(sigma, floor) ** 2
-    w = w / w.mean()
     held = kfold_indices(n, folds, seed)
     form_names = list(forms) if forms is not None else list(FORMS)
     if "constant" not in form_names:
         form_names.insert(0, "constant")
     const_pred = _cv_predictions("constant", y, y, w, held)
     e0 = w * (y - const_pred) ** 2
+    null = "constant"
+    if "model_value" in t.columns:  # the model's own value of the channel (no law)
+        mv = t["model_value"].to_numpy(float)
+        em = w * (y - mv) ** 2
+        if np.isfinite(em).all() and em.mean() < e0.mean():
+            e0, null = em, "model"
     mse0 = float(np.mean(e0))
     rows: list[dict[str, Any]] = []
     for feat in feats:
@@ -298,11 +380,11 @@ def learn_channel(table: pd.DataFrame, channel: str,
                    {"x": [0.0, 1.0], "y": [float(np.mean(y))] * 2})
     else:
         law.update(form=form, coefficients=fit_form(form, x, y, w))
-    law["cv"] = {"reduction_vs_constant": est, "ci_low": lo, "ci_high": hi,
+    law["cv"] = {"reduction_vs_constant": est, "null": null, "ci_low": lo, "ci_high": hi,
                  "confidence": level, "cases": n, "folds": folds}
     law["feature_range"] = [float(x.min()), float(x.max())]
     law["formula"] = law_text(law)
-    return ChannelLaw(channel, n, significant, law, est, lo, hi, cand, band)
+    return ChannelLaw(channel, n, significant, law, est, lo, hi, cand, band, null=null)
 
 
 def learn(table: pd.DataFrame, channels: Iterable[str] | None = None,
@@ -425,5 +507,6 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
 
 
 __all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "MIN_LAW_CASES", "ChannelLaw",
-           "fit_form", "laws_document", "learn", "learn_channel", "plugin_source",
+           "cross_validate_law", "fit_form", "law_rows", "laws_document", "learn",
+           "learn_channel", "plugin_source", "refit_law",
            "predict_spline", "read_laws"]

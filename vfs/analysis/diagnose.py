@@ -350,6 +350,39 @@ class CandidateResult:
 
 
 @dataclass
+class LawFinding:
+    """A law learned from the per-case identification and its effect on the outcomes.
+
+    Attributes
+    ----------
+    channel : str
+    learned : vfs.analysis.learn.ChannelLaw
+        The law over the identified values (formula, CV against the null).
+    outcome : Reduction
+        Cross-validated overall RMSE reduction of the outcomes against the
+        default model when the law is used as an effect (refitted per fold).
+    errors : ndarray (n, n_groups)
+        Its held-out per-case errors.
+    significant : bool
+        :func:`helps` of ``outcome`` (and the sample is large enough).
+    """
+
+    channel: str
+    learned: Any
+    outcome: Reduction
+    errors: np.ndarray
+    significant: bool = False
+
+    def text(self) -> str:
+        """One line for reports."""
+        law = self.learned.law
+        o = self.outcome
+        return (f"the identified {self.channel} follows f({law['feature']}): "
+                f"{law['formula']}; outcome CV RMSE reduction {100 * o.estimate:.1f} % "
+                f"[{100 * o.low:.1f}, {100 * o.high:.1f}]")
+
+
+@dataclass
 class Diagnosis:
     """Everything :func:`diagnose` found (see :func:`write_report`)."""
 
@@ -367,6 +400,8 @@ class Diagnosis:
     stats: dict[str, Any] = field(default_factory=dict)
     database: str = ""
     reliable: bool = True
+    laws: list[LawFinding] = field(default_factory=list)
+    identification: pd.DataFrame | None = None
 
     @property
     def ranking(self) -> list[str]:
@@ -436,6 +471,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
              alpha: float = 0.05, min_reduction: float = 0.01, worst: int = 6,
              params: SimulationParams | None = None, database: str = "",
              stepwise: bool = True, min_cases: int = MIN_CASES,
+             laws: str | Iterable[str] | None = None, law_grid: int = 13,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the default model against the reconstructions of ``db``.
 
@@ -480,6 +516,14 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         them by that conditional reduction: a weaker effect masked by a
         dominant one is found second.  It is claimed only if it also helps
         when the first effect is refitted together with it.
+    laws : str or list, optional
+        Channels to identify per case and learn laws for
+        (:mod:`vfs.analysis.identify`, :mod:`vfs.analysis.learn`; "all" for
+        every channel; default None: skipped).  Each law whose identified
+        values show structure is cross-validated as an effect (refitted on
+        the training folds) and compared with the library ranking.
+    law_grid : int
+        Grid values per channel of the identification.
     min_cases : int
         Fewest cases (and :data:`MIN_FOLD_CASES` held-out cases per fold)
         for which anything is claimed; below, the verdict says the result is
@@ -573,6 +617,11 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         sim.seconds += sim2.seconds
     for i, c in enumerate(cands, 1):
         c.rank = i
+    findings: list[LawFinding] = []
+    ident = None
+    if laws is not None:
+        findings, ident = _learn_laws(sim, base, held, laws, law_grid, folds, seed, level,
+                                      n_boot, min_reduction, reliable, rng, say)
     after = best.cv if best is not None else base
     remaining = residual_associations(residual_variables(data, after.residuals), features,
                                       correction, alpha)
@@ -588,11 +637,40 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
     diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,
                      after.label, worst_df, [], settings, database=database,
-                     reliable=reliable)
+                     reliable=reliable, laws=findings, identification=ident)
     diag.verdict = _verdict(diag)
     diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
                   "n_cases": data.n}
     return diag
+
+
+def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
+                channels: str | Iterable[str], grid: int, folds: int, seed: int,
+                level: float, n_boot: int, min_reduction: float, reliable: bool,
+                rng: np.random.Generator, say: Callable[[str], None]
+                ) -> tuple[list[LawFinding], pd.DataFrame]:
+    """Identify, learn and cross-validate the laws (see :func:`diagnose`)."""
+    from vfs.analysis.identify import identification_features, identify
+    from vfs.analysis.learn import cross_validate_law, learn
+
+    t0 = time.perf_counter()
+    data = sim.data
+    table = identify(data, channels, grid_points=grid, sim=sim)
+    table = table.merge(identification_features(data), on="case_id", how="left")
+    say(f"identified {table['channel'].nunique()} channels per case in "
+        f"{time.perf_counter() - t0:.1f} s")
+    out = []
+    for r in learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000),
+                   band_boot=50):
+        say(r.text())
+        if not r.significant or r.law is None:
+            continue
+        _, err = cross_validate_law(sim, table, r.law, held)
+        red = Reduction(*reduction_ci(err, base.errors, rng, confidence=level, n_boot=n_boot))
+        out.append(LawFinding(r.channel, r, red, err,
+                              significant=reliable and helps(red, min_reduction)))
+    out.sort(key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
+    return out, table
 
 
 def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.ndarray
@@ -671,6 +749,22 @@ def _verdict(diag: Diagnosis) -> list[str]:
                                    f"{100 * c.refit.estimate:.1f} % [{100 * c.refit.low:.1f}, "
                                    f"{100 * c.refit.high:.1f}])"
                                    for c in sig[1:] if c.given_best and c.refit) + ".")
+    law_sig = [f for f in diag.laws if f.significant]
+    if law_sig:
+        top = diag.candidates[0]
+        lib = (f"{100 * top.overall.estimate:.1f} % [{100 * top.overall.low:.1f}, "
+               f"{100 * top.overall.high:.1f}] for the best library effect ({top.name})")
+        f = law_sig[0]
+        out.append(f"Beyond the library: {f.text()}, against {lib}. Add it with "
+                   "vfs learn --out law.json and --plugin law.json (or --export-plugin "
+                   "law.py to edit it).")
+        if len(law_sig) > 1:
+            out.append("Other identified channels with structure (partly the same missing "
+                       "physics seen through another channel): "
+                       + "; ".join(x.text() for x in law_sig[1:4]) + ".")
+    elif diag.identification is not None:
+        out.append("The per-case identification shows no channel law that lowers the "
+                   "cross-validated error significantly.")
     rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
         diag.remaining
     after = diag.remaining_model
@@ -740,6 +834,13 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
             .to_dict(orient="records") if len(diag.remaining) else [],
         },
         "worst_cases": diag.worst.to_dict(orient="records"),
+        "laws": [{"channel": f.channel, "significant": f.significant,
+                  "law": f.learned.law, "text": f.text(),
+                  "outcome_reduction": f.outcome.as_dict(),
+                  "identified_reduction": {"estimate": f.learned.reduction,
+                                           "low": f.learned.low, "high": f.learned.high,
+                                           "null": f.learned.null}}
+                 for f in diag.laws],
         "stats": diag.stats,
     }
 
@@ -751,8 +852,8 @@ def output_names() -> list[str]:
 
 __all__ = [
     "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
-    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "Reduction", "case_features", "diagnose",
-    "helps",
+    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "LawFinding", "Reduction", "case_features",
+    "diagnose", "helps",
     "output_names",
     "residual_associations", "residual_variables", "resolve_candidates",
     "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases",

@@ -31,6 +31,7 @@ from vfs.effects.base import Effect, EffectParameter
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, ImpactResult, contact_frame, energy_split
+from vfs.physics.precrash import PrecrashParams
 
 
 @dataclass(frozen=True)
@@ -230,7 +231,8 @@ class ChannelLaw(Effect):
         """Penetration time from the law [s]."""
         if self.law["channel"] != "penetration_time":
             return penetration_time
-        return self.value(ctx, None, np.asarray(penetration_time, float))
+        t = np.asarray(penetration_time, float)  # NaN: the model's default
+        return self.value(ctx, None, np.where(np.isnan(t), PrecrashParams.penetration_time, t))
 
     def impact_configuration(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
         """POI shifts and contact-plane turn from the law."""

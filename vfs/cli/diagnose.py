@@ -47,7 +47,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                     seed=args.seed, parameters=args.parameters, grid_points=s["grid"],
                     zoom_rounds=s["zoom"], n_boot=s["n_boot"], correction=args.correction,
                     alpha=args.alpha, min_reduction=args.min_reduction, worst=args.worst,
-                    database=str(path), progress=say)
+                    database=str(path), progress=say,
+                    laws=None if args.laws in ("", "none") else args.laws)
     paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
     print(diag.ranked_table()[["rank", "effect", "significant", "reduction", "ci_low",
@@ -210,6 +211,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--min-reduction", dest="min_reduction", type=float, default=0.01,
                    help="smallest CV RMSE reduction that counts as helping (default 0.01)")
     p.add_argument("--worst", type=int, default=6, help="worst cases listed and sketched")
+    p.add_argument("--laws", default="all",
+                   help="channels identified per case and learned (vfs identify / learn) "
+                   "after the ranking: 'all' (default), a list, or 'none'")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

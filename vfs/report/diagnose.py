@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.diagnose import Diagnosis, summary_dict
+from vfs.analysis.diagnose import Diagnosis, LawFinding, summary_dict
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import new_figure, plot_case_topview, save_figure
 from vfs.report.render import (
@@ -103,6 +103,8 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
         ax.set_title("Which effect is missing", fontsize=10)
         save_figure(fig, out / "ranking.png", dpi=110, tight=True)
         figs["ranking"] = f"{rel}/ranking.png"
+    for k, f in enumerate(diag.laws[:3]):
+        figs[f"law_{k}"] = f"{rel}/{_plot_law(diag, f, out / f'law_{f.channel}.png').name}"
 
         mat = np.array([[100 * c.per_output[g].estimate for g in d.group_names] for c in cands])
         fig = new_figure((1.0 + 0.8 * len(d.group_names), 0.45 * len(cands) + 2.0))
@@ -179,6 +181,34 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
     return figs
 
 
+def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
+    """Identified values of a channel over the law's feature, the law and the spline band."""
+    from vfs.analysis.learn import law_rows
+    from vfs.effects.learned import evaluate_law
+
+    law = finding.learned.law
+    t, y, _ = law_rows(diag.identification, finding.channel) \
+        if diag.identification is not None else (pd.DataFrame(), np.array([]), None)
+    fig = new_figure((6, 4))
+    ax = fig.subplots()
+    if len(t):
+        ax.errorbar(t[law["feature"]], y, yerr=[y - t["low"], t["high"] - y], fmt="o", ms=2.5,
+                    color="#999999", elinewidth=0.5, label="identified (chi^2 + 1 interval)")
+    band = finding.learned.band
+    if band:
+        ax.fill_between(band["x"], band["low"], band["high"], color="#1f77b4", alpha=0.2,
+                        label="smoothing spline, 95 % bootstrap band")
+        ax.plot(band["x"], band["y"], color="#1f77b4", lw=1)
+        xg = np.asarray(band["x"], float)
+        ax.plot(xg, evaluate_law(law, xg), color="#d62728", lw=2, label=law["formula"][:60])
+    ax.set_xlabel(f"{law['feature']} [{law['feature_unit']}]")
+    ax.set_ylabel(f"{law['channel']} [{law['channel_unit']}]")
+    ax.legend(fontsize=7)
+    ax.set_title(f"Learned law of {law['channel']}", fontsize=10)
+    save_figure(fig, path, dpi=110, tight=True)
+    return path
+
+
 def _table(df: pd.DataFrame) -> Table:
     return Table.from_frame(df, floatfmt=FLOAT_FORMAT)
 
@@ -246,6 +276,23 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                          ("profiles", "Objective along each candidate's parameter")):
         if key in figures:
             doc.append(Figure(figures[key], caption))
+    if diag.identification is not None:
+        doc.append(Heading("Beyond the library: identified channels and learned laws", 2))
+        if diag.laws:
+            doc.append(_table(pd.DataFrame({
+                "channel": [f.channel for f in diag.laws],
+                "law": [f.learned.law["formula"] for f in diag.laws],
+                "vs null on identified values [%]": [_pct(f.learned.reduction)
+                                                     for f in diag.laws],
+                "outcome CV reduction [%]": [
+                    f"{_pct(f.outcome.estimate)} ({_pct(f.outcome.low)} .. "
+                    f"{_pct(f.outcome.high)})" for f in diag.laws],
+                "helps": [f.significant for f in diag.laws]})))
+        else:
+            doc.append(Paragraph("No identified channel shows a law."))
+        for k, f in enumerate(diag.laws[:3]):
+            if f"law_{k}" in figures:
+                doc.append(Figure(figures[f"law_{k}"], f.text()))
     doc += [
         Heading("Where the model fails", 2),
         _table(pd.DataFrame({"output": list(d.group_names),

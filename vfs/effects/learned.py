@@ -70,7 +70,7 @@ CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
             "coefficient of restitution"),
     Channel("contact_friction", "-", 0.0, 1.2, "set", "impact_parameters",
             "friction coefficient of the contact plane"),
-    Channel("poi_along", "m", -1.0, 1.0, "shift", "impact_configuration",
+    Channel("poi_along", "m", -1.5, 1.5, "shift", "impact_configuration",
             "POI shift along the contact plane (tangent)"),
     Channel("poi_across", "m", -0.5, 0.5, "shift", "impact_configuration",
             "POI shift across the contact plane (normal)"),

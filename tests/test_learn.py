@@ -276,3 +276,33 @@ def test_identification_table_has_units_and_flags(tmp_path):
     assert {"flat", "multimodal", "at_bound", "identifiable", "normal_closing_speed"} \
         <= set(back.columns)
     assert paths["csv"].is_file() and paths["units"].is_file()
+
+
+def test_cli_identify_learn_calibrate_compare(tmp_path):
+    from vfs.cli import main as cli
+    from vfs.effects import registered_effects, unregister_effect
+    from vfs.scenarios.generator import write_generated
+
+    db, truth = generate_database("default", n_cases=100, seed=21,
+                                  hidden=(HiddenStepRestitution(),))
+    folder = write_generated(db, truth, tmp_path / "db")
+    assert cli(["identify", "--db", str(folder), "--parameters", "restitution", "--grid", "13",
+                "--out", str(tmp_path / "id")]) == 0
+    law = tmp_path / "law.json"
+    assert cli(["learn", "--identified", str(tmp_path / "id"), "--out", str(law),
+                "--export-plugin", str(tmp_path / "law_plugin.py")]) == 0
+    import json
+
+    doc = json.loads(law.read_text())
+    assert [x["channel"] for x in doc["laws"]] == ["restitution"]
+    assert doc["laws"][0]["feature"] == "normal_closing_speed"
+    assert "def law_value" in (tmp_path / "law_plugin.py").read_text()
+    try:
+        assert cli(["calibrate", "--db", str(folder), "--plugin", str(law), "--effects",
+                    "learned_restitution", "--quick", "--no-cv",
+                    "--out", str(tmp_path / "res" / "model.json")]) == 0
+        model = json.loads((tmp_path / "res" / "model.json").read_text())
+        assert model["effects"][0]["name"] == "learned_restitution"
+    finally:
+        if "learned_restitution" in registered_effects():
+            unregister_effect("learned_restitution")

@@ -644,6 +644,25 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     return diag
 
 
+def _closed_alternative(r: Any) -> dict[str, Any] | None:
+    """The best closed form over the law's feature when the law is a table."""
+    from vfs.effects.learned import law_text
+
+    law = r.law
+    if law is None or law["form"] != "table":
+        return None
+    c = r.candidates
+    c = c[(c["feature"] == law["feature"]) & (c["form"] != "spline")]
+    if c.empty:
+        return None
+    form = str(c["form"].iloc[0])
+    alt = {k: v for k, v in law.items() if k not in ("table",)}
+    alt["form"] = form
+    alt["coefficients"] = [float(v) for v in str(c["coefficients"].iloc[0]).split()]
+    alt["formula"] = law_text(alt)
+    return alt
+
+
 def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
                 channels: str | Iterable[str], grid: int, folds: int, seed: int,
                 level: float, n_boot: int, min_reduction: float, reliable: bool,
@@ -666,6 +685,12 @@ def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray
         if not r.significant or r.law is None:
             continue
         _, err = cross_validate_law(sim, table, r.law, held)
+        alt = _closed_alternative(r)
+        if alt is not None:  # a table won on the identified values: try the best formula
+            _, err2 = cross_validate_law(sim, table, alt, held)
+            if np.nanmean(err2) < np.nanmean(err):
+                r.law, err = alt, err2
+                say(f"  the formula does better on the outcomes: {alt['formula']}")
         red = Reduction(*reduction_ci(err, base.errors, rng, confidence=level, n_boot=n_boot))
         out.append(LawFinding(r.channel, r, red, err,
                               significant=reliable and helps(red, min_reduction)))

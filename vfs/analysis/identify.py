@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.calibrate import CalibrationData, VariantSimulator
+from vfs.analysis.features import case_features
 from vfs.atomic import write_text
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
@@ -260,12 +261,10 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
 
 def identification_features(data: CalibrationData) -> pd.DataFrame:
     """Numeric case features of the laws (:data:`vfs.effects.learned.LAW_FEATURES`, SI)
-    from the reconstruction: those of :func:`vfs.analysis.diagnose.case_features` and
+    from the reconstruction: those of :func:`vfs.analysis.features.case_features` and
     the normal closing speed of the POIs at the recorded contact plane (velocities at
     impact with the yaw rates).
     """
-    from vfs.analysis.diagnose import case_features
-
     f = case_features(data)
     rec = data.reconstruction
 

@@ -242,8 +242,8 @@ def test_cli_diagnose_calibrate_ledger(tmp_path, tyre_db):
     save_database(tyre_db, db_dir)
     out = tmp_path / "res"
     assert dcli(["diagnose", "--db", str(db_dir), "--effects", "tyre_impulse,body_friction",
-                 "--quick", "--no-plots", "--out", str(out / "diagnose"), "--json",
-                 str(out / "d.json"), "--worst", "1"]) == 0
+                 "--laws", "none", "--quick", "--no-plots", "--out", str(out / "diagnose"),
+                 "--json", str(out / "d.json"), "--worst", "1"]) == 0
     assert json.loads((out / "d.json").read_text())["ranking"][0] == "tyre_impulse"
     assert dcli(["calibrate", "--db", str(db_dir), "--effects", "tyre_impulse",
                  "--quick", "--out", str(out / "model.json")]) == 0

@@ -309,16 +309,28 @@ class FitSpace:
 
     @classmethod
     def of(cls, effects: Iterable[Effect | type[Effect] | str],
-           parameters: str = "primary") -> FitSpace:
+           parameters: str = "primary", fixed: str = "default") -> FitSpace:
         """Space of effects (instances, classes or names); ``parameters`` "primary"
         (the first parameter of each effect) or "all".
+
+        ``fixed`` sets the parameters that are not fitted of the effects given
+        as classes or names: "default" (their nominal strengths) or "neutral"
+        (their neutral values where they have one: that part of the effect
+        switched off, the diagnosis' choice, so that a candidate is not
+        penalised for a nominal strength the data do not have).
         """
         if parameters not in ("primary", "all"):
             raise ParameterError(f"parameters={parameters!r}; use 'primary' or 'all'")
+        if fixed not in ("default", "neutral"):
+            raise ParameterError(f"fixed={fixed!r}; use 'default' or 'neutral'")
         inst: list[Effect] = []
         for e in effects:
             if isinstance(e, str):
                 e = get_effect(e)
+            if isinstance(e, type) and fixed == "neutral" and parameters == "primary":
+                off = {p.name: p.neutral for p in e.parameters[1:] if p.neutral is not None}
+                inst.append(e(**off))
+                continue
             inst.append(e() if isinstance(e, type) else e)
         free = []
         for i, e in enumerate(inst):

@@ -19,7 +19,15 @@ database (never with a ground-truth file):
    output, gets a bootstrap CI over cases; the candidates are ranked by the
    overall reduction.  A candidate *helps significantly* if the lower bound
    of its CI (simultaneous over the candidates, Bonferroni) is above zero
-   and the reduction reaches ``min_reduction``.  Residual structure left
+   and the reduction reaches ``min_reduction`` (:func:`helps`, the one rule
+   of the table and the text); a further effect (stepwise) also needs the
+   CI of its reduction on top of the first effect, and of its reduction
+   when the first effect is refitted together with it, above zero.  Below
+   ``min_cases`` cases (or with held-out folds of fewer than
+   :data:`MIN_FOLD_CASES` cases) nothing is claimed: the result is reported as
+   unreliable.  With ``parameters="primary"`` the parameters that are not
+   fitted sit at their neutral values (that part of the effect off), not at
+   their nominal strengths.  Residual structure left
    after the best effect (significant associations of its held-out
    residuals) is reported with the strata it points to.
 
@@ -53,10 +61,10 @@ from vfs.analysis.calibrate import (
     reduction_ci,
     rmse_reduction,
 )
+from vfs.analysis.features import case_features
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
-from vfs.physics.geometry import swept_overlap, vehicle_outline
 from vfs.simulation import SimulationParams
 
 #: Numeric case features (name -> quantity kind: SI unit, report unit and factor).
@@ -71,6 +79,12 @@ NUMERIC_FEATURES: Mapping[str, Quantity] = MappingProxyType({
     "restitution": QUANTITIES["dimensionless"],
     "contact_friction": QUANTITIES["dimensionless"],
 })
+#: Fewest cases for which the diagnosis claims anything (below: unreliable, nothing
+#: significant).
+MIN_CASES = 30
+#: Fewest held-out cases per fold for which the diagnosis claims anything.
+MIN_FOLD_CASES = 5
+
 #: Categorical case features.
 CATEGORICAL_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "road_surface")
 
@@ -91,49 +105,6 @@ STRATA_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "overlap", "
 # ----------------------------------------------------------------------------
 # Where the model fails
 # ----------------------------------------------------------------------------
-
-
-def case_features(data: CalibrationData) -> pd.DataFrame:
-    """Features of each case from the reconstruction and the case data (SI units).
-
-    Columns: case_id, impact_type (the reconstruction's), accident_type,
-    road_surface, closing_speed [m/s] (|v1 - v2| at impact), overlap [-]
-    (:func:`vfs.physics.geometry.swept_overlap` of the outlines at the recorded
-    impact configuration along v1 - v2), mass_ratio m1 / m2 [-],
-    impact_angle [rad] (angle between the headings, 0 = same direction,
-    pi = head-on), impact_speed1/2 [m/s], road_friction, restitution,
-    contact_friction (recorded).
-    """
-    rec = data.reconstruction
-    b = data.batch
-
-    def col(name: str) -> np.ndarray:
-        return pd.to_numeric(rec[name], errors="coerce").to_numpy(float)
-
-    x1, y1, yaw1, x2, y2, yaw2 = (col(c) for c in ("x1", "y1", "yaw1", "x2", "y2", "yaw2"))
-    vx1, vy1, vx2, vy2 = (col(c) for c in ("vx1", "vy1", "vx2", "vy2"))
-    o1 = vehicle_outline(b.vehicle1, x1, y1, yaw1)
-    o2 = vehicle_outline(b.vehicle2, x2, y2, yaw2)
-    rel = np.stack([vx1 - vx2, vy1 - vy2], axis=1)
-    cases = data.db.cases.drop_duplicates("case_id").set_index("case_id").reindex(data.case_ids)
-    out = pd.DataFrame({
-        "case_id": data.case_ids,
-        "impact_type": rec["impact_type"].astype(str).to_numpy(),
-        "accident_type": cases["accident_type"].astype(str).to_numpy()
-        if "accident_type" in cases.columns else "unknown",
-        "road_surface": cases["road_surface"].astype(str).to_numpy()
-        if "road_surface" in cases.columns else "unknown",
-        "closing_speed": np.hypot(rel[:, 0], rel[:, 1]),
-        "overlap": swept_overlap(o1, o2, rel),
-        "mass_ratio": b.vehicle1.mass / b.vehicle2.mass,
-        "impact_angle": np.abs((yaw2 - yaw1 + np.pi) % (2 * np.pi) - np.pi),
-        "impact_speed1": np.hypot(vx1, vy1),
-        "impact_speed2": np.hypot(vx2, vy2),
-        "road_friction": b.road_friction,
-        "restitution": col("restitution"),
-        "contact_friction": col("contact_friction"),
-    })
-    return out
 
 
 def _strata_labels(features: pd.DataFrame, feature: str) -> pd.Series:
@@ -304,9 +275,14 @@ class CandidateResult:
         Stepwise (ranks 2...): overall reduction when added to the model with
         the rank-1 effect, against that model; None for rank 1 or when no
         effect helps.
+    refit : Reduction or None
+        Stepwise, for candidates that help on top of rank 1: overall
+        reduction of the model with both effects fitted together (rank 1
+        refitted) against rank 1 alone (both cross-validated).
     significant : bool
-        Rank 1: helps alone; ranks 2...: helps on top of rank 1 (if rank 1
-        helps), else alone.
+        :func:`helps` for the overall reduction; ranks 2... (if rank 1
+        helps) also for ``given_best`` and ``refit``; always False when the
+        sample is too small (:attr:`Diagnosis.reliable`).
     rank : int
     variants : int
         Model variants its search asked for (shared simulation calls; the
@@ -323,10 +299,44 @@ class CandidateResult:
     rank: int = 0
     variants: int = 0
     given_best: Reduction | None = None
+    refit: Reduction | None = None
 
     def fitted(self) -> list[dict[str, Any]]:
         """Parameters fitted on all cases (empty if the default model fits better)."""
         return self.cv.fitted_parameters()
+
+
+@dataclass
+class LawFinding:
+    """A law learned from the per-case identification and its effect on the outcomes.
+
+    Attributes
+    ----------
+    channel : str
+    learned : vfs.analysis.learn.ChannelLaw
+        The law over the identified values (formula, CV against the null).
+    outcome : Reduction
+        Cross-validated overall RMSE reduction of the outcomes against the
+        default model when the law is used as an effect (refitted per fold).
+    errors : ndarray (n, n_groups)
+        Its held-out per-case errors.
+    significant : bool
+        :func:`helps` of ``outcome`` (and the sample is large enough).
+    """
+
+    channel: str
+    learned: Any
+    outcome: Reduction
+    errors: np.ndarray
+    significant: bool = False
+
+    def text(self) -> str:
+        """One line for reports."""
+        law = self.learned.law
+        o = self.outcome
+        return (f"the identified {self.channel} follows f({law['feature']}): "
+                f"{law['formula']}; outcome CV RMSE reduction {100 * o.estimate:.1f} % "
+                f"[{100 * o.low:.1f}, {100 * o.high:.1f}]")
 
 
 @dataclass
@@ -346,6 +356,9 @@ class Diagnosis:
     settings: dict[str, Any]
     stats: dict[str, Any] = field(default_factory=dict)
     database: str = ""
+    reliable: bool = True
+    laws: list[LawFinding] = field(default_factory=list)
+    identification: pd.DataFrame | None = None
 
     @property
     def ranking(self) -> list[str]:
@@ -371,6 +384,9 @@ class Diagnosis:
                 "reduction_given_best": c.given_best.estimate if c.given_best else np.nan,
                 "given_best_ci_low": c.given_best.low if c.given_best else np.nan,
                 "given_best_ci_high": c.given_best.high if c.given_best else np.nan,
+                "reduction_refit": c.refit.estimate if c.refit else np.nan,
+                "refit_ci_low": c.refit.low if c.refit else np.nan,
+                "refit_ci_high": c.refit.high if c.refit else np.nan,
                 "fitted": _format_params(c.fitted()),
                 "variants": c.variants,
             }
@@ -378,6 +394,12 @@ class Diagnosis:
                 row[f"reduction_{g}"] = r.estimate
             rows.append(row)
         return pd.DataFrame(rows)
+
+
+def helps(r: Reduction | None, min_reduction: float) -> bool:
+    """The significance rule: the CI lies above 0 and the estimate reaches ``min_reduction``."""
+    return bool(r is not None and np.isfinite(r.low) and r.low > 0
+                and r.estimate >= min_reduction)
 
 
 def _format_params(effects: list[dict[str, Any]]) -> str:
@@ -405,7 +427,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
              confidence: float = 0.95, n_boot: int = 2000, correction: str = "bh",
              alpha: float = 0.05, min_reduction: float = 0.01, worst: int = 6,
              params: SimulationParams | None = None, database: str = "",
-             stepwise: bool = True,
+             stepwise: bool = True, min_cases: int = MIN_CASES,
+             laws: str | Iterable[str] | None = None, law_grid: int = 13,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the default model against the reconstructions of ``db``.
 
@@ -422,8 +445,9 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         k-fold cross-validation by case; seed of the fold assignment and the
         bootstrap.
     parameters : {"primary", "all"}
-        Fit only each effect's primary parameter (others at their defaults)
-        or all its parameters (coordinate search, slower).
+        Fit only each effect's primary parameter (the others at their neutral
+        values where they have one, else their defaults) or all its
+        parameters (coordinate search, slower).
     grid_points, zoom_rounds : int
         Coarse grid and refinement rounds of :func:`vfs.analysis.calibrate.fit_folds`.
     confidence : float
@@ -447,7 +471,20 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         If the best candidate helps, cross-validate every other candidate
         added to the model with the best one (fitted on all cases) and rank
         them by that conditional reduction: a weaker effect masked by a
-        dominant one is found second.
+        dominant one is found second.  It is claimed only if it also helps
+        when the first effect is refitted together with it.
+    laws : str or list, optional
+        Channels to identify per case and learn laws for
+        (:mod:`vfs.analysis.identify`, :mod:`vfs.analysis.learn`; "all" for
+        every channel; default None: skipped).  Each law whose identified
+        values show structure is cross-validated as an effect (refitted on
+        the training folds) and compared with the library ranking.
+    law_grid : int
+        Grid values per channel of the identification.
+    min_cases : int
+        Fewest cases (and :data:`MIN_FOLD_CASES` held-out cases per fold)
+        for which anything is claimed; below, the verdict says the result is
+        unreliable and no candidate is significant.
     progress : callable, optional
         Called with one line per finished step.
     """
@@ -457,6 +494,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     names = resolve_candidates(effects)
     sim = VariantSimulator(data, params)
     held = kfold_indices(data.n, folds, seed)
+    reliable = data.n >= min_cases and min(len(h) for h in held) >= MIN_FOLD_CASES
+    fixed = "neutral" if parameters == "primary" else "default"
     rng = np.random.default_rng(seed)
     features = case_features(data)
     base = cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False)
@@ -470,7 +509,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     fit_opts: dict[str, Any] = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
     classes = [get_effect(name) for name in names]
     t1, v1 = time.perf_counter(), sim.n_variants
-    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters) for cls in classes], held,
+    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters, fixed) for cls in classes], held,
                               names, allow_off=True, **fit_opts) if classes else []
     fit_seconds = time.perf_counter() - t1
     say(f"fitted {len(classes)} candidates: {sim.n_variants - v1} model variants in "
@@ -488,7 +527,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                                              confidence=confidence, n_boot=n_boot))
         c = CandidateResult(name, cv, Reduction(est, lo, hi), Reduction(a_est, a_lo, a_hi),
                             per, affected,
-                            significant=bool(lo > 0 and est >= min_reduction),
+                            significant=reliable and helps(Reduction(est, lo, hi),
+                                                           min_reduction),
                             variants=cv.variants)
         cands.append(c)
         say(f"candidate {name}: CV RMSE reduction {100 * est:.1f} % "
@@ -504,13 +544,25 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
             effects=tuple(p0.effects) + tuple(best_model)))
         base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
         cvs2 = cross_validate_many(
-            sim2, [FitSpace.of([get_effect(c.name)], parameters) for c in rest], held,
+            sim2, [FitSpace.of([get_effect(c.name)], parameters, fixed) for c in rest], held,
             [f"{best.name}+{c.name}" for c in rest], allow_off=True, **fit_opts)
         for c, cv2 in zip(rest, cvs2, strict=True):
             c.given_best = Reduction(*reduction_ci(cv2.errors, base2.errors, rng,
                                                    confidence=level, n_boot=n_boot))
-            c.significant = bool(c.given_best.low > 0
-                                 and c.given_best.estimate >= min_reduction)
+        # survive a refit of the first effect: both fitted together, against the first alone
+        keep = [c for c in rest
+                if helps(c.overall, min_reduction) and helps(c.given_best, min_reduction)]
+        best_cls = get_effect(best.name)
+        cvs3 = cross_validate_many(
+            sim, [FitSpace.of([best_cls, get_effect(c.name)], parameters, fixed) for c in keep],
+            held, [f"{best.name}+{c.name} (refit)" for c in keep], allow_off=True,
+            **fit_opts) if keep else []
+        for c, cv3 in zip(keep, cvs3, strict=True):
+            c.refit = Reduction(*reduction_ci(cv3.errors, best.cv.errors, rng,
+                                              confidence=level, n_boot=n_boot))
+        for c in rest:
+            c.significant = reliable and all(
+                helps(r, min_reduction) for r in (c.overall, c.given_best, c.refit))
         rest.sort(key=lambda c: (-np.nan_to_num(c.given_best.estimate, nan=-np.inf)
                                  if c.given_best else np.inf, c.name))
         cands = [cands[0], *rest]
@@ -522,6 +574,11 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         sim.seconds += sim2.seconds
     for i, c in enumerate(cands, 1):
         c.rank = i
+    findings: list[LawFinding] = []
+    ident = None
+    if laws is not None:
+        findings, ident = _learn_laws(sim, base, held, laws, law_grid, folds, seed, level,
+                                      n_boot, min_reduction, reliable, rng, say)
     after = best.cv if best is not None else base
     remaining = residual_associations(residual_variables(data, after.residuals), features,
                                       correction, alpha)
@@ -531,15 +588,71 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 "zoom_rounds": zoom_rounds, "confidence": confidence,
                 "simultaneous_confidence": level, "n_boot": n_boot,
                 "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
-                "candidates": names,
+                "candidates": names, "min_cases": min_cases, "reliable": reliable,
+                "fixed_parameters": fixed,
                 "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
                 "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
     diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,
-                     after.label, worst_df, [], settings, database=database)
+                     after.label, worst_df, [], settings, database=database,
+                     reliable=reliable, laws=findings, identification=ident)
     diag.verdict = _verdict(diag)
     diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
                   "n_cases": data.n}
     return diag
+
+
+def _closed_alternative(r: Any) -> dict[str, Any] | None:
+    """The best closed form over the law's feature when the law is a table."""
+    from vfs.effects.learned import law_text
+
+    law = r.law
+    if law is None or law["form"] != "table":
+        return None
+    c = r.candidates
+    c = c[(c["feature"] == law["feature"]) & (c["form"] != "spline")]
+    if c.empty:
+        return None
+    form = str(c["form"].iloc[0])
+    alt = {k: v for k, v in law.items() if k not in ("table",)}
+    alt["form"] = form
+    alt["coefficients"] = [float(v) for v in str(c["coefficients"].iloc[0]).split()]
+    alt["formula"] = law_text(alt)
+    return alt
+
+
+def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
+                channels: str | Iterable[str], grid: int, folds: int, seed: int,
+                level: float, n_boot: int, min_reduction: float, reliable: bool,
+                rng: np.random.Generator, say: Callable[[str], None]
+                ) -> tuple[list[LawFinding], pd.DataFrame]:
+    """Identify, learn and cross-validate the laws (see :func:`diagnose`)."""
+    from vfs.analysis.identify import identification_features, identify
+    from vfs.analysis.learn import cross_validate_law, learn
+
+    t0 = time.perf_counter()
+    data = sim.data
+    table = identify(data, channels, grid_points=grid, sim=sim)
+    table = table.merge(identification_features(data), on="case_id", how="left")
+    say(f"identified {table['channel'].nunique()} channels per case in "
+        f"{time.perf_counter() - t0:.1f} s")
+    out = []
+    for r in learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000),
+                   band_boot=50):
+        say(r.text())
+        if not r.significant or r.law is None:
+            continue
+        _, err = cross_validate_law(sim, table, r.law, held)
+        alt = _closed_alternative(r)
+        if alt is not None:  # a table won on the identified values: try the best formula
+            _, err2 = cross_validate_law(sim, table, alt, held)
+            if np.nanmean(err2) < np.nanmean(err):
+                r.law, err = alt, err2
+                say(f"  the formula does better on the outcomes: {alt['formula']}")
+        red = Reduction(*reduction_ci(err, base.errors, rng, confidence=level, n_boot=n_boot))
+        out.append(LawFinding(r.channel, r, red, err,
+                              significant=reliable and helps(red, min_reduction)))
+    out.sort(key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
+    return out, table
 
 
 def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.ndarray
@@ -580,6 +693,13 @@ def _verdict(diag: Diagnosis) -> list[str]:
     sig = [c for c in diag.candidates if c.significant]
     if not diag.candidates:
         return ["No candidate effect was tested."]
+    if not diag.reliable:
+        n, k = diag.data.n, diag.settings["folds"]
+        out.append(
+            f"UNRELIABLE: {n} cases in {k} folds (fewer than "
+            f"{diag.settings['min_cases']} cases or fewer than {MIN_FOLD_CASES} held-out cases "
+            "per fold): the cross-validated reductions and their CIs below are not "
+            "trustworthy and no candidate is claimed to help significantly.")
     if not sig:
         top = diag.candidates[0]
         out.append(
@@ -605,8 +725,28 @@ def _verdict(diag: Diagnosis) -> list[str]:
             out.append(f"Added to the model with {b.name}, these effects lower the "
                        "cross-validated RMSE further (significantly; calibrate them together "
                        f"with vfs calibrate --effects {b.name},...): "
-                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} %)"
-                                   for c in sig[1:] if c.given_best) + ".")
+                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} % "
+                                   f"[{100 * c.given_best.low:.1f}, "
+                                   f"{100 * c.given_best.high:.1f}]; refitted together "
+                                   f"{100 * c.refit.estimate:.1f} % [{100 * c.refit.low:.1f}, "
+                                   f"{100 * c.refit.high:.1f}])"
+                                   for c in sig[1:] if c.given_best and c.refit) + ".")
+    law_sig = [f for f in diag.laws if f.significant]
+    if law_sig:
+        top = diag.candidates[0]
+        lib = (f"{100 * top.overall.estimate:.1f} % [{100 * top.overall.low:.1f}, "
+               f"{100 * top.overall.high:.1f}] for the best library effect ({top.name})")
+        f = law_sig[0]
+        out.append(f"Beyond the library: {f.text()}, against {lib}. Add it with "
+                   "vfs learn --out law.json and --plugin law.json (or --export-plugin "
+                   "law.py to edit it).")
+        if len(law_sig) > 1:
+            out.append("Other identified channels with structure (partly the same missing "
+                       "physics seen through another channel): "
+                       + "; ".join(x.text() for x in law_sig[1:4]) + ".")
+    elif diag.identification is not None:
+        out.append("The per-case identification shows no channel law that lowers the "
+                   "cross-validated error significantly.")
     rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
         diag.remaining
     after = diag.remaining_model
@@ -644,6 +784,7 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
         "created_by": "vfs diagnose",
         "database": diag.database,
         "n_cases": d.n,
+        "reliable": diag.reliable,
         "settings": diag.settings,
         "default": {"cv_rmse": dict(zip(d.group_names, diag.default.rmse().tolist(),
                                         strict=True)),
@@ -660,6 +801,7 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
                 "reduction_affected": {**c.affected.as_dict(),
                                        "outputs": list(c.affected_outputs)},
                 "reduction_given_best": c.given_best.as_dict() if c.given_best else None,
+                "reduction_refit": c.refit.as_dict() if c.refit else None,
                 "reduction_per_output": {g: r.as_dict() for g, r in c.per_output.items()},
                 "cv_rmse": dict(zip(d.group_names, c.cv.rmse().tolist(), strict=True)),
                 "cv_rmse_overall": c.cv.overall_rmse(),
@@ -674,6 +816,13 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
             .to_dict(orient="records") if len(diag.remaining) else [],
         },
         "worst_cases": diag.worst.to_dict(orient="records"),
+        "laws": [{"channel": f.channel, "significant": f.significant,
+                  "law": f.learned.law, "text": f.text(),
+                  "outcome_reduction": f.outcome.as_dict(),
+                  "identified_reduction": {"estimate": f.learned.reduction,
+                                           "low": f.learned.low, "high": f.learned.high,
+                                           "null": f.learned.null}}
+                 for f in diag.laws],
         "stats": diag.stats,
     }
 
@@ -685,7 +834,8 @@ def output_names() -> list[str]:
 
 __all__ = [
     "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
-    "Diagnosis", "Reduction", "case_features", "diagnose",
+    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "LawFinding", "Reduction", "case_features",
+    "diagnose", "helps",
     "output_names",
     "residual_associations", "residual_variables", "resolve_candidates",
     "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases",

@@ -21,6 +21,7 @@ from vfs.cli import (
     generate,
     gym,
     impact,
+    learn,
     run_case,
     study,
     uncertainty,
@@ -37,6 +38,7 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
     study.add_parsers,
     compare.add_parsers,
     diagnose.add_parsers,
+    learn.add_parsers,
     uncertainty.add_parsers,
     gym.add_parsers,
 )

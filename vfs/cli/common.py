@@ -41,13 +41,33 @@ def say(msg: str) -> None:
     print(msg, flush=True)
 
 
+def _register_laws(path: Path) -> list[str]:
+    from vfs.analysis.learn import read_laws
+    from vfs.effects import register_effect, registered_effects
+    from vfs.effects.learned import law_effect_class
+
+    names = []
+    for law in read_laws(str(path)):
+        cls = law_effect_class(law)
+        old = registered_effects().get(cls.name)
+        if old is None or getattr(old, "law", None) != getattr(cls, "law", None):
+            if old is not None:
+                from vfs.effects import unregister_effect
+
+                unregister_effect(cls.name)
+            register_effect(cls)
+        names.append(cls.name)
+    return names
+
+
 def load_plugins(specs: Sequence[str] | None) -> list[str]:
     """Import user modules that register effects (dotted names or ``.py`` files).
 
     Parameters
     ----------
     specs : sequence of str
-        Module names (``mypackage.effects``) or paths of ``.py`` files.
+        Module names (``mypackage.effects``), paths of ``.py`` files or of
+        ``law.json`` files of ``vfs learn`` (each law registers an effect).
 
     Returns
     -------
@@ -62,6 +82,9 @@ def load_plugins(specs: Sequence[str] | None) -> list[str]:
     loaded = []
     for spec in specs or ():
         path = Path(spec)
+        if spec.endswith(".json"):  # a law file of vfs learn: one effect per law
+            loaded += _register_laws(path)
+            continue
         if spec.endswith(".py"):
             if not path.is_file():
                 raise ParameterError(f"--plugin {spec}: no such file")

@@ -27,6 +27,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--run", metavar="DIR",
                    help="results folder of 'vfs study' (its runs.parquet, rows with system == "
                    "'baseline') or a run table file; default: simulate the cases now")
+    p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
+                   help="import a module, .py file or law.json of vfs learn that registers "
+                   "effects used by --model (repeatable)")
     p.add_argument("--model", metavar="CONFIG",
                    help="model configuration (JSON: {\"effects\": [{\"name\": ..., "
                    "\"parameters\": {...}}]}); default: the default model")
@@ -54,9 +57,10 @@ def run_compare(args: argparse.Namespace) -> int:
     """Run ``vfs compare`` (exit code 0)."""
     from vfs.analysis.compare import compare_database, parse_margins
     from vfs.analysis.model_config import load_model_config
-    from vfs.cli.common import open_db
+    from vfs.cli.common import load_plugins, open_db
     from vfs.report.compare import write_comparison_report
 
+    load_plugins(args.plugin)
     db = open_db(args)
     params = load_model_config(args.model) if args.model else None
     setting = "default" if args.impact_parameters == "defaults" else "reconstruction"

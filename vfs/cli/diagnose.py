@@ -47,7 +47,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                     seed=args.seed, parameters=args.parameters, grid_points=s["grid"],
                     zoom_rounds=s["zoom"], n_boot=s["n_boot"], correction=args.correction,
                     alpha=args.alpha, min_reduction=args.min_reduction, worst=args.worst,
-                    database=str(path), progress=say)
+                    database=str(path), progress=say,
+                    laws=None if args.laws in ("", "none") else args.laws)
     paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
     print(diag.ranked_table()[["rank", "effect", "significant", "reduction", "ci_low",
@@ -168,7 +169,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    "delta_v, ees, energy_loss, post_speed, velocity_angle_change, pdof, "
                    "rest_position, rest_yaw, runout_distance, impact_type")
     p.add_argument("--parameters", choices=("primary", "all"), default="primary",
-                   help="fit each effect's primary parameter (others at default) or all")
+                   help="fit each effect's primary parameter (diagnose: others at their "
+                   "neutral values, calibrate: at their defaults) or all")
     p.add_argument("--folds", type=int, default=None, help="k of the k-fold CV (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of folds and bootstrap")
     p.add_argument("--grid", type=int, default=None,
@@ -178,7 +180,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true",
                    help="3 folds, grid 5, 2 zoom rounds, 500 bootstrap samples")
     p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
-                   help="import a module or .py file that registers effects (repeatable)")
+                   help="import a module, .py file or law.json (vfs learn) that registers "
+                   "effects (repeatable)")
     p.add_argument("--ledger", default=None, metavar="DIR",
                    help="folder of ledger.jsonl (default: the parent of --out)")
 
@@ -209,6 +212,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="smallest CV RMSE reduction that counts as helping (default 0.01)")
     p.add_argument("--worst", type=int, default=6,
                    help="worst cases listed and sketched (default 6)")
+    p.add_argument("--laws", default="all",
+                   help="channels identified per case and learned (vfs identify / learn) "
+                   "after the ranking: 'all' (default), a list, or 'none'")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.accident_types import accident_type_label
-from vfs.analysis.diagnose import Diagnosis, summary_dict
+from vfs.analysis.diagnose import Diagnosis, LawFinding, summary_dict
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import new_figure, plot_case_topview, save_figure
 from vfs.report.render import (
@@ -104,6 +104,8 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
         ax.set_title("Which effect is missing", fontsize=10)
         save_figure(fig, out / "ranking.png", dpi=110, tight=True)
         figs["ranking"] = f"{rel}/ranking.png"
+    for k, f in enumerate(diag.laws[:3]):
+        figs[f"law_{k}"] = f"{rel}/{_plot_law(diag, f, out / f'law_{f.channel}.png').name}"
 
         mat = np.array([[100 * c.per_output[g].estimate for g in d.group_names] for c in cands])
         fig = new_figure((1.0 + 0.8 * len(d.group_names), 0.45 * len(cands) + 2.0))
@@ -180,6 +182,34 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
     return figs
 
 
+def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
+    """Identified values of a channel over the law's feature, the law and the spline band."""
+    from vfs.analysis.learn import law_rows
+    from vfs.effects.learned import evaluate_law
+
+    law = finding.learned.law
+    t, y, _ = law_rows(diag.identification, finding.channel) \
+        if diag.identification is not None else (pd.DataFrame(), np.array([]), None)
+    fig = new_figure((6, 4))
+    ax = fig.subplots()
+    if len(t):
+        ax.errorbar(t[law["feature"]], y, yerr=[y - t["low"], t["high"] - y], fmt="o", ms=2.5,
+                    color="#999999", elinewidth=0.5, label="identified (chi^2 + 1 interval)")
+    band = finding.learned.band
+    if band:
+        ax.fill_between(band["x"], band["low"], band["high"], color="#1f77b4", alpha=0.2,
+                        label="smoothing spline, 95 % bootstrap band")
+        ax.plot(band["x"], band["y"], color="#1f77b4", lw=1)
+        xg = np.asarray(band["x"], float)
+        ax.plot(xg, evaluate_law(law, xg), color="#d62728", lw=2, label=law["formula"][:60])
+    ax.set_xlabel(f"{law['feature']} [{law['feature_unit']}]")
+    ax.set_ylabel(f"{law['channel']} [{law['channel_unit']}]")
+    ax.legend(fontsize=7)
+    ax.set_title(f"Learned law of {law['channel']}", fontsize=10)
+    save_figure(fig, path, dpi=110, tight=True)
+    return path
+
+
 def _table(df: pd.DataFrame) -> Table:
     return Table.from_frame(df, floatfmt=FLOAT_FORMAT)
 
@@ -212,7 +242,14 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                 f"{_pct(lo)} .. {_pct(hi)}" for lo, hi in zip(rt["ci_low"], rt["ci_high"],
                                                               strict=True)],
             "own outputs [%]": [_pct(v) for v in rt["reduction_affected"]],
-            "added to rank 1 [%]": [_pct(v) for v in rt["reduction_given_best"]],
+            "added to rank 1 [%]": [
+                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
+                for v, lo, hi in zip(rt["reduction_given_best"], rt["given_best_ci_low"],
+                                     rt["given_best_ci_high"], strict=True)],
+            "rank 1 refitted with it [%]": [
+                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
+                for v, lo, hi in zip(rt["reduction_refit"], rt["refit_ci_low"],
+                                     rt["refit_ci_high"], strict=True)],
             "CV RMSE": rt["cv_rmse"], "fitted on all cases": rt["fitted"],
             "variants": rt["variants"],
         })))
@@ -222,7 +259,10 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
         "candidate helps if the CI lies above 0 and the reduction reaches "
         f"{100 * s['min_reduction']:.0f} %. Ranks 2 and below are ordered by the reduction "
         "they add to the model with the rank-1 effect (stepwise) when that one helps; "
-        "'helps' then means 'helps on top of rank 1'."))
+        "'helps' then means: its own CI, the CI on top of rank 1 and the CI with rank 1 "
+        "refitted together with it all lie above 0."
+        + ("" if diag.reliable else " UNRELIABLE: too few cases or folds, nothing is "
+           "claimed.")))
     if diag.candidates:
         per = pd.DataFrame({"output": list(d.group_names),
                             "default CV RMSE": diag.default.rmse()})
@@ -237,6 +277,23 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                          ("profiles", "Objective along each candidate's parameter")):
         if key in figures:
             doc.append(Figure(figures[key], caption))
+    if diag.identification is not None:
+        doc.append(Heading("Beyond the library: identified channels and learned laws", 2))
+        if diag.laws:
+            doc.append(_table(pd.DataFrame({
+                "channel": [f.channel for f in diag.laws],
+                "law": [f.learned.law["formula"] for f in diag.laws],
+                "vs null on identified values [%]": [_pct(f.learned.reduction)
+                                                     for f in diag.laws],
+                "outcome CV reduction [%]": [
+                    f"{_pct(f.outcome.estimate)} ({_pct(f.outcome.low)} .. "
+                    f"{_pct(f.outcome.high)})" for f in diag.laws],
+                "helps": [f.significant for f in diag.laws]})))
+        else:
+            doc.append(Paragraph("No identified channel shows a law."))
+        for k, f in enumerate(diag.laws[:3]):
+            if f"law_{k}" in figures:
+                doc.append(Figure(figures[f"law_{k}"], f.text()))
     doc += [
         Heading("Where the model fails", 2),
         _table(pd.DataFrame({"output": list(d.group_names),

@@ -1,0 +1,319 @@
+"""Per-case identification of model channels (``vfs identify``).
+
+For every case and every channel of :data:`vfs.effects.learned.CHANNELS`
+(restitution, contact friction, POI shifts along / across the contact
+plane, contact-plane turn, penetration time, EES stiffness ratio), the
+value that best reproduces the case's reconstruction:
+
+1. a grid of ``grid_points`` candidate values over the channel's range
+   (geometric for ratios) is simulated on **all** cases, one stacked
+   simulation for the whole grid (:class:`vfs.analysis.variants.VariantSimulator`);
+2. the objective of a case is chi^2 = sum over the compared residual
+   columns of (residual / scale)^2, the scale of each output being the RMS
+   of its recorded ``_sd`` columns (:class:`vfs.analysis.calibrate.CalibrationData`);
+3. per case, a parabola through the best grid point and its neighbours
+   gives the refined value, simulated once more for all cases together
+   (each case at its own value) and kept where it is better;
+4. the uncertainty interval is the profile interval chi^2 <= min + 1 (linear
+   interpolation of the grid profile); flags: ``flat`` (the objective
+   varies by less than 1 over the whole range), ``multimodal`` (another
+   local minimum within min + 1 separated by a rise above it),
+   ``at_bound`` (the interval reaches a bound of the range).  A value is
+   *identifiable* if none applies.
+
+The values are absolute for "set" channels and offsets from the model's
+value for "shift" channels (:class:`vfs.effects.learned.Channel`).
+Units: SI (the channel's unit column).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.calibrate import CalibrationData, VariantSimulator
+from vfs.analysis.features import case_features
+from vfs.atomic import write_text
+from vfs.effects.context import ContactContext, ImpactContext
+from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
+from vfs.errors import ParameterError
+from vfs.physics.impact import ImpactConfig
+
+#: Channels identified by default (all).
+DEFAULT_CHANNELS: tuple[str, ...] = tuple(CHANNELS)
+
+
+def parse_channels(spec: str | Iterable[str] | None) -> tuple[str, ...]:
+    """Channel names from ``"a,b"`` / a list / None or "all" (all channels)."""
+    if spec is None or (isinstance(spec, str) and spec.strip() in ("", "all")):
+        return DEFAULT_CHANNELS
+    names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec)]
+    names = [s for s in names if s]
+    bad = [s for s in names if s not in CHANNELS]
+    if bad:
+        raise ParameterError(f"unknown channel(s) {bad}; known: {sorted(CHANNELS)}")
+    return tuple(dict.fromkeys(names))
+
+
+def channel_grid(channel: str, points: int) -> np.ndarray:
+    """Candidate values of a channel (its unit): linear or geometric over its range."""
+    ch = CHANNELS[channel]
+    if points < 3:
+        raise ParameterError(f"grid points = {points} must be >= 3")
+    if ch.log_grid:
+        return np.geomspace(ch.lo, ch.hi, points)
+    return np.linspace(ch.lo, ch.hi, points)
+
+
+def _constant_class(channel: str) -> type[ChannelLaw]:
+    ch = CHANNELS[channel]
+    v0 = 0.0 if ch.mode == "shift" else 0.5 * (ch.lo + ch.hi)
+    cls = law_effect_class({"name": f"identify_{channel}", "channel": channel,
+                            "feature": "closing_speed", "form": "constant",
+                            "coefficients": [v0]})
+    return cls  # type: ignore[return-value]
+
+
+def _per_case_class(channel: str, n: int) -> type[ChannelLaw]:
+    """A law effect whose value is given per case (row of the batch modulo n)."""
+    base = _constant_class(channel)
+
+    class PerCase(base):  # type: ignore[valid-type, misc]
+        values_per_case: np.ndarray = np.zeros(n)
+
+        def value(self, ctx: ContactContext | ImpactContext, config: ImpactConfig | None,
+                  base_value: np.ndarray) -> np.ndarray:
+            v = self.values_per_case[np.asarray(ctx.rows) % n]
+            ch = CHANNELS[self.law["channel"]]
+            return base_value + v if ch.mode == "shift" else np.asarray(v, float)
+
+    PerCase.__name__ = f"PerCase_{channel}"
+    return PerCase
+
+
+def _probe_class(channel: str, n: int) -> type[ChannelLaw]:
+    """A law effect that leaves the channel unchanged and records the model's value."""
+    base = _constant_class(channel)
+
+    class Probe(base):  # type: ignore[valid-type, misc]
+        seen: np.ndarray = np.full(n, np.nan)
+
+        def value(self, ctx: ContactContext | ImpactContext, config: ImpactConfig | None,
+                  base_value: np.ndarray) -> np.ndarray:
+            self.seen[np.asarray(ctx.rows) % n] = base_value
+            return base_value
+
+    Probe.__name__ = f"Probe_{channel}"
+    return Probe
+
+
+def model_values(sim: VariantSimulator, channel: str) -> np.ndarray:
+    """The model's own value of a channel per case (0 for shift channels; NaN where the
+    case does not collide).
+    """
+    n = sim.data.n
+    if CHANNELS[channel].mode == "shift":
+        return np.zeros(n)
+    probe = _probe_class(channel, n)
+    setattr(probe, "seen", np.full(n, np.nan))  # noqa: B010
+    sim.simulate([(probe(),)])
+    return np.asarray(getattr(probe, "seen"), float)  # noqa: B009
+
+
+def chi2(data: CalibrationData, residuals: np.ndarray) -> np.ndarray:
+    """Per-case chi^2 = sum of squared standardised residuals (n,); NaN columns skipped."""
+    z = residuals / data.scales[data.column_group][None, :]
+    return np.nansum(z ** 2, axis=1)
+
+
+def _profile_interval(grid: np.ndarray, prof: np.ndarray, best: np.ndarray,
+                      fmin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                  np.ndarray, np.ndarray]:
+    """Interval chi^2 <= min + 1 per case and the flags (vectorised over cases).
+
+    prof : (g, n) chi^2 on the grid; best : (n,) refined values; fmin : (n,) chi^2 there.
+    """
+    g, n = prof.shape
+    level = fmin + 1.0
+    below = prof <= level[None, :]
+    ib = np.argmin(prof, axis=0)
+    low = np.empty(n)
+    high = np.empty(n)
+    at_bound = np.zeros(n, bool)
+    for side in (-1, 1):
+        # first grid index from the best one outwards that rises above the level
+        idx = np.arange(g)[:, None]
+        outward = (idx - ib[None, :]) * side > 0
+        above = outward & ~below
+        if side > 0:
+            first = np.where(above.any(axis=0), np.argmax(above, axis=0), -1)
+        else:
+            first = np.where(above.any(axis=0), g - 1 - np.argmax(above[::-1], axis=0), -1)
+        hit = first < 0
+        j = np.clip(first, 0, g - 1)
+        k = np.clip(j - side, 0, g - 1)  # the point inside
+        y0, y1 = prof[k, np.arange(n)], prof[j, np.arange(n)]
+        x0, x1 = grid[k], grid[j]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.clip((level - y0) / (y1 - y0), 0.0, 1.0)
+        edge = np.where(hit, grid[-1] if side > 0 else grid[0], x0 + t * (x1 - x0))
+        if side > 0:
+            high = np.maximum(edge, best)
+        else:
+            low = np.minimum(edge, best)
+        at_bound |= hit
+    span = np.nanmax(prof, axis=0) - np.nanmin(prof, axis=0)
+    flat = span < 1.0
+    # another local minimum within the level, separated from the best by a rise above it
+    multimodal = np.zeros(n, bool)
+    loc = np.zeros_like(below)
+    loc[1:-1] = (prof[1:-1] <= prof[:-2]) & (prof[1:-1] <= prof[2:])
+    loc[0] = prof[0] <= prof[1]
+    loc[-1] = prof[-1] <= prof[-2]
+    cand = loc & below
+    for i in np.flatnonzero(cand.sum(axis=0) > 1):
+        others = np.flatnonzero(cand[:, i])
+        for o in others:
+            a, b = sorted((int(o), int(ib[i])))
+            if b - a > 1 and (prof[a:b + 1, i] > level[i]).any():
+                multimodal[i] = True
+                break
+    return low, high, flat, multimodal, at_bound
+
+
+def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
+             grid_points: int = 21, sim: VariantSimulator | None = None,
+             refine: bool = True) -> pd.DataFrame:
+    """Identify each channel per case (see the module docstring).
+
+    Parameters
+    ----------
+    data : CalibrationData
+        Cases and their reconstruction outcomes.
+    channels : str or list, optional
+        Channel names (default all).
+    grid_points : int
+        Candidate values per channel (>= 3).
+    sim : VariantSimulator, optional
+        Shared simulator (its base model is the model whose channel is moved).
+    refine : bool
+        Parabolic refinement (one more simulation per channel).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case and channel: case_id, channel, unit, mode, value,
+        model_value (the model's own value; 0 for shift channels), low, high
+        (interval chi^2 <= min + 1), chi2 (at the value), chi2_model
+        (the model's own value), chi2_span, n_columns, flat, multimodal,
+        at_bound, identifiable.
+    """
+    names = parse_channels(channels)
+    sim = sim or VariantSimulator(data)
+    n = data.n
+    ncol = np.isfinite(data.observed).sum(axis=1)
+    base_chi2 = chi2(data, sim.residuals([()])[0])
+    frames = []
+    for name in names:
+        ch = CHANNELS[name]
+        grid = channel_grid(name, grid_points)
+        cls = _constant_class(name)
+        res = sim.residuals([(cls(a=float(v)),) for v in grid])
+        prof = np.stack([chi2(data, r) for r in res])  # (g, n)
+        ib = np.argmin(prof, axis=0)
+        best = grid[ib].astype(float)
+        fmin = prof[ib, np.arange(n)]
+        if refine:
+            i0 = np.clip(ib, 1, grid_points - 2)
+            xa, xb, xc = grid[i0 - 1], grid[i0], grid[i0 + 1]
+            ya, yb, yc = (prof[i0 - 1, np.arange(n)], prof[i0, np.arange(n)],
+                          prof[i0 + 1, np.arange(n)])
+            num = (xb - xa) ** 2 * (yb - yc) - (xb - xc) ** 2 * (yb - ya)
+            den = (xb - xa) * (yb - yc) - (xb - xc) * (yb - ya)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                vx = xb - 0.5 * num / den
+            ok = np.isfinite(vx) & (den != 0) & (vx > xa) & (vx < xc)
+            cand = np.where(ok, vx, best)
+            per = _per_case_class(name, n)
+            setattr(per, "values_per_case", cand)  # noqa: B010
+            inst = per()
+            r = data.residuals(sim.simulate([(inst,)]))  # per-case values: not cached
+            f2 = chi2(data, r)
+            better = ok & (f2 < fmin)
+            best = np.where(better, cand, best)
+            fmin = np.where(better, f2, fmin)
+        low, high, flat, multi, at_b = _profile_interval(grid, prof, best, fmin)
+        frames.append(pd.DataFrame({
+            "case_id": data.case_ids, "channel": name, "unit": ch.unit, "mode": ch.mode,
+            "value": best, "model_value": model_values(sim, name), "low": low, "high": high,
+            "chi2": fmin,
+            "chi2_model": base_chi2, "chi2_span": np.ptp(prof, axis=0),
+            "n_columns": ncol, "flat": flat, "multimodal": multi, "at_bound": at_b,
+            "identifiable": ~(flat | multi | at_b),
+        }))
+    return pd.concat(frames, ignore_index=True)
+
+
+def identification_features(data: CalibrationData) -> pd.DataFrame:
+    """Numeric case features of the laws (:data:`vfs.effects.learned.LAW_FEATURES`, SI)
+    from the reconstruction: those of :func:`vfs.analysis.features.case_features` and
+    the normal closing speed of the POIs at the recorded contact plane (velocities at
+    impact with the yaw rates).
+    """
+    f = case_features(data)
+    rec = data.reconstruction
+
+    def col(name: str) -> np.ndarray:
+        return pd.to_numeric(rec[name], errors="coerce").to_numpy(float)
+
+    cp = col("cp_angle")
+    px, py = col("poi_x"), col("poi_y")
+    x1, y1, x2, y2 = col("x1"), col("y1"), col("x2"), col("y2")
+    w1 = np.nan_to_num(col("yaw_rate1")) if "yaw_rate1" in rec.columns else 0.0
+    w2 = np.nan_to_num(col("yaw_rate2")) if "yaw_rate2" in rec.columns else 0.0
+    ux = (col("vx1") - w1 * (py - y1)) - (col("vx2") - w2 * (py - y2))
+    uy = (col("vy1") + w1 * (px - x1)) - (col("vy2") + w2 * (px - x2))
+    f["normal_closing_speed"] = np.abs(-np.sin(cp) * ux + np.cos(cp) * uy)
+    return f[["case_id", *LAW_FEATURES, "impact_type", "accident_type"]]
+
+
+def write_identification(table: pd.DataFrame, features: pd.DataFrame, out: str | Path,
+                         meta: dict[str, Any] | None = None) -> dict[str, Path]:
+    """Write ``identified.parquet``, ``identified.csv`` (values joined with the case
+    features, SI units) and ``units.json`` into ``out``.
+    """
+    import json
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t = table.merge(features, on="case_id", how="left")
+    pq = out / "identified.parquet"
+    t.to_parquet(pq, index=False)
+    csv = out / "identified.csv"
+    write_text(csv, t.to_csv(index=False))
+    units = {"value, low, high": "unit column (channel's SI unit)",
+             "chi2": "-", "closing_speed": "m/s", "normal_closing_speed": "m/s",
+             "overlap": "-", "mass_ratio": "-", "impact_angle": "rad",
+             "impact_speed1": "m/s", "impact_speed2": "m/s", "road_friction": "-",
+             **(meta or {})}
+    meta_path = out / "units.json"
+    write_text(meta_path, json.dumps(units, indent=2, default=str))
+    return {"parquet": pq, "csv": csv, "units": meta_path}
+
+
+def timed_identify(data: CalibrationData, channels: Sequence[str] | str | None = None,
+                   grid_points: int = 21) -> tuple[pd.DataFrame, float]:
+    """:func:`identify` and its wall time [s]."""
+    t0 = time.perf_counter()
+    t = identify(data, channels, grid_points)
+    return t, time.perf_counter() - t0
+
+
+__all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "identification_features", "identify",
+           "parse_channels",
+           "timed_identify", "write_identification"]

@@ -1,0 +1,537 @@
+"""Law discovery: regress identified channels on case features (``vfs learn``).
+
+Input: the per-case identification of :mod:`vfs.analysis.identify` joined
+with the case features (closing speed, normal closing speed, overlap,
+impact angle, mass ratio, impact speeds, road friction; SI units).  For
+each channel, only the identifiable cases are used, weighted by
+1 / sigma^2 with sigma the half width of the chi^2 + 1 interval (floored at
+a tenth of the spread of the values, so that no case dominates).
+
+For each numeric feature, k-fold cross-validation (seeded) of
+
+* a smoothing spline (:func:`scipy.interpolate.make_smoothing_spline`, its
+  smoothness chosen by generalised cross-validation), with a bootstrap band;
+* the closed forms of :data:`vfs.effects.learned.FORMS` (constant, linear,
+  power, exponential, saturating, step): the nonlinear coefficient by a
+  grid and :func:`scipy.optimize.minimize_scalar`, the linear ones by
+  weighted least squares.
+
+The best (feature, form) is the one with the lowest CV error; a closed form
+is preferred to the spline when its CV error is at most 2 % higher (a
+formula the user can read).  The law is *significant* when the bootstrap
+CI (over cases, Bonferroni over the features) of its CV RMSE reduction
+against the null model (the better of a constant and the model's own
+value of the channel, e.g. the EES stiffness ratio m1 / m2 of the default
+model) lies above zero and the reduction reaches
+``min_reduction``; otherwise the channel is reported as "no structure".
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vfs.analysis.calibrate import kfold_indices, reduction_ci
+from vfs.effects.learned import CHANNELS, FORMS, LAW_FEATURES, evaluate_law, law_text
+from vfs.errors import ParameterError
+
+#: Numeric features regressed on, in report order.
+LEARN_FEATURES: tuple[str, ...] = tuple(LAW_FEATURES)
+#: A closed form is preferred to the spline up to this relative CV excess.
+CLOSED_FORM_TOLERANCE = 0.02
+#: Fewest identifiable cases for a law.
+MIN_LAW_CASES = 30
+
+
+def _wls(cols: Sequence[np.ndarray], y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    a = np.stack(cols, axis=1) * np.sqrt(w)[:, None]
+    coef, *_ = np.linalg.lstsq(a, y * np.sqrt(w), rcond=None)
+    return np.asarray(coef, float)
+
+
+def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray) -> list[float]:
+    """Weighted least-squares coefficients of a closed form (:data:`FORMS`)."""
+    from scipy.optimize import minimize_scalar
+
+    one = np.ones_like(x)
+    if form == "constant":
+        return [float(np.sum(w * y) / np.sum(w))]
+    if form == "linear":
+        return [float(v) for v in _wls([one, x], y, w)]
+
+    def inner(c: float) -> tuple[float, list[float]]:
+        if form == "power":
+            basis = [np.maximum(x, 1e-9) ** c]
+        elif form == "exponential":
+            basis = [np.exp(c * x)]
+        elif form == "saturating":
+            basis = [one, 1.0 - np.exp(-np.maximum(x, 0.0) / c)]
+        else:  # step
+            basis = [one, (x >= c).astype(float)]
+        if not all(np.isfinite(b).all() for b in basis):
+            return math.inf, []
+        coef = [float(v) for v in _wls(basis, y, w)]
+        if form in ("power", "exponential"):
+            coef = [coef[0], c]
+        else:
+            coef = coef + [c]
+        pred = evaluate_law({"form": form, "coefficients": coef}, x)
+        sse = float(np.sum(w * (y - pred) ** 2))
+        return (sse if math.isfinite(sse) else math.inf), coef
+
+    span = float(np.ptp(x)) or 1.0
+    if form == "power":
+        grid = np.linspace(-3.0, 3.0, 25)
+    elif form == "exponential":
+        grid = np.linspace(-5.0, 5.0, 25) / span
+    elif form == "saturating":
+        grid = span * np.geomspace(0.02, 5.0, 25)
+    else:
+        grid = np.unique(np.quantile(x, np.linspace(0.05, 0.95, 37)))
+    vals = [inner(float(c)) for c in grid]
+    k = int(np.argmin([v[0] for v in vals]))
+    best = vals[k]
+    if form != "step" and len(grid) > 2:
+        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
+        if hi > lo:
+            r = minimize_scalar(lambda c: inner(c)[0], bounds=(lo, hi), method="bounded",
+                                options={"xatol": 1e-4 * (hi - lo)})
+            cand = inner(float(r.x))
+            if cand[0] < best[0]:
+                best = cand
+    if not best[1]:
+        return [float(np.sum(w * y) / np.sum(w))] + [0.0] * (len(FORMS[form][1]) - 1)
+    return best[1]
+
+
+def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
+    """Smoothing spline through weighted means of equal x (increasing abscissas)."""
+    from scipy.interpolate import make_smoothing_spline
+
+    order = np.argsort(x, kind="stable")
+    xs, ys, ws = x[order], y[order], w[order]
+    ux, inv = np.unique(np.round(xs, 9), return_inverse=True)
+    sw = np.bincount(inv, ws)
+    my = np.bincount(inv, ws * ys) / sw
+    if ux.size < 5:
+        return None
+    return make_smoothing_spline(ux, my, w=sw / sw.mean())
+
+
+def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Spline values, held constant outside [lo, hi] (no extrapolation)."""
+    return np.asarray(spl(np.clip(x, lo, hi)), float)
+
+
+@dataclass
+class ChannelLaw:
+    """What :func:`learn_channel` found for one channel.
+
+    Attributes
+    ----------
+    channel : str
+    n : int
+        Identifiable cases used.
+    significant : bool
+    law : dict or None
+        The law (JSON-ready, :func:`vfs.effects.learned.law_effect_class`).
+    reduction, low, high : float
+        CV RMSE reduction of the law against the null (the better of a
+        constant and the model's own value, ``null``), with its CI.
+    candidates : pandas.DataFrame
+        feature, form, cv_mse, reduction (against the constant), coefficients.
+    band : dict
+        Spline curve and bootstrap band over the chosen feature (x, y, low, high).
+    """
+
+    channel: str
+    n: int
+    significant: bool
+    law: dict[str, Any] | None
+    reduction: float
+    low: float
+    high: float
+    candidates: pd.DataFrame
+    band: dict[str, list[float]] = field(default_factory=dict)
+    note: str = ""
+    null: str = "constant"
+
+    def text(self) -> str:
+        """One line for reports."""
+        if self.law is None or not self.significant:
+            return (f"{self.channel}: no structure ({self.note or 'nothing beats the constant'}"
+                    f"; {self.n} identifiable cases)")
+        return (f"{self.channel} follows f({self.law['feature']}): {law_text(self.law)}; "
+                f"CV reduction vs {'the model' if self.null == 'model' else 'a constant'} "
+                f"{100 * self.reduction:.1f} % "
+                f"[{100 * self.low:.1f}, {100 * self.high:.1f}] ({self.n} cases)")
+
+
+def _cv_predictions(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
+                    held: Sequence[np.ndarray]) -> np.ndarray:
+    pred = np.full_like(y, np.nan)
+    for h in held:
+        tr = np.setdiff1d(np.arange(y.size), h)
+        if form == "spline":
+            spl = _spline(x[tr], y[tr], w[tr])
+            if spl is None:
+                continue
+            pred[h] = predict_spline(spl, x[h], x[tr].min(), x[tr].max())
+        else:
+            coef = fit_form(form, x[tr], y[tr], w[tr])
+            pred[h] = evaluate_law({"form": form, "coefficients": coef}, x[h])
+    return pred
+
+
+def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarray,
+                                                          np.ndarray]:
+    """Identifiable rows of a channel, their values and weights 1 / sigma^2 (mean 1).
+
+    sigma is the half width of the chi^2 + 1 interval, floored at a tenth of
+    the standard deviation of the values.
+    """
+    t = table[table["channel"] == channel]
+    t = t[t["identifiable"].astype(bool) & np.isfinite(t["value"].to_numpy(float))]
+    y = t["value"].to_numpy(float)
+    if y.size == 0:
+        return t, y, y
+    sigma = 0.5 * (t["high"].to_numpy(float) - t["low"].to_numpy(float))
+    floor = 0.1 * float(np.std(y)) if np.std(y) > 0 else 1e-6
+    w = 1.0 / np.maximum(sigma, floor) ** 2
+    return t, y, w / w.mean()
+
+
+def refit_law(law: Mapping[str, Any], x: np.ndarray, y: np.ndarray, w: np.ndarray,
+              name: str | None = None) -> dict[str, Any]:
+    """The law's form refitted to (x, y, w) (closed form: WLS; table: spline)."""
+    out = dict(law)
+    if name is not None:
+        out["name"] = name
+    if law["form"] == "table":
+        spl = _spline(x, y, w)
+        xg = np.asarray(law["table"]["x"], float)
+        if spl is not None:
+            out["table"] = {"x": xg.tolist(),
+                            "y": predict_spline(spl, xg, x.min(), x.max()).tolist()}
+    else:
+        out["coefficients"] = fit_form(law["form"], x, y, w)
+    return out
+
+
+def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
+                       held: Sequence[np.ndarray], polish: bool = False,
+                       grid_points: int = 7, zoom_rounds: int = 3
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Cross-validated outcome errors of a law used as an effect.
+
+    For each fold, the law's form is refitted to the identified values of
+    the training cases only (identification is per case, so the held-out
+    cases' outcomes do not enter), simulated on all cases (one stacked
+    call for all folds) and scored on the held-out cases.
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    table : pandas.DataFrame
+        Identification joined with features, rows of the simulator's cases.
+    law : mapping
+    held : sequence of int arrays
+        Held-out rows (positions in ``sim.data``).
+    polish : bool
+        Then refit the law's first coefficient (closed forms) on the training
+        cases' *outcomes* (:func:`vfs.analysis.calibrate.fit_folds`, bounds
+        +-30 % of its value or a tenth of the channel's range): the outcomes
+        can be more sensitive to the channel than its identification is
+        precise (penetration time: 2.5 ms off cost a fifth of the reduction;
+        the polish did not recover it in the test of tests/test_learn.py, off
+        by default).
+    grid_points, zoom_rounds : int
+        Search of the polish.
+
+    Returns
+    -------
+    (residuals, errors)
+        Held-out residuals (n, n_columns) and per-case errors (n, n_groups).
+    """
+    from vfs.effects.learned import law_effect_class
+
+    data = sim.data
+    t, y, w = law_rows(table, law["channel"])
+    pos = pd.Index(data.case_ids).get_indexer(t["case_id"])
+    x = t[law["feature"]].to_numpy(float)
+    models = []
+    for k, h in enumerate(held):
+        tr = ~np.isin(pos, h)
+        lk = refit_law(law, x[tr], y[tr], w[tr], name=f"{law['name']}_cv{k}")
+        if polish and lk["form"] != "table":
+            from vfs.analysis.calibrate import FitSpace, fit_folds
+
+            a0 = float(lk["coefficients"][0])
+            ch = CHANNELS[lk["channel"]]
+            half = max(0.3 * abs(a0), 0.1 * (ch.hi - ch.lo))
+            cls = law_effect_class(lk, bounds={"a": (a0 - half, a0 + half)})
+            space = FitSpace((cls(),), ((0, 0),))
+            train = np.setdiff1d(np.arange(data.n), h)
+            fit = fit_folds(sim, space, [train], grid_points=grid_points,
+                            zoom_rounds=zoom_rounds)
+            models.append(space.model(fit.x[0]))
+        else:
+            models.append((law_effect_class(lk)(),))
+    res = sim.residuals(models)
+    residuals = np.full_like(data.observed, np.nan)
+    for h, r in zip(held, res, strict=True):
+        residuals[h] = r[h]
+    return residuals, data.case_errors(residuals)
+
+
+def learn_channel(table: pd.DataFrame, channel: str,
+                  features: Iterable[str] = LEARN_FEATURES, folds: int = 5, seed: int = 0,
+                  forms: Iterable[str] | None = None, confidence: float = 0.95,
+                  n_boot: int = 1000, min_reduction: float = 0.05,
+                  band_boot: int = 100) -> ChannelLaw:
+    """Learn the law of one channel from the identification table (see the module docstring).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`vfs.analysis.identify.identify` rows joined with the case
+        features (``identified.parquet``).
+    channel : str
+    features : iterable of str
+        Numeric feature columns to try.
+    folds, seed : int
+        K-fold CV by case (seeded).
+    forms : iterable of str, optional
+        Closed forms (default all of :data:`FORMS`).
+    confidence : float
+        Simultaneous level of the reduction CI (Bonferroni over the features).
+    n_boot : int
+        Bootstrap samples of the reduction CI.
+    min_reduction : float
+        Smallest CV RMSE reduction against the constant that counts.
+    band_boot : int
+        Bootstrap refits of the spline for its band.
+    """
+    if channel not in CHANNELS:
+        raise ParameterError(f"unknown channel {channel!r}; known: {sorted(CHANNELS)}")
+    t = table[(table["channel"] == channel)]
+    if t.empty:
+        raise ParameterError(f"identification table: no rows of channel {channel!r} "
+                             f"(channels: {sorted(set(table['channel']))})")
+    t, y, w = law_rows(table, channel)
+    feats = [f for f in features if f in t.columns]
+    n = y.size
+    empty = pd.DataFrame(columns=["feature", "form", "cv_mse", "reduction", "coefficients"])
+    if n < MIN_LAW_CASES:
+        return ChannelLaw(channel, n, False, None, math.nan, math.nan, math.nan, empty,
+                          note=f"fewer than {MIN_LAW_CASES} identifiable cases")
+    held = kfold_indices(n, folds, seed)
+    form_names = list(forms) if forms is not None else list(FORMS)
+    if "constant" not in form_names:
+        form_names.insert(0, "constant")
+    const_pred = _cv_predictions("constant", y, y, w, held)
+    e0 = w * (y - const_pred) ** 2
+    null = "constant"
+    if "model_value" in t.columns:  # the model's own value of the channel (no law)
+        mv = t["model_value"].to_numpy(float)
+        em = w * (y - mv) ** 2
+        if np.isfinite(em).all() and em.mean() < e0.mean():
+            e0, null = em, "model"
+    mse0 = float(np.mean(e0))
+    rows: list[dict[str, Any]] = []
+    for feat in feats:
+        x = t[feat].to_numpy(float)
+        ok = np.isfinite(x)
+        if ok.sum() < n or np.ptp(x) == 0:
+            continue
+        for form in [f for f in form_names if f != "constant"] + ["spline"]:
+            if form == "power" and x.min() <= 0:
+                continue
+            pred = _cv_predictions(form, x, y, w, held)
+            e = w * (y - pred) ** 2
+            if not np.isfinite(e).all():
+                continue
+            mse = float(np.mean(e))
+            rows.append({"feature": feat, "form": form, "cv_mse": mse,
+                         "reduction": 1.0 - math.sqrt(mse / mse0) if mse0 > 0 else math.nan,
+                         "coefficients": "" if form == "spline" else
+                         " ".join(f"{v:.5g}" for v in fit_form(form, x, y, w))})
+    cand = pd.DataFrame(rows) if rows else empty
+    if cand.empty:
+        return ChannelLaw(channel, n, False, None, math.nan, math.nan, math.nan, cand,
+                          note="no usable feature")
+    cand = cand.sort_values("cv_mse", kind="stable").reset_index(drop=True)
+    top = cand.iloc[0]
+    feat = str(top["feature"])
+    in_feat = cand[cand["feature"] == feat]
+    closed = in_feat[in_feat["form"] != "spline"]
+    form = str(top["form"])
+    if form == "spline" and len(closed) and \
+            float(closed["cv_mse"].iloc[0]) <= (1 + CLOSED_FORM_TOLERANCE) * float(top["cv_mse"]):
+        form = str(closed["form"].iloc[0])
+    x = t[feat].to_numpy(float)
+    pred = _cv_predictions(form, x, y, w, held)
+    e = w * (y - pred) ** 2
+    level = 1.0 - (1.0 - confidence) / max(len(feats), 1)
+    rng = np.random.default_rng(seed)
+    est, lo, hi = reduction_ci(e[:, None], e0[:, None], rng, confidence=level, n_boot=n_boot)
+    significant = bool(np.isfinite(lo) and lo > 0 and est >= min_reduction)
+    ch = CHANNELS[channel]
+    law: dict[str, Any] = {"name": f"learned_{channel}", "channel": channel, "feature": feat,
+                           "channel_unit": ch.unit, "feature_unit": LAW_FEATURES[feat],
+                           "mode": ch.mode}
+    xg = np.linspace(float(x.min()), float(x.max()), 41)
+    spl = _spline(x, y, w)
+    band: dict[str, list[float]] = {}
+    if spl is not None:
+        curve = predict_spline(spl, xg, x.min(), x.max())
+        boots = []
+        for _ in range(band_boot):
+            idx = rng.integers(0, n, n)
+            s = _spline(x[idx], y[idx], w[idx])
+            if s is not None:
+                boots.append(predict_spline(s, xg, x[idx].min(), x[idx].max()))
+        b = np.array(boots) if boots else np.array([curve])
+        band = {"x": xg.tolist(), "y": curve.tolist(),
+                "low": np.quantile(b, 0.025, axis=0).tolist(),
+                "high": np.quantile(b, 0.975, axis=0).tolist()}
+    if form == "spline":
+        law.update(form="table", table={"x": xg.tolist(), "y": band["y"]} if band else
+                   {"x": [0.0, 1.0], "y": [float(np.mean(y))] * 2})
+    else:
+        law.update(form=form, coefficients=fit_form(form, x, y, w))
+    law["cv"] = {"reduction_vs_constant": est, "null": null, "ci_low": lo, "ci_high": hi,
+                 "confidence": level, "cases": n, "folds": folds}
+    law["feature_range"] = [float(x.min()), float(x.max())]
+    law["formula"] = law_text(law)
+    return ChannelLaw(channel, n, significant, law, est, lo, hi, cand, band, null=null)
+
+
+def learn(table: pd.DataFrame, channels: Iterable[str] | None = None,
+          **options: Any) -> list[ChannelLaw]:
+    """:func:`learn_channel` for each channel of the table (default all present)."""
+    names = list(channels) if channels is not None else \
+        [c for c in CHANNELS if c in set(table["channel"])]
+    return [learn_channel(table, c, **options) for c in names]
+
+
+def laws_document(results: Sequence[ChannelLaw]) -> dict[str, Any]:
+    """JSON-ready ``law.json``: the significant laws and the channels without structure."""
+    return {
+        "format": "vfs-law/1",
+        "laws": [r.law for r in results if r.significant and r.law is not None],
+        "results": [{"channel": r.channel, "significant": r.significant, "cases": r.n,
+                     "text": r.text(), "reduction": r.reduction, "ci_low": r.low,
+                     "ci_high": r.high, "law": r.law, "band": r.band,
+                     "candidates": r.candidates.head(12).to_dict(orient="records")}
+                    for r in results],
+    }
+
+
+def read_laws(doc: Mapping[str, Any] | str) -> list[dict[str, Any]]:
+    """The laws of a ``law.json`` document (a path or the parsed mapping).
+
+    Accepts ``{"laws": [...]}`` or a single law mapping.
+    """
+    import json
+    from pathlib import Path
+
+    if isinstance(doc, str):
+        p = Path(doc)
+        if not p.is_file():
+            raise ParameterError(f"law file {doc}: no such file")
+        doc = json.loads(p.read_text())
+    if not isinstance(doc, Mapping):
+        raise ParameterError("law document: expected a JSON object")
+    if "laws" in doc:
+        return [dict(x) for x in doc["laws"]]
+    return [dict(doc)]
+
+
+PLUGIN_TEMPLATE = '''"""Learned law exported by ``vfs learn --export-plugin`` (edit freely).
+
+{formula}
+
+Use it with ``--plugin {file}`` in ``vfs calibrate``, ``vfs diagnose`` and
+``vfs compare``: it registers the effect ``{name}``.  Learned on {cases} cases:
+cross-validated RMSE reduction against a constant {reduction:.1f} %.
+"""
+
+import numpy as np
+
+from vfs.effects import register_effect
+from vfs.effects.learned import ChannelLaw, law_effect_class
+
+#: The law: channel {channel!r} [{channel_unit}] as a function of feature {feature!r}
+#: [{feature_unit}]; form {form!r}.
+LAW = {law_repr}
+
+
+def law_value(x{signature}):
+    """The law at feature values x [{feature_unit}] -> {channel} [{channel_unit}]."""
+    x = np.asarray(x, float)
+{body}
+
+
+_Base = law_effect_class(LAW)
+
+
+@register_effect
+class Learned(_Base):
+    """{channel} = f({feature}) (learned; see LAW)."""
+
+    name = LAW["name"]
+
+    def value(self, ctx, config, base):
+        """Apply :func:`law_value` (clipped to the channel's range)."""
+        from vfs.effects.learned import CHANNELS, feature_values
+
+        ch = CHANNELS[LAW["channel"]]
+        x = feature_values(ctx, config, LAW["feature"])
+        if LAW["form"] == "table":
+            return ChannelLaw.value(self, ctx, config, base)
+        coefficients = [self[p.name] for p in type(self).parameters]
+        v = np.clip(law_value(x, *coefficients), ch.lo, ch.hi)
+        v = base + v if ch.mode == "shift" else v
+        return np.where(np.isfinite(v), v, base)
+'''
+
+
+def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
+    """Readable Python source of a plugin that registers ``law`` as an effect."""
+    import pprint
+
+    form = law["form"]
+    signature = ""
+    if form == "table":
+        body = ('    t = LAW["table"]\n'
+                '    return np.interp(x, np.asarray(t["x"]), np.asarray(t["y"]))')
+    else:
+        names = FORMS[form][1]
+        signature = "".join(f", {n}={float(v)!r}" for n, v in
+                            zip(names, law["coefficients"], strict=True))
+        expr = {"constant": "np.full_like(x, a)", "linear": "a + b * x",
+                "power": "a * np.maximum(x, 1e-9) ** b", "exponential": "a * np.exp(b * x)",
+                "saturating": "a + b * (1.0 - np.exp(-np.maximum(x, 0.0) / c))",
+                "step": "np.where(x >= c, a + b, a)"}[form]
+        body = f"    return {expr}"
+    clean = {k: v for k, v in law.items() if k not in ("cv",)}
+    cv = law.get("cv", {})
+    return PLUGIN_TEMPLATE.format(
+        formula=law_text(law), file=file, name=law["name"], cases=cv.get("cases", "?"),
+        reduction=100 * float(cv.get("reduction_vs_constant", math.nan)),
+        channel=law["channel"], feature=law["feature"],
+        channel_unit=CHANNELS[law["channel"]].unit, feature_unit=LAW_FEATURES[law["feature"]],
+        form=form, signature=signature,
+        law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
+
+
+__all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "MIN_LAW_CASES", "ChannelLaw",
+           "cross_validate_law", "fit_form", "law_rows", "laws_document", "learn",
+           "learn_channel", "plugin_source", "refit_law",
+           "predict_spline", "read_laws"]

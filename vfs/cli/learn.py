@@ -1,0 +1,119 @@
+"""``vfs identify`` and ``vfs learn`` (see :mod:`vfs.analysis.identify`,
+:mod:`vfs.analysis.learn`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from vfs.cli.common import say
+from vfs.errors import ParameterError
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    """Identify the channels per case and write identified.parquet/.csv."""
+    from vfs.analysis.calibrate import CalibrationData
+    from vfs.analysis.identify import identification_features, identify, write_identification
+    from vfs.database import open_database, resolve_database_path
+
+    db = open_database(args.db)
+    data = CalibrationData.from_database(db, args.outputs)
+    t0 = time.perf_counter()
+    table = identify(data, args.parameters, grid_points=args.grid)
+    seconds = time.perf_counter() - t0
+    paths = write_identification(table, identification_features(data), args.out,
+                                 {"database": str(resolve_database_path(args.db)),
+                                  "grid_points": args.grid, "seconds": round(seconds, 2),
+                                  "outputs": list(data.group_names)})
+    for ch, g in table.groupby("channel", sort=False):
+        say(f"{ch} [{g['unit'].iloc[0]}]: median {g['value'].median():.4g}, identifiable "
+            f"{100 * g['identifiable'].mean():.0f} % of {len(g)} cases (flat "
+            f"{100 * g['flat'].mean():.0f} %, multimodal {100 * g['multimodal'].mean():.0f} %,"
+            f" at a bound {100 * g['at_bound'].mean():.0f} %)")
+    say(f"identified {table['channel'].nunique()} channels on {data.n} cases in "
+        f"{seconds:.1f} s -> {paths['parquet']}, {paths['csv']}")
+    return 0
+
+
+def _read_identified(folder: str) -> object:
+    import pandas as pd
+
+    p = Path(folder)
+    f = p / "identified.parquet" if p.is_dir() else p
+    if not f.is_file():
+        raise ParameterError(f"--identified {folder}: no identified.parquet (run vfs identify)")
+    return pd.read_parquet(f) if f.suffix == ".parquet" else pd.read_csv(f)
+
+
+def cmd_learn(args: argparse.Namespace) -> int:
+    """Learn the laws of the identified channels; write law.json and/or a plugin."""
+    from vfs.analysis.learn import laws_document, learn, plugin_source, read_laws
+    from vfs.atomic import write_json, write_text
+
+    laws = None
+    if args.identified:
+        table = _read_identified(args.identified)
+        channels = None if args.channels in (None, "", "all") else args.channels.split(",")
+        results = learn(table, channels, folds=args.folds, seed=args.seed)
+        for r in results:
+            say(r.text())
+        doc = laws_document(results)
+        if args.out:
+            write_json(args.out, doc, strict=False)
+            say(f"laws -> {args.out} ({len(doc['laws'])} significant)")
+        laws = doc["laws"]
+    elif args.law:
+        laws = read_laws(args.law)
+    else:
+        raise ParameterError("vfs learn: give --identified DIR (learn) or --law FILE (export)")
+    if args.export_plugin:
+        if not laws:
+            raise ParameterError("no significant law to export")
+        pick = [x for x in laws if args.channel in (None, x["channel"])]
+        if not pick:
+            raise ParameterError(f"no law of channel {args.channel!r}")
+        write_text(args.export_plugin, plugin_source(pick[0], Path(args.export_plugin).name))
+        say(f"plugin -> {args.export_plugin} (effect {pick[0]['name']}; use --plugin "
+            f"{args.export_plugin})")
+    if laws:
+        print(json.dumps([x["formula"] for x in laws if "formula" in x], indent=1))
+    return 0
+
+
+def add_parsers(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``identify`` and ``learn`` to the main parser."""
+    p = subparsers.add_parser(
+        "identify", help="per-case values of model channels that reproduce the reconstruction",
+        description=(
+            "For every case and channel (restitution, contact_friction, poi_along, "
+            "poi_across, cp_angle, penetration_time, ees_stiffness_ratio) the value that "
+            "best reproduces the reconstruction outcomes (chi^2 of the residuals standardised "
+            "by the _sd scales), a chi^2 + 1 interval and identifiability flags. Writes "
+            "identified.parquet, identified.csv and units.json into --out."))
+    p.add_argument("--db", required=True, help="database folder, or 'default'")
+    p.add_argument("--parameters", default="all",
+                   help="channels, comma separated, or 'all' (default)")
+    p.add_argument("--outputs", default=None, help="compared outputs (default all available)")
+    p.add_argument("--grid", type=int, default=21, help="grid values per channel (default 21)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=cmd_identify)
+
+    q = subparsers.add_parser(
+        "learn", help="learn laws of identified channels over case features",
+        description=(
+            "Regress each identified channel on the case features with k-fold CV (closed "
+            "forms and a smoothing spline), write the significant laws (law.json, usable "
+            "with --plugin law.json) and optionally an editable Python plugin."))
+    q.add_argument("--identified", default=None, help="folder written by vfs identify")
+    q.add_argument("--law", default=None, help="existing law.json (to export a plugin)")
+    q.add_argument("--channels", default=None, help="channels to learn (default all)")
+    q.add_argument("--folds", type=int, default=5, help="CV folds (default 5)")
+    q.add_argument("--seed", type=int, default=0, help="seed of folds and bootstrap")
+    q.add_argument("--out", default=None, help="law.json to write")
+    q.add_argument("--export-plugin", dest="export_plugin", default=None, metavar="FILE.py",
+                   help="write the law as an editable Python plugin")
+    q.add_argument("--channel", default=None, help="law exported (default the first)")
+    q.set_defaults(func=cmd_learn)

@@ -47,10 +47,10 @@ def test_a_full_disk_marks_the_study_failed_and_resume_completes_it(tmp_path, mo
     out = tmp_path / "s"
     real = study_run.write_table
 
-    def full_disk(path, table):
+    def full_disk(path, table, *args, **kwargs):
         if str(path).endswith("runs.parquet"):
             raise OSError(errno.ENOSPC, "No space left on device", str(path))
-        return real(path, table)
+        return real(path, table, *args, **kwargs)
 
     monkeypatch.setattr(study_run, "write_table", full_disk)
     code = main(["study", "--db", "default", "--where", WHERE, "--systems", "three-stage",

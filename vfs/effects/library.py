@@ -38,8 +38,9 @@ class RestitutionSpeed(Effect):
     restitution (the value the model uses), v_c the closing speed normal to
     the contact plane.  The Reconstruction chapter ("the higher the deformations, the lower
     the coefficient of restitution; only for very small deformations are
-    values higher than 0.3 possible"), 002 ("nonlinearly and inversely
-    proportional to the relative velocity") and 000 (identified 0 -> 0.24).
+    values higher than 0.3 possible"), the Collision Calculation Uncertainty paper
+    ("nonlinearly and inversely proportional to the relative velocity") and the
+    Modeling Head-On Collisions paper (identified 0 -> 0.24); docs/references.md.
     The cap eps_max is 0.3 by default, the top of the range the reconstruction
     chapter gives for real deformations (0.1-0.3); raise it for contacts with
     very small deformations (bumper taps), where that chapter allows more.

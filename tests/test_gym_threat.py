@@ -164,3 +164,23 @@ def test_leaderboard_counts_braking_in_near_misses(tmp_path, capsys):
     assert board.loc["never-brake", "avoided"] == 0.0
     assert (board["avoided_low"] <= board["avoided"]).all()
     assert (out / "leaderboard.md").read_text().count("\n") == 4
+
+
+def test_false_activation_costs_once_per_braked_near_miss():
+    plain = AEBEnv(split="test", action_repeat=5)
+    priced = AEBEnv(split="test", action_repeat=5, reward={"false_activation_weight": 0.7})
+    near = plain.core.recorded_collision
+    near_case = plain.core.case_id(int(np.flatnonzero(~near)[0]))
+    crash_case = plain.core.case_id(int(np.flatnonzero(near)[0]))
+    for case, brake, extra in ((near_case, 1.0, -0.7), (near_case, 0.0, 0.0),
+                               (crash_case, 1.0, 0.0)):
+        totals = []
+        for env in (plain, priced):
+            env.reset(options={"case_id": case})
+            total, done = 0.0, False
+            while not done:
+                _, r, term, trunc, _ = env.step(np.array([brake]))
+                total += r
+                done = term or trunc
+            totals.append(total)
+        assert totals[1] - totals[0] == pytest.approx(extra, abs=1e-12)

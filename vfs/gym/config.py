@@ -51,6 +51,9 @@ class RewardParams:
       unnecessary), [1 / (g s)];
     - ``comfort_weight`` x |change of the ego deceleration| / g per step
       (total variation of the brake, [1 / g]);
+    - ``false_activation_weight`` once, at the first step with any ego
+      deceleration in a near miss (an unnecessary activation, counted as the
+      evaluation counts braking in near misses), [-];
 
     and at a collision (the terminal step) minus ``injury_weight`` x the
     injury risk of the impact's delta-v by the curve ``risk_curve`` (default:
@@ -74,6 +77,8 @@ class RewardParams:
     comfort_weight : float
         Default 0.01 per g of brake change: applying and releasing a full
         brake costs 0.02.
+    false_activation_weight : float
+        Cost of braking at all in a near miss, default 0 (none).
     """
 
     injury_weight: float = 1.0
@@ -82,11 +87,13 @@ class RewardParams:
     risk_of: str = "both"
     unnecessary_brake_weight: float = 0.05
     comfort_weight: float = 0.01
+    false_activation_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if self.risk_of not in ("both", "ego"):
             raise ParameterError(f"risk_of={self.risk_of!r}; use 'both' or 'ego'")
-        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight"):
+        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight",
+                     "false_activation_weight"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ParameterError(f"reward {name}={value} must be finite and >= 0")

@@ -191,6 +191,7 @@ class EpisodeBatch:
         self.row_slot = np.full(n, -1, dtype=np.int64)
         self.busy = np.zeros(n, dtype=bool)
         self.prev_decel = np.zeros(n)  # ego deceleration after the last step
+        self.braked = np.zeros(n, dtype=bool)  # the ego has braked in this episode
 
     # ---------------------------------------------------------------- episodes
 
@@ -253,6 +254,7 @@ class EpisodeBatch:
         self.row_slot[rows] = slots
         self.busy[rows] = True
         self.prev_decel[rows] = 0.0
+        self.braked[rows] = False
 
     def start_now(self, rows: np.ndarray) -> None:
         """Start ``rows`` (assigned) now, at their time 0; the running rows do not move."""
@@ -296,6 +298,10 @@ class EpisodeBatch:
             cost = rw.comfort_weight * np.abs(decel - self.prev_decel[rows]) / G
             near_miss = ~self.recorded_collision[rows]
             cost = cost + np.where(near_miss, rw.unnecessary_brake_weight * decel / G * dt, 0.0)
+            if rw.false_activation_weight:  # the first braking step of a near miss
+                onset = near_miss & (decel > 0.0) & ~self.braked[rows]
+                cost = cost + np.where(onset, rw.false_activation_weight, 0.0)
+            self.braked[rows] |= decel > 0.0
             self.prev_decel[rows] = decel
             reward[self.row_slot[rows]] -= cost
             fin = run.finished

@@ -166,21 +166,27 @@ def test_leaderboard_counts_braking_in_near_misses(tmp_path, capsys):
     assert (out / "leaderboard.md").read_text().count("\n") == 4
 
 
-def test_false_activation_costs_once_per_braked_near_miss():
+def test_false_activation_and_collision_costs():
+    """A braked near miss costs the activation weight once, a crash the collision weight."""
     plain = AEBEnv(split="test", action_repeat=5)
-    priced = AEBEnv(split="test", action_repeat=5, reward={"false_activation_weight": 0.7})
+    priced = AEBEnv(split="test", action_repeat=5,
+                    reward={"false_activation_weight": 0.7, "collision_weight": 0.3})
     near = plain.core.recorded_collision
     near_case = plain.core.case_id(int(np.flatnonzero(~near)[0]))
     crash_case = plain.core.case_id(int(np.flatnonzero(near)[0]))
     for case, brake, extra in ((near_case, 1.0, -0.7), (near_case, 0.0, 0.0),
-                               (crash_case, 1.0, 0.0)):
-        totals = []
+                               (crash_case, 1.0, None), (crash_case, 0.0, -0.3)):
+        totals, crashed = [], []
         for env in (plain, priced):
             env.reset(options={"case_id": case})
             total, done = 0.0, False
             while not done:
-                _, r, term, trunc, _ = env.step(np.array([brake]))
+                _, r, term, trunc, info = env.step(np.array([brake]))
                 total += r
                 done = term or trunc
             totals.append(total)
+            crashed.append(info["collided"])
+        assert crashed[0] == crashed[1]
+        if extra is None:  # full braking from the start: -0.3 if it still crashes
+            extra = -0.3 if crashed[0] else 0.0
         assert totals[1] - totals[0] == pytest.approx(extra, abs=1e-12)

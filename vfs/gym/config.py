@@ -59,7 +59,8 @@ class RewardParams:
     injury risk of the impact's delta-v by the curve ``risk_curve`` (default:
     the default curve of ``injury_level``, as in ``vfs report
     effectiveness``), summed over both drivers (``risk_of="both"``, the
-    expected number of injured drivers) or the ego driver only.
+    expected number of injured drivers) or the ego driver only, and minus
+    ``collision_weight`` (a cost of any collision, whatever its severity).
 
     Attributes
     ----------
@@ -79,6 +80,8 @@ class RewardParams:
         brake costs 0.02.
     false_activation_weight : float
         Cost of braking at all in a near miss, default 0 (none).
+    collision_weight : float
+        Cost of a collision besides its injury risk [-], default 0 (none).
     """
 
     injury_weight: float = 1.0
@@ -88,12 +91,13 @@ class RewardParams:
     unnecessary_brake_weight: float = 0.05
     comfort_weight: float = 0.01
     false_activation_weight: float = 0.0
+    collision_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if self.risk_of not in ("both", "ego"):
             raise ParameterError(f"risk_of={self.risk_of!r}; use 'both' or 'ego'")
         for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight",
-                     "false_activation_weight"):
+                     "false_activation_weight", "collision_weight"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ParameterError(f"reward {name}={value} must be finite and >= 0")

@@ -329,7 +329,7 @@ class EpisodeBatch:
         if collided.size:
             imp = self.impacts(collided)
             risk = self.risk(imp)
-            reward[self.row_slot[collided]] -= rw.injury_weight * risk
+            reward[self.row_slot[collided]] -= rw.injury_weight * risk + rw.collision_weight
             out["impact_rows"], out["impact"], out["risk"] = collided, imp, risk
         return out
 

@@ -108,3 +108,7 @@ class SimulationError(VfsError, RuntimeError):
 
 class TargetExistsError(VfsError, FileExistsError):
     """The output path exists and does not look like a folder vfs may replace."""
+
+
+class ClusterError(VfsError, RuntimeError):
+    """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""

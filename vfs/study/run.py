@@ -24,6 +24,7 @@ columns and the command line in docs/study.md.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import time
@@ -64,6 +65,7 @@ from vfs.study.manifest import (
     now,
     prepare_folder,
 )
+from vfs.study.orphans import pid_alive
 from vfs.study.systems import SystemRegistry, resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, error_text
 
@@ -89,7 +91,8 @@ def _new_manifest(selection: DatabaseSelection, where: str | None, chunk_size: i
         "format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "status": "running",
         "created": now(), "updated": now(),
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
-        "db_format": selection.fmt, "db_name": str(database.meta.get("name", "")),
+        "db_reference": selection.reference, "db_format": selection.fmt,
+        "db_name": str(database.meta.get("name", "")),
         "where": where, "data_hash": data_hash(database), "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": chunk_size, "n_chunks": n_chunks,
         "system_names": names,
@@ -144,16 +147,6 @@ def lock_path(out: Path) -> Path:
     return out.parent / f".{out.name}.lock"
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # exists, owned by another user
-        return True
-    return True
-
-
 def acquire_lock(out: Path) -> Path:
     """Claim study folder ``out`` for this process: a lock file with pid, host and time.
 
@@ -175,7 +168,7 @@ def acquire_lock(out: Path) -> Path:
             except (OSError, ValueError):
                 owner = {}
             pid, host = owner.get("pid"), owner.get("host")
-            if host == me["host"] and isinstance(pid, int) and not _pid_alive(pid):
+            if host == me["host"] and isinstance(pid, int) and not pid_alive(pid):
                 lock.unlink(missing_ok=True)  # stale: its process is gone
                 continue
             raise ParameterError(
@@ -220,21 +213,28 @@ def run_study(
     dask_processes: bool = True,
     max_chunks: int | None = None,
     on_chunk: Callable[[int, int], None] | None = None,
+    dashboard: str | None = None,
+    in_flight: int | None = None,
 ) -> StudyResult:
     """Run (or resume) an AEB effectiveness study and write its folder.
 
     Parameters
     ----------
-    db : path, ``"default"`` or Database
+    db : path, URL, ``"default"`` or Database
         Database folder (Parquet, CSV or PCM), ``"default"`` for the bundled
-        database, or an in-memory :class:`vfs.database.Database` (its chunks
-        are then pickled to the workers).
+        database (each worker finds its own copy), the fsspec URL of a Parquet
+        database (``file:///shared/db``, ``s3://bucket/db``; ``memory://db``
+        only with workers in this process: serial, or dask with threads), or
+        an in-memory :class:`vfs.database.Database` (its chunks are then
+        pickled to the workers).
     systems : sequence of str or system objects, or "a,b"
         AEB systems; names are looked up with :func:`resolve_system`.
     out : path
         Study folder (created).
-    engine : {"serial", "process", "dask"}
-        Executor (:data:`EXECUTORS`); default local processes.
+    engine : str
+        Executor (:data:`vfs.study.executors.EXECUTORS`): ``"serial"``,
+        ``"process"`` (default: local processes), ``"dask"`` or one
+        registered from Python or by an installed package.
     workers : int, optional
         Parallel workers; default ``min(cpu count, tasks to run)`` (a task = one
         chunk with one system).
@@ -272,6 +272,13 @@ def run_study(
         (to be resumed); for tests and staged runs.
     on_chunk : callable, optional
         ``on_chunk(chunk_index, cases_done)`` after each chunk file is written.
+    dashboard : str, optional
+        Serve the dashboard of the local dask cluster at this address
+        (``":8787"``; needs bokeh); default none.  Not with ``scheduler`` (a
+        running scheduler serves its own).
+    in_flight : int, optional
+        Tasks submitted to the workers and not yet written at any time
+        (default 2 per worker).
 
     Returns
     -------
@@ -290,6 +297,11 @@ def run_study(
     chunk_size = _positive_int("chunk_size", chunk_size)
     if workers is not None:
         workers = _positive_int("workers", workers)
+    if in_flight is not None:
+        in_flight = _positive_int("in_flight", in_flight)
+    if dashboard is not None and (engine != "dask" or scheduler):
+        raise ParameterError("dashboard: only for the local cluster of engine 'dask' (a "
+                             "running scheduler serves its own dashboard)")
     if impact_parameters not in IMPACT_PARAMETER_SOURCES:
         raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
                              f"{', '.join(IMPACT_PARAMETER_SOURCES)}")
@@ -311,7 +323,8 @@ def run_study(
     try:
         return _run_locked(out_dir, selection, where, chunk_size, chunks, system_objs, names,
                            equip, seed, impact_parameters, params, engine, resume, overwrite,
-                           max_chunks, workers, scheduler, dask_processes, progress,
+                           max_chunks, workers, ExecutorOptions(
+                               0, scheduler, dask_processes, dashboard, in_flight), progress,
                            on_chunk, started, executor)
     finally:
         lock.unlink(missing_ok=True)
@@ -321,7 +334,7 @@ def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: in
                 chunks: list[np.ndarray], system_objs: list[Any], names: list[str], equip: str,
                 seed: int, impact_parameters: str, params: SimulationParams, engine: str,
                 resume: bool, overwrite: bool, max_chunks: int | None, workers: int | None,
-                scheduler: str | None, dask_processes: bool, progress: bool | None,
+                options: ExecutorOptions, progress: bool | None,
                 on_chunk: Callable[[int, int], None] | None, started: float,
                 executor: Any) -> StudyResult:
     """The study in its locked folder (see :func:`run_study`)."""
@@ -333,8 +346,8 @@ def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: in
     try:
         return _run_chunks(out_dir, manifest, database, folder, ids, chunk_size, chunks,
                            system_objs, names, equip, seed, impact_parameters, params, engine,
-                           max_chunks, workers, scheduler, dask_processes, progress, on_chunk,
-                           started, executor, selection.fmt)
+                           max_chunks, workers, options, progress, on_chunk,
+                           started, executor, selection)
     except BaseException as exc:
         # whatever failed (a full disk included), the manifest must not say "running"
         if manifest.get("status") == "running":
@@ -351,10 +364,9 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
                 ids: np.ndarray, chunk_size: int, chunks: list[np.ndarray],
                 system_objs: list[Any], names: list[str], equip: str, seed: int,
                 impact_parameters: str, params: SimulationParams, engine: str,
-                max_chunks: int | None, workers: int | None, scheduler: str | None,
-                dask_processes: bool, progress: bool | None,
-                on_chunk: Callable[[int, int], None] | None, started: float, executor: Any,
-                fmt: Any) -> StudyResult:
+                max_chunks: int | None, workers: int | None, options: ExecutorOptions,
+                progress: bool | None, on_chunk: Callable[[int, int], None] | None,
+                started: float, executor: Any, selection: DatabaseSelection) -> StudyResult:
     """Write the folder's inputs, run the chunks still to do, combine them."""
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
@@ -376,16 +388,16 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
             np.arange(start, start + chunks[k].size))
         for j, system in enumerate(runners):
             tasks.append(RunTask(
-                chunk=k, case_ids=chunks[k], system_index=j, system=system, db_path=folder,
-                db_format=fmt, batch=sub, equip=equip, seed=seed, params=params,
-                impact_parameters=impact_parameters))
+                chunk=k, case_ids=chunks[k], system_index=j, system=system,
+                db=selection.reference, db_format=selection.fmt, batch=sub, equip=equip,
+                seed=seed, params=params, impact_parameters=impact_parameters))
     n_workers = 1 if engine == "serial" else (
         workers if workers else max(1, min(cpu_count(), len(tasks))))
     bar = _progress_bar(sum(chunks[k].size for k in todo), progress)
     writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, on_chunk)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
-            executor(tasks, writer, ExecutorOptions(n_workers, scheduler, dask_processes))
+            executor(tasks, writer, dataclasses.replace(options, workers=n_workers))
     finally:
         bar.close()
     manifest.pop("error", None)

@@ -35,6 +35,7 @@ import importlib.util
 import multiprocessing
 import os
 import sys
+import threading
 import uuid
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -158,7 +159,10 @@ def _mp_context() -> Any:
     methods = multiprocessing.get_all_start_methods()
     if "forkserver" in methods:
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["vfs.study.tasks"])
+        preload = ["vfs.study.tasks"]
+        if threading.current_thread() is threading.main_thread():
+            preload.append("vfs.study.forkserver_guard")  # the server dies with this process
+        ctx.set_forkserver_preload(preload)
         return ctx
     return multiprocessing.get_context("spawn")
 

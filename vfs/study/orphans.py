@@ -7,8 +7,9 @@ orphans.  :func:`exit_with_parent` is the workers' initializer
 
 * on Linux, ``prctl(PR_SET_PDEATHSIG, SIGKILL)``: the kernel kills the worker
   when its parent ends.  With the ``forkserver`` start method the parent is
-  the fork server, which itself exits when the study process is gone (its
-  ``alive`` pipe reaches end of file), so the chain ends every worker;
+  the fork server, which would only end after its workers; so the server is
+  armed the same way (:mod:`vfs.study.forkserver_guard`, on its preload
+  list) and the chain study process -> fork server -> workers ends at once;
 * everywhere, a daemon thread that polls every ``poll_s`` seconds whether the
   study process still runs and the worker's parent is still the same process,
   and ends the worker with ``os._exit`` when not.

@@ -24,13 +24,22 @@ import pytest
 
 import vfs.study.executors as executors
 from vfs.cli import main
-from vfs.database import bundled_database_path, database_location, database_reference
-from vfs.errors import ClusterError, ParameterError
+from vfs.database import (
+    Database,
+    bundled_database_path,
+    database_location,
+    database_reference,
+    open_database,
+    save_database,
+)
+from vfs.errors import ClusterError, DataError, ParameterError
 from vfs.physics.precrash import PrecrashParams
 from vfs.physics.runout import RunoutParams
 from vfs.simulation import SimulationParams
 from vfs.study import EXECUTORS, ExecutorOptions, RunTask, register_executor, run_task
 from vfs.study import run_study as _run_study
+from vfs.study.inputs import study_input
+from vfs.study.manifest import data_hash
 
 ROOT = Path(__file__).resolve().parents[1]
 WHERE = "case_id <= 24"
@@ -100,6 +109,24 @@ def test_tasks_carry_the_reference_not_the_clients_install_path(tmp_path, monkey
     monkeypatch.chdir(tmp_path)
     assert database_reference("db") == str(tmp_path / "db")
     assert database_reference("memory://db") == "memory://db"
+
+
+def test_the_client_reads_the_cases_table_validates_in_blocks_and_hashes_in_batches(tmp_path):
+    whole = open_database("default", where="accident_type IN (241, 601)")
+    got = study_input("default", "accident_type IN (241, 601)", block_cases=25)
+    assert got.database is None and got.reference == "default"
+    pd.testing.assert_frame_equal(got.cases, whole.cases, check_exact=True)
+    assert got.data_hash == data_hash(whole)  # as if the whole selection were loaded
+    # an invalid case in a later block is found as in a whole load
+    db = open_database("default")
+    bad = db.participants.copy()
+    bad.loc[bad["case_id"] == 590, "mass"] = -1.0
+    folder = save_database(Database(db.cases, bad, db.trajectories, db.reconstruction,
+                                    meta=db.meta), tmp_path / "bad", validate=False)
+    with pytest.raises(DataError, match=r"case_id 590.*mass|mass.*case_id 590"):
+        study_input(folder, block_cases=100)
+    with pytest.raises(DataError, match="no case selected"):
+        study_input(folder, "case_id < 0")
 
 
 # ------------------------------------------------------------ URL databases on dask

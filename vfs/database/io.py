@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import os
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,7 @@ from vfs.database.schema import (
     TABLE_NAMES,
     TABLES,
     empty_table,
+    normalise_table,
     table_from_file_units,
     table_to_file_units,
 )
@@ -215,9 +216,10 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
 
 
 def _read_parquet_tables(
-    folder: Path, where: str | None, problems: list[DataProblem]
+    folder: Path, where: str | None, problems: list[DataProblem],
+    names: Iterable[str] = TABLE_NAMES,
 ) -> dict[str, pd.DataFrame]:
-    files = {name: folder / f"{name}.parquet" for name in TABLE_NAMES}
+    files = {name: folder / f"{name}.parquet" for name in names}
     present = {}
     for name, file in files.items():
         if file.is_file():
@@ -269,12 +271,19 @@ def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFram
         except duckdb.Error as exc:
             raise _sql_error(where, exc) from exc
         con.register("selected_cases", selected)
+        # the range of the selected ids lets duckdb skip row groups of files sorted by case
+        # (their statistics); it selects nothing more than the IN
+        ids = selected.column("case_id")
+        bounds = pc.min_max(ids) if ids.null_count == 0 and len(ids) and \
+            pa.types.is_integer(ids.type) else None
+        between = "" if bounds is None else \
+            f"AND case_id BETWEEN {int(bounds['min'].as_py())} AND {int(bounds['max'].as_py())} "
         frames = {}
         for name, file in files.items():
             table = con.sql(
                 "SELECT * EXCLUDE (file_row_number) "
                 "FROM read_parquet($file, file_row_number = true) "
-                "WHERE case_id IN (SELECT case_id FROM selected_cases) "
+                f"WHERE case_id IN (SELECT case_id FROM selected_cases) {between}"
                 "ORDER BY file_row_number",
                 params={"file": str(file)},
             ).to_arrow_table()
@@ -285,7 +294,8 @@ def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFram
 
 
 def _read_parquet_tables_url(
-    url: str, where: str | None, problems: list[DataProblem]
+    url: str, where: str | None, problems: list[DataProblem],
+    names: Iterable[str] = TABLE_NAMES,
 ) -> dict[str, pd.DataFrame]:
     """The tables of a Parquet database at an fsspec URL (pyarrow through fsspec).
 
@@ -295,7 +305,7 @@ def _read_parquet_tables_url(
     """
     fs, root = url_filesystem(url)
     present = {}
-    for name in TABLE_NAMES:
+    for name in dict.fromkeys(["cases", *names]) if where else names:
         file = f"{root}/{name}.parquet"
         if fs.isfile(file):
             present[name] = file
@@ -328,7 +338,7 @@ def _read_parquet_tables_url(
             ids = selected.column("case_id").combine_chunks()
             keep = pc.field("case_id").isin(ids)
             tables = {name: cases.filter(keep) if name == "cases" else read(name, keep)
-                      for name in present}
+                      for name in present if name in names}
     frames = {name: table.to_pandas() for name, table in tables.items() if table is not None}
     return {name: frames.get(name, empty_table(name)) for name in TABLE_NAMES}
 
@@ -396,6 +406,82 @@ def load_database(
     meta, problems = read_meta(folder)
     frames = _read_parquet_tables(folder, where, problems)
     return _finish_loading(frames, meta, problems, validate)
+
+
+def load_cases(path: str | os.PathLike[str], where: str | None = None) -> pd.DataFrame:
+    """The cases table of a Parquet database (folder or URL), without the other tables.
+
+    Parameters
+    ----------
+    path : path or URL
+        Database folder or its fsspec URL.
+    where : str, optional
+        SQL predicate selecting cases (duckdb), as in :func:`load_database`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The selected rows in file order, normalised and in SI units: the
+        ``cases`` table :func:`load_database` gives for the same arguments.
+
+    Raises
+    ------
+    DataError
+        The folder or its cases table is missing or unreadable, or the
+        predicate is invalid.
+    """
+    problems: list[DataProblem] = []
+    if is_url(path):
+        frames = _read_parquet_tables_url(os.fspath(path), where, problems, names=("cases",))
+    else:
+        folder = Path(path)
+        if not folder.is_dir():
+            raise DataError(DataProblem("meta", "", None, None, f"database folder {folder} "
+                                                                "does not exist"))
+        frames = _read_parquet_tables(folder, where, problems, names=("cases",))
+    if problems:
+        raise DataError(problems)
+    return table_from_file_units(normalise_table(frames["cases"], "cases"), "cases")
+
+
+def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | None = None,
+               *, batch_rows: int = 65536) -> Iterator[pd.DataFrame]:
+    """One table of a Parquet database in batches of rows, without holding it whole.
+
+    Parameters
+    ----------
+    path : path or URL
+        Database folder or its fsspec URL.
+    table : str
+        Table name (:data:`vfs.database.schema.TABLE_NAMES`).
+    case_ids : ndarray, optional
+        Keep only the rows of these cases.
+    batch_rows : int
+        Rows read at a time (before the case filter).
+
+    Yields
+    ------
+    pandas.DataFrame
+        Consecutive parts of the table in file order, each normalised and in
+        SI units as in :func:`load_database`; at least one (empty for an
+        empty table), so the columns are always known.
+    """
+    keep = None if case_ids is None else pa.array(np.asarray(case_ids))
+    if is_url(path):
+        fs, root = url_filesystem(os.fspath(path))
+        source: Any = fs.open(f"{root}/{table}.parquet", "rb")
+    else:
+        source = open(Path(path) / f"{table}.parquet", "rb")  # closed below
+    with source, pq.ParquetFile(source) as file:
+        empty = True
+        for batch in file.iter_batches(batch_size=batch_rows):
+            if keep is not None:
+                batch = batch.filter(pc.is_in(batch.column("case_id"), value_set=keep))
+            empty = False
+            yield table_from_file_units(normalise_table(batch.to_pandas(), table), table)
+        if empty:
+            frame = file.schema_arrow.empty_table().to_pandas()
+            yield table_from_file_units(normalise_table(frame, table), table)
 
 
 def select_cases(db: Database, where: str) -> Database:

@@ -37,11 +37,12 @@ import numpy as np
 import pandas as pd
 
 from vfs.atomic import write_json, write_table
-from vfs.database import Database, DatabaseSelection, select_database
+from vfs.database import Database
 from vfs.database.metadata import field_metadata
-from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
+from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch, SimulationParams
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
+from vfs.study.inputs import StudyInput, study_input
 from vfs.study.layout import (
     BASELINE,
     CASES_FILE,
@@ -60,7 +61,6 @@ from vfs.study.manifest import (
     case_ids_hash,
     combine_chunks,
     counts_summary,
-    data_hash,
     environment_versions,
     now,
     prepare_folder,
@@ -80,20 +80,20 @@ def _positive_int(name: str, value: object) -> int:
     return int(value)
 
 
-def _new_manifest(selection: DatabaseSelection, where: str | None, chunk_size: int,
+def _new_manifest(selection: StudyInput, where: str | None, chunk_size: int,
                   n_chunks: int, systems: Sequence[Any], equip: str, seed: int,
                   impact_parameters: str, params: SimulationParams, engine: str
                   ) -> dict[str, Any]:
     """``study.json`` of a study about to start (status ``running``)."""
-    database, ids = selection.database, selection.database.case_ids
+    ids = selection.case_ids
     names = [str(s.name) for s in systems]
     return {
         "format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "status": "running",
         "created": now(), "updated": now(),
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
         "db_reference": selection.reference, "db_format": selection.fmt,
-        "db_name": str(database.meta.get("name", "")),
-        "where": where, "data_hash": data_hash(database), "case_ids_hash": case_ids_hash(ids),
+        "db_name": str(selection.meta.get("name", "")),
+        "where": where, "data_hash": selection.data_hash, "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": chunk_size, "n_chunks": n_chunks,
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
@@ -312,11 +312,8 @@ def run_study(
     system_objs = resolve_systems(systems, registry)
     names = [str(s.name) for s in system_objs]
 
-    selection = select_database(db, where)
-    ids = selection.database.case_ids
-    if ids.size == 0:
-        raise DataError(DataProblem("cases", "", None, None,
-                                    "no case selected" + (f" by {where!r}" if where else "")))
+    selection = study_input(db, where)
+    ids = selection.case_ids  # never empty (study_input refuses)
     chunks = [ids[i:i + chunk_size] for i in range(0, ids.size, chunk_size)]
     out_dir = Path(out)
     lock = acquire_lock(out_dir)
@@ -330,7 +327,7 @@ def run_study(
         lock.unlink(missing_ok=True)
 
 
-def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: int,
+def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_size: int,
                 chunks: list[np.ndarray], system_objs: list[Any], names: list[str], equip: str,
                 seed: int, impact_parameters: str, params: SimulationParams, engine: str,
                 resume: bool, overwrite: bool, max_chunks: int | None, workers: int | None,
@@ -338,13 +335,12 @@ def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: in
                 on_chunk: Callable[[int, int], None] | None, started: float,
                 executor: Any) -> StudyResult:
     """The study in its locked folder (see :func:`run_study`)."""
-    database, folder = selection.database, selection.folder
-    ids = database.case_ids
+    ids = selection.case_ids
     manifest = prepare_folder(
         out_dir, _new_manifest(selection, where, chunk_size, len(chunks), system_objs, equip,
                                seed, impact_parameters, params, engine), resume, overwrite)
     try:
-        return _run_chunks(out_dir, manifest, database, folder, ids, chunk_size, chunks,
+        return _run_chunks(out_dir, manifest, ids, chunk_size, chunks,
                            system_objs, names, equip, seed, impact_parameters, params, engine,
                            max_chunks, workers, options, progress, on_chunk,
                            started, executor, selection)
@@ -360,17 +356,17 @@ def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: in
         raise
 
 
-def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: Any,
+def _run_chunks(out_dir: Path, manifest: dict[str, Any],
                 ids: np.ndarray, chunk_size: int, chunks: list[np.ndarray],
                 system_objs: list[Any], names: list[str], equip: str, seed: int,
                 impact_parameters: str, params: SimulationParams, engine: str,
                 max_chunks: int | None, workers: int | None, options: ExecutorOptions,
                 progress: bool | None, on_chunk: Callable[[int, int], None] | None,
-                started: float, executor: Any, selection: DatabaseSelection) -> StudyResult:
+                started: float, executor: Any, selection: StudyInput) -> StudyResult:
     """Write the folder's inputs, run the chunks still to do, combine them."""
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
-    cases_meta = database.cases.reset_index(drop=True)
+    cases_meta = selection.cases.reset_index(drop=True)
     write_table(out_dir / CASES_FILE, cases_meta,
                 field_metadata(cases_meta.columns, table="cases"))
 
@@ -378,8 +374,9 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
     if max_chunks is not None:
         todo = todo[:max(0, int(max_chunks))]
     batch_all = None
-    if folder is None:  # in memory: the tasks carry their cases
-        batch_all = CaseBatch.from_database(database, impact_parameters=impact_parameters)
+    if selection.database is not None:  # in memory: the tasks carry their cases
+        batch_all = CaseBatch.from_database(selection.database,
+                                            impact_parameters=impact_parameters)
     runners: list[Any | None] = [None, *system_objs]
     tasks = []
     for k in todo:

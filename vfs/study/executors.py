@@ -239,8 +239,29 @@ def _start_local_cluster(options: ExecutorOptions) -> tuple[Any, Any]:
                            silence_logs=logging.ERROR)
     client = Client(cluster)
     if dashboard:
-        notify(f"dask dashboard: {client.dashboard_link}")
+        notify(f"dask dashboard: {dashboard_link(client.dashboard_link, dashboard)}")
     return cluster, client
+
+
+def dashboard_link(link: str, address: str) -> str:
+    """The dashboard's link with the host of ``address`` where one is given.
+
+    dask builds the link from the machine's address, which does not answer
+    when the dashboard listens on one interface only (``127.0.0.1:8787``).
+
+    >>> dashboard_link("http://10.0.0.5:8787/status", "127.0.0.1:8787")
+    'http://127.0.0.1:8787/status'
+    >>> dashboard_link("http://10.0.0.5:8787/status", ":8787")
+    'http://10.0.0.5:8787/status'
+    """
+    from urllib.parse import urlsplit, urlunsplit
+
+    host = str(address).rpartition(":")[0].strip("[]")
+    parts = urlsplit(link)
+    if not host or host in ("0.0.0.0", "::") or parts.port is None:
+        return link
+    host = f"[{host}]" if ":" in host else host
+    return urlunsplit(parts._replace(netloc=f"{host}:{parts.port}"))
 
 
 def _run_dask(tasks: Sequence[RunTask], on_result: OnResult,
@@ -317,5 +338,6 @@ def cpu_count() -> int:
 
 
 __all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT", "Executor",
-           "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count", "notify",
+           "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count", "dashboard_link",
+           "notify",
            "register_executor", "run_windowed", "worker_versions"]

@@ -472,7 +472,7 @@ def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | 
         source: Any = fs.open(f"{root}/{table}.parquet", "rb")
     else:
         source = open(Path(path) / f"{table}.parquet", "rb")  # closed below
-    with source, pq.ParquetFile(source) as file:
+    with source, pq.ParquetFile(source, pre_buffer=False) as file:  # memory: a batch at a time
         empty = True
         for batch in file.iter_batches(batch_size=batch_rows):
             if keep is not None:

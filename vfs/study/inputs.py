@@ -23,6 +23,7 @@ before.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -100,7 +101,7 @@ def streamed_data_hash(location: str, case_ids: np.ndarray) -> str:
         first = next(parts)
         h.update(name.encode())
         h.update(",".join(map(str, first.columns)).encode())
-        for part in (first, *parts):
+        for part in itertools.chain([first], parts):  # one batch at a time
             h.update(pd.util.hash_pandas_object(part, index=False).to_numpy().tobytes())
     return h.hexdigest()
 

@@ -350,7 +350,8 @@ def plot_case_traces(runs: Sequence[PageRun], path: str | Path, *, title: str = 
         axes[-1, j].set_xlabel("time since the start of the record [s]")
         for ax in axes[:, j]:
             ax.grid(True, lw=0.3)
-        axes[0, j].set_ylim(0, max(10.0, 1.1 * top))  # [km/h]
+        # headroom above the curves for the event letters
+        axes[0, j].set_ylim(0, max(10.0, (1.35 if used else 1.1) * top))  # [km/h]
         if braking:
             axes[1, j].set_ylabel("added brake deceleration [m/s^2]")
             axes[1, j].set_ylim(-0.3, max(2.0, axes[1, j].get_ylim()[1]))  # [m/s^2]
@@ -509,7 +510,8 @@ def comparison_case_page(folder: Path, case_id: Any, run: PageRun, rec: pd.Serie
     kind_vfs = _kind(row, "none") if _collided(row) else "no collision"
     lines.insert(0, ("impact type", kind_rec, kind_vfs, "", kind_rec, kind_vfs, ""))
     table = Table(("quantity", "vehicle 1 reconstruction", "vehicle 1 VFS", "VFS - rec. 1",
-                   "vehicle 2 reconstruction", "vehicle 2 VFS", "VFS - rec. 2"), tuple(lines))
+                   "vehicle 2 reconstruction", "vehicle 2 VFS", "VFS - rec. 2"), tuple(lines),
+                  align=("left", *(("right",) * 6)))
     summary = [f"Reconstruction: {kind_rec} impact; VFS: "
                + (f"{kind_vfs} impact." if _collided(row) else "no collision.")]
     if _collided(row):

@@ -793,8 +793,8 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
     ]
     for file, caption in worst:
         b.append(Figure(file.relative_to(folder).as_posix(),
-                        caption + " (VFS in colour, reconstruction POI and rest positions in "
-                        "grey)"))
+                        caption + " (VFS in colour, zoomed on the impact, inset: the whole "
+                        "path; reconstruction POI, contact plane and rest positions in grey)"))
     b += [
         Heading("8 Cases not compared", 2),
         _table(pd.DataFrame({

@@ -327,8 +327,10 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
         layers.append(Layer("marker", poi[None, :], "black", "*", "POI", size=12.0))
         kind = IMPACT_TYPE_NAMES[int(imp.impact_type[i])]
         info = (f"{kind} impact, delta-v {imp.delta_v1[i] * KMH_PER_MS:.1f} / "
-                f"{imp.delta_v2[i] * KMH_PER_MS:.1f} km/h, "
-                f"EES {imp.ees1[i] * KMH_PER_MS:.1f} / {imp.ees2[i] * KMH_PER_MS:.1f} km/h")
+                f"{imp.delta_v2[i] * KMH_PER_MS:.1f} km/h")
+        if label is None:  # a panel of several (a label) has the EES in its page's table
+            info += (f", EES {imp.ees1[i] * KMH_PER_MS:.1f} / "
+                     f"{imp.ees2[i] * KMH_PER_MS:.1f} km/h")
     else:
         info = f"no collision, closest approach {pre.min_distance[i]:.2f} m"
     pts = np.vstack(focus) if focus else np.zeros((0, 2))
@@ -464,17 +466,24 @@ def legend_handles(layers: Sequence[Layer]) -> tuple[list[Any], list[str]]:
     return handles, labels
 
 
-def _square_limits(points: np.ndarray, margin: float, min_span: float
-                   ) -> tuple[tuple[float, float], tuple[float, float]]:
+def _fit_limits(points: np.ndarray, margin: float, min_span: float, max_ratio: float = 1.6
+                ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Limits [m] around ``points``: ``margin`` beyond them, the longer side at least
+    ``min_span``, the sides at most ``max_ratio`` : 1 (an equal-aspect view of a wide
+    scene stays wide instead of a square with empty bands).
+    """
     lo, hi = points.min(axis=0) - margin, points.max(axis=0) + margin
     centre = 0.5 * (lo + hi)
-    half = 0.5 * max(float(np.max(hi - lo)), min_span)
-    return ((centre[0] - half, centre[0] + half), (centre[1] - half, centre[1] + half))
+    span = hi - lo
+    longer = max(float(span.max()), min_span)
+    span = np.maximum(np.where(span >= span.max(), longer, span), longer / max_ratio)
+    half = 0.5 * span
+    return ((centre[0] - half[0], centre[0] + half[0]), (centre[1] - half[1], centre[1] + half[1]))
 
 
 def view_limits(scenes: Sequence[Scene], *, margin: float = 3.0, min_span: float = 14.0
                 ) -> tuple[tuple[float, float], tuple[float, float]] | None:
-    """A square main view [m] around the focus of the scenes (for panels that share it)."""
+    """The main view [m] around the focus of the scenes (for panels that share it)."""
     pts = [s.focus for s in scenes if s.focus.size]
     if not pts:
         pts = [s.extent() for s in scenes if s.extent().size]
@@ -482,7 +491,7 @@ def view_limits(scenes: Sequence[Scene], *, margin: float = 3.0, min_span: float
         return None
     allp = np.vstack(pts)
     allp = allp[np.isfinite(allp).all(axis=1)]
-    return _square_limits(allp, margin, min_span) if allp.size else None
+    return _fit_limits(allp, margin, min_span) if allp.size else None
 
 
 def _inset_corner(points: np.ndarray, xlim: tuple[float, float], ylim: tuple[float, float],
@@ -510,8 +519,9 @@ def draw_scene(ax: Any, scene: Scene, *, limits: Any = None, overview: bool = Tr
     ax : matplotlib.axes.Axes
     scene : Scene
     limits : ((x0, x1), (y0, y1)), optional
-        The main view [m]; default :func:`view_limits` of this scene (square, at least
-        14 m, 3 m around the outlines at first contact and impact).
+        The main view [m]; default :func:`view_limits` of this scene (3 m around the
+        outlines at first contact and impact, the longer side at least 14 m, at most
+        1.6 : 1).
     overview : bool
         Add the overview (every layer, the main view as a rectangle) in the emptiest
         corner when the scene reaches beyond the main view.
@@ -639,9 +649,11 @@ def plot_case_topview(batch: Any, results: Any, index: int = 0,
     scene = case_scene(batch, results, index, trace=trace, title=title)
     if overlay is not None:
         scene = scene.merged(overlay)
-    fig = new_figure((8, 8.2), layout="constrained")
+    lim = view_limits([scene])
+    ratio = 1.0 if lim is None else (lim[1][1] - lim[1][0]) / (lim[0][1] - lim[0][0])
+    fig = new_figure((8.5, float(np.clip(7.6 * ratio, 4.0, 9.0)) + 2.2), layout="constrained")
     ax = fig.subplots()
-    draw_scene(ax, scene)
+    draw_scene(ax, scene, limits=lim)
     if path is not None:
         save_figure(fig, path, dpi=120)
     return fig

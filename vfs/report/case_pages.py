@@ -599,8 +599,8 @@ def write_effectiveness_case_pages(folder: str | Path, study: Any, case_ids: Seq
         return {}, ""
     try:
         replays = replay_study_cases(study, ids, say=say)
-    except DataError as exc:
-        return {}, str(exc)
+    except DataError as exc:  # the problems without the error's header line
+        return {}, "; ".join(str(p.message) for p in exc.problems) or str(exc)
     m = study.manifest
     table = study.table
     names = [BASELINE, *m.get("system_names", [])]

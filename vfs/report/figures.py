@@ -617,11 +617,15 @@ def plot_scenes(scenes: Sequence[Scene], path: str | os.PathLike[str] | None = N
     n = len(scenes)
     ncols = max(1, min(ncols, n))
     nrows = -(-n // ncols)
-    fig = new_figure((5.2 * ncols, 5.4 * nrows + 0.6), layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     common = view_limits(scenes)
     if common is not None and common[0][1] - common[0][0] > share:
         common = None
+    views = [common] if common is not None else [view_limits([s]) for s in scenes]
+    ratio = max([(v[1][1] - v[1][0]) / (v[0][1] - v[0][0]) for v in views if v is not None],
+                default=1.0)  # height / width of the tallest view
+    fig = new_figure((5.2 * ncols, nrows * (4.6 * float(np.clip(ratio, 0.55, 1.6)) + 0.9)
+                      + 0.6), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     for ax, scene in zip(axes, scenes, strict=False):
         draw_scene(ax, scene, limits=common, legend=None)
     handles, labels = legend_handles([ly for s in scenes for ly in s.layers])

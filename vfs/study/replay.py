@@ -148,12 +148,14 @@ def replay_study_cases(study: str | os.PathLike[str] | StudyResult, case_ids: Se
     m = res.manifest
     db_path = str(m.get("db", ""))
     if not db_path or db_path.startswith("<") or not Path(db_path).exists():
-        raise DataError(DataProblem("study", "db", None, db_path,
-                                    "the study's database is not a folder that exists here; "
-                                    "its cases cannot be re-simulated"))
+        raise DataError(DataProblem("study.json", "db", None, None,
+                                    f"the study's database {db_path or '(none)'} is not a "
+                                    "folder that exists here; its cases cannot be "
+                                    "re-simulated"))
     if not (res.path / CASES_FILE).is_file():
-        raise DataError(DataProblem("study", "", None, None,
-                                    f"{res.path}: no {CASES_FILE}; not a folder of vfs study"))
+        raise DataError(DataProblem(CASES_FILE, "", None, None,
+                                    f"{res.path} has no {CASES_FILE}; not a folder written "
+                                    "by vfs study"))
     order = pd.read_parquet(res.path / CASES_FILE, columns=["case_id"])["case_id"].to_numpy()
     position = {cid: k for k, cid in enumerate(order.tolist())}
     wanted = sorted({c for c in case_ids if c in position}, key=position.__getitem__)

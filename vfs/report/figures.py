@@ -218,17 +218,21 @@ class Scene:
     """What a top view shows: layers, the points the main view zooms on, a title.
 
     The main view of :func:`draw_scene` is zoomed on ``focus`` (the impact: the outlines at
-    first contact and at impact); everything else is in the whole-path overview beside it.
+    first contact and at impact) and also shows the outlines of ``nearby`` (the rest
+    outlines, 4 corners each, nearest first) as long as it stays small
+    (:data:`NEARBY_SPAN`); everything else is in the whole-path overview.
     """
 
     layers: tuple[Layer, ...] = ()
     focus: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     title: str = ""
+    nearby: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     def merged(self, other: Scene, *, focus: bool = False) -> Scene:
         """The scene with the layers of ``other`` on top (and its focus when ``focus``)."""
         pts = np.vstack([self.focus, other.focus]) if focus else self.focus
-        return Scene(self.layers + other.layers, pts, self.title)
+        near = np.vstack([self.nearby, other.nearby]) if focus else self.nearby
+        return Scene(self.layers + other.layers, pts, self.title, near)
 
     def extent(self, overview_only: bool = True) -> np.ndarray:
         """All finite points of the layers (N, 2) [m] (those drawn in the overview)."""
@@ -278,6 +282,7 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
     hit = bool(pre.collided[i])
     layers: list[Layer] = []
     focus: list[np.ndarray] = []
+    near: list[np.ndarray] = []
     for j, (veh, res) in enumerate(((batch.vehicle1, ro.result1), (batch.vehicle2, ro.result2))):
         color = COLORS[j]
         p = batch.paths
@@ -311,6 +316,7 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
                                     "run-out path", size=0.8))
                 o = vehicle_outline(v, [res.rest_x[i]], [res.rest_y[i]], [res.rest_yaw[i]])[0]
                 layers.append(_outline_layer(o, color, "-", "at rest", 0.35))
+                near.append(o)
         else:
             o = outline(pre.end_state)
             layers.append(_outline_layer(o, color, "-", "at the end", 0.25))
@@ -334,7 +340,8 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
     else:
         info = f"no collision, closest approach {pre.min_distance[i]:.2f} m"
     pts = np.vstack(focus) if focus else np.zeros((0, 2))
-    return Scene(tuple(layers), pts, title or f"{label or f'case {batch.case_id[i]}'}: {info}")
+    return Scene(tuple(layers), pts, title or f"{label or f'case {batch.case_id[i]}'}: {info}",
+                 np.vstack(near) if near else np.zeros((0, 2)))
 
 
 def reconstruction_scene(batch: Any, index: int, rec: Any, *, overlay: bool = False,
@@ -358,6 +365,7 @@ def reconstruction_scene(batch: Any, index: int, rec: Any, *, overlay: bool = Fa
     """
     layers: list[Layer] = []
     focus: list[np.ndarray] = []
+    near: list[np.ndarray] = []
     n = batch.size
 
     def val(name: str) -> float:
@@ -393,6 +401,7 @@ def reconstruction_scene(batch: Any, index: int, rec: Any, *, overlay: bool = Fa
             layers.append(_outline_layer(o, color, "--" if overlay else "-",
                                          "reconstruction at rest" if overlay else "at rest",
                                          0.0 if overlay else 0.35))
+            near.append(o)
     poi = np.array([val("poi_x"), val("poi_y")])
     if np.all(np.isfinite(poi)):
         if np.isfinite(val("cp_angle")):
@@ -407,7 +416,8 @@ def reconstruction_scene(batch: Any, index: int, rec: Any, *, overlay: bool = Fa
     kind = str(rec["impact_type"]) if "impact_type" in rec and rec["impact_type"] else "?"
     info = (f"reconstruction: {kind} impact, delta-v {val('delta_v1') * KMH_PER_MS:.1f} / "
             f"{val('delta_v2') * KMH_PER_MS:.1f} km/h")
-    return Scene(tuple(layers), pts, title or info)
+    return Scene(tuple(layers), pts, title or info,
+                 np.vstack(near) if near else np.zeros((0, 2)))
 
 
 def _draw_layers(ax: Any, layers: Sequence[Layer], small: bool) -> None:
@@ -481,17 +491,37 @@ def _fit_limits(points: np.ndarray, margin: float, min_span: float, max_ratio: f
     return ((centre[0] - half[0], centre[0] + half[0]), (centre[1] - half[1], centre[1] + half[1]))
 
 
+#: Longest side [m] of a main view that also shows the scene's ``nearby`` points (the rest
+#: positions); beyond it the view keeps to the impact.
+NEARBY_SPAN = 25.0
+
+
 def view_limits(scenes: Sequence[Scene], *, margin: float = 3.0, min_span: float = 14.0
                 ) -> tuple[tuple[float, float], tuple[float, float]] | None:
-    """The main view [m] around the focus of the scenes (for panels that share it)."""
-    pts = [s.focus for s in scenes if s.focus.size]
-    if not pts:
-        pts = [s.extent() for s in scenes if s.extent().size]
-    if not pts:
+    """The main view [m] around the focus of the scenes (for panels that share it).
+
+    3 m (``margin``) around the focus, the longer side at least ``min_span``; with the
+    scenes' ``nearby`` outlines (the rest positions), nearest first, as long as the view
+    stays within :data:`NEARBY_SPAN`.
+    """
+    def finite(parts: list[np.ndarray]) -> np.ndarray:
+        allp = np.vstack(parts) if parts else np.zeros((0, 2))
+        return allp[np.isfinite(allp).all(axis=1)]
+
+    pts = finite([s.focus for s in scenes if s.focus.size])
+    if not pts.size:
+        pts = finite([s.extent() for s in scenes])
+    if not pts.size:
         return None
-    allp = np.vstack(pts)
-    allp = allp[np.isfinite(allp).all(axis=1)]
-    return _fit_limits(allp, margin, min_span) if allp.size else None
+    # the nearby outlines (4 corners each), nearest first, as long as the view stays small
+    near = finite([s.nearby for s in scenes if s.nearby.size])
+    groups = near[:near.shape[0] // 4 * 4].reshape(-1, 4, 2)
+    centre = pts.mean(axis=0)
+    for g in sorted(groups, key=lambda c: float(np.hypot(*(c.mean(axis=0) - centre)))):
+        wider = np.vstack([pts, g])
+        if float(np.max(np.ptp(wider, axis=0))) + 2 * margin <= NEARBY_SPAN:
+            pts = wider
+    return _fit_limits(pts, margin, min_span)
 
 
 def _inset_corner(points: np.ndarray, xlim: tuple[float, float], ylim: tuple[float, float],
@@ -520,8 +550,8 @@ def draw_scene(ax: Any, scene: Scene, *, limits: Any = None, overview: bool = Tr
     scene : Scene
     limits : ((x0, x1), (y0, y1)), optional
         The main view [m]; default :func:`view_limits` of this scene (3 m around the
-        outlines at first contact and impact, the longer side at least 14 m, at most
-        1.6 : 1).
+        outlines at first contact and impact, and the rest outlines when the view stays
+        within 25 m; the longer side at least 14 m, at most 1.6 : 1).
     overview : bool
         Add the overview (every layer, the main view as a rectangle) in the emptiest
         corner when the scene reaches beyond the main view.
@@ -668,6 +698,7 @@ __all__ = [
     "COLORS",
     "DEFAULT_DPI",
     "FIGURE_FORMATS",
+    "NEARBY_SPAN",
     "RECONSTRUCTION_COLOR",
     "RUN_COLORS",
     "FigureOptions",

@@ -626,7 +626,7 @@ def draw_scene(ax: Any, scene: Scene, *, limits: Any = None, overview: bool = Tr
 
 
 def plot_scenes(scenes: Sequence[Scene], path: str | os.PathLike[str] | None = None, *,
-                ncols: int = 2, share: float = 30.0, dpi: float = 110) -> Figure:
+                ncols: int = 2, share: float = 20.0, dpi: float = 110) -> Figure:
     """Top views side by side (e.g. a case without and with each system), one legend.
 
     Parameters

@@ -161,10 +161,9 @@ def test_replay_reproduces_every_run_of_the_study(study):
 
 
 def test_effectiveness_report_links_every_case_to_its_page(study, tmp_path):
-    write_effectiveness_report(study.path, n_boot=50, out=tmp_path / "r", list_cases=2)
-    n = assert_linked(tmp_path / "r" / "report.html")
-    assert n >= 2
-    page = (tmp_path / "r" / "cases" / "150.html").read_text(encoding="utf-8")
+    write_effectiveness_report(study.path, n_boot=50, out=tmp_path / "r", list_cases=1)
+    assert assert_linked(tmp_path / "r" / "report.html") >= 2
+    page = next((tmp_path / "r" / "cases").glob("*.html")).read_text(encoding="utf-8")
     for text in ("Runs and AEB events", "Impact", "Speed and braking over time",
                  "three-stage", "vfs run-case"):
         assert text in page
@@ -178,8 +177,8 @@ def test_effectiveness_report_links_every_case_to_its_page(study, tmp_path):
 def test_comparison_report_links_every_case_to_its_page(tmp_path):
     db = open_database("default", WHERE)
     comparison = compare_database(db)
-    write_comparison_report(comparison, tmp_path / "c", database=db, top=3, sketches=0)
-    assert assert_linked(tmp_path / "c" / "report.html") >= 3
+    write_comparison_report(comparison, tmp_path / "c", database=db, top=2, sketches=0)
+    assert assert_linked(tmp_path / "c" / "report.html") >= 2
     page = (tmp_path / "c" / "cases" / f"{comparison.case_errors['case_id'].iloc[0]}.html")
     text = page.read_text(encoding="utf-8")
     assert "vehicle 1 reconstruction" in text and "VFS - rec. 1" in text

@@ -8,6 +8,7 @@ tutorial) are marked ``slow`` and scale with VFS_SLOW_SCALE.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shlex
@@ -43,7 +44,7 @@ from vfs.effects import (
     unregister_effect,
 )
 from vfs.errors import DataError, ParameterError
-from vfs.report.diagnose import write_diagnosis_report
+from vfs.report.diagnose import summary_blocks, write_diagnosis_report
 from vfs.scenarios.generator import NO_NOISE, generate_database, write_generated
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
@@ -174,6 +175,10 @@ def test_diagnose_ranks_the_hidden_effect_and_writes_reports(tyre_db, tmp_path):
     assert ranked["effect"].iloc[0] == "tyre_impulse"
     md = paths["markdown"].read_text()
     assert "Which effect is missing" in md and "Where the model fails" in md
+    short = md.split("## In short", 1)[1].split("\n## ", 1)[0]  # the summary comes first
+    assert md.index("## In short") < md.index("## Verdict")
+    assert "Most likely missing effect: `tyre_impulse`" in short
+    assert f"{100 * best.overall.low:.1f}, {100 * best.overall.high:.1f}]" in short
     assert paths["html"].read_text().startswith("<!DOCTYPE html>")
     assert (tmp_path / "diag" / "figures" / "ranking.png").is_file()
     assert len(list((tmp_path / "diag" / "figures").glob("case_*.png"))) == 2
@@ -187,6 +192,10 @@ def test_noise_only_nothing_is_significant():
     diag = diagnose(db, effects="tyre_impulse,yaw_inertia,ees_stiffness", worst=0, **QUICK)
     assert not any(c.significant for c in diag.candidates)
     assert diag.verdict[0].startswith("No candidate effect helps significantly")
+    items = summary_blocks(diag)[1].items  # "In short" says it is unsure / unreliable
+    assert items[0].startswith("Unsure: no candidate effect helps significantly")
+    small = summary_blocks(dataclasses.replace(diag, reliable=False))[1].items
+    assert small[0].startswith("Unreliable") and small[1].startswith("Unsure")
 
 
 @register_effect

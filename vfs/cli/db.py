@@ -151,7 +151,7 @@ def cmd_export_xosc(args: argparse.Namespace) -> int:
 
 def cmd_import_xosc(args: argparse.Namespace) -> int:
     """``vfs db import-xosc FILE.xosc [...] --out DIR``: OpenSCENARIO -> Parquet database."""
-    from vfs.interop.openscenario import import_xosc
+    from vfs.interop.scenario_import import import_xosc
 
     try:
         db = import_xosc(args.files, name=args.name or "")

@@ -17,7 +17,8 @@ from vfs.interop.motion import (
     study_motion,
 )
 from vfs.interop.opendrive import CaseRoads, ReferenceLine, Road, RoadSegment, case_roads
-from vfs.interop.openscenario import XoscExport, export_case, import_xosc, reference_offset
+from vfs.interop.openscenario import XoscExport, export_case, reference_offset
+from vfs.interop.scenario_import import import_xosc
 from vfs.interop.schemas import schema_errors, validate_file
 
 __all__ = [

@@ -449,8 +449,9 @@ def fit_reference_line(points: npt.ArrayLike, *, knot_spacing: float = KNOT_SPAC
     points from the line (plus a small weight on the distance along it from
     each point's station, the chord length, re-estimated once) and a
     penalty on the knots' second differences (smoothness; it also continues
-    the curvature over the ``margin`` beyond the points).  Curvatures are
-    bounded by ``max_curvature``.  The spline is then written as OpenDRIVE
+    the curvature over the ``margin`` beyond the points), with the weights
+    of :data:`SMOOTHNESS_LADDER` (Levenberg-Marquardt); curvatures are then
+    clipped to ``max_curvature``.  The spline is written as OpenDRIVE
     geometries (:func:`_segments_from_knots`) and its start pose refitted.
 
     Parameters
@@ -500,16 +501,14 @@ def fit_reference_line(points: npt.ArrayLike, *, knot_spacing: float = KNOT_SPAC
     kappa0 = np.clip(np.nan_to_num(np.interp(knots, u, kappa0)), -max_curvature, max_curvature)
     start = p[0] - margin * np.array([math.cos(h0), math.sin(h0)])
     params = np.concatenate([[start[0], start[1], h0], kappa0])
-    lower = np.concatenate([[-np.inf] * 3, np.full(n_pieces + 1, -max_curvature)])
-    upper = -lower
-    params = np.clip(params, lower + 1e-12, upper - 1e-12)
     u_start, best, best_error = u, params, math.inf
     for weight in SMOOTHNESS_LADDER:  # less smoothing only while it pays
         u, trial = u_start, best
         for _ in range(2):  # fit, re-estimate the stations, fit again
-            trial = least_squares(_spline_residuals, trial, bounds=(lower, upper),
-                                  x_scale="jac", max_nfev=200,
+            trial = least_squares(_spline_residuals, trial, method="lm", x_scale="jac",
+                                  max_nfev=2000,
                                   args=(knots, grid, p, u, weight * knot_spacing ** 2)).x
+            trial[3:] = np.clip(trial[3:], -max_curvature, max_curvature)
             x, y, h = _spline_pose(trial, knots, grid)
             u, lateral = _project(p, grid, x, y, h)
             u = np.clip(u, 0.0, total)
@@ -524,7 +523,8 @@ def fit_reference_line(points: npt.ArrayLike, *, knot_spacing: float = KNOT_SPAC
         line = ReferenceLine(float(pose[0]), float(pose[1]), float(pose[2]), segments)
         return line.project(p, step=0.5)[1]
 
-    pose = least_squares(pose_residuals, params[:3], x_scale="jac", max_nfev=50).x
+    pose = least_squares(pose_residuals, params[:3], method="lm", x_scale="jac",
+                         max_nfev=200).x
     ref = ReferenceLine(float(pose[0]), float(pose[1]), float(pose[2]), segments)
     error = float(np.max(np.abs(ref.project(p)[1])))
     return ref, error

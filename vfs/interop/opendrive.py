@@ -79,7 +79,7 @@ SMOOTHNESS_LADDER: tuple[float, ...] = (10.0, 1.0, 0.1)
 LADDER_GAIN = 0.7
 #: How ``case_roads`` builds the road: see :func:`case_roads`.
 ROAD_MODES: tuple[str, ...] = ("auto", "straight", "path")
-#: A second vehicle stays on road 1 while its CG is at most this far outside the lanes [m].
+#: A point is on a road (Road.contains) while at most this far outside its lanes [m].
 ON_ROAD_TOLERANCE = 0.5
 #: Two vehicles drive on the same road when their headings at the closest approach differ
 #: by less than this from parallel or anti-parallel [rad].
@@ -552,10 +552,21 @@ class _Path:
 
 
 def _same_road(a: _Path, b: _Path) -> bool:
-    """Paths roughly parallel or anti-parallel where they come closest."""
+    """Paths roughly parallel or anti-parallel at their starts or where they come closest."""
     d2 = (a.x[:, None] - b.x[None, :]) ** 2 + (a.y[:, None] - b.y[None, :]) ** 2
     i, j = np.unravel_index(int(np.argmin(d2)), d2.shape)
-    return abs(math.sin(float(wrap_angle(a.yaw[i] - b.yaw[j])))) < math.sin(SAME_ROAD_ANGLE)
+    limit = math.sin(SAME_ROAD_ANGLE)
+    return any(abs(math.sin(float(wrap_angle(a.yaw[k] - b.yaw[m])))) < limit
+               for k, m in ((0, 0), (i, j)))
+
+
+def _road_heading(yaws: np.ndarray, heading: float) -> float:
+    """Direction [rad] of a straight road from the yaw angles of the vehicles on it: their
+    median, taken modulo pi (oncoming vehicles count too) around ``heading``; robust to
+    drifts, lane changes and turns, which occupy a minority of the samples.
+    """
+    offsets = np.asarray(wrap_angle(2.0 * (np.asarray(yaws, float) - heading))) / 2.0
+    return heading + float(np.median(offsets))
 
 
 def _merged_points(ego: _Path, other: _Path, lane_width: float) -> np.ndarray:
@@ -586,19 +597,23 @@ def case_roads(x1: npt.ArrayLike, y1: npt.ArrayLike, yaw1: npt.ArrayLike,
     Road 1 carries participant 1 (the ego), which starts in the middle of
     the right lane.  ``mode``:
 
-    * ``"straight"``: a straight road along the ego's initial heading;
-    * ``"path"``: the reference line fitted to the ego's path shifted half a
-      lane to its left (:func:`fit_reference_line`), continued along
-      participant 2's path beyond the ends of the ego's when participant 2
-      drives on the same road (its heading at the closest approach within
-      30 degrees of parallel or anti-parallel: oncoming in a bend, rear-end);
+    * ``"straight"``: a straight road in the median direction of the
+      vehicles it carries (:func:`_road_heading`), placed so that the ego
+      starts in the middle of its right lane;
+    * ``"path"``: the reference line fitted to the ego's reference points
+      (:func:`fit_reference_line`), continued along participant 2's beyond
+      the ends of the ego's path;
     * ``"auto"`` (default): ``"straight"`` when the case's road curvature is
       0, else ``"path"``.
 
-    Roads reach :data:`ROAD_MARGIN` beyond every point they carry.  When
-    participant 2 leaves road 1's lanes (crossing paths), it gets a road 2 of
-    its own, built the same way along its path (the roads overlap; no
-    junction is modelled).
+    Both vehicles share road 1 when they drive on the same road: their
+    headings at the start or at the closest approach within 30 degrees of
+    parallel or anti-parallel (oncoming, rear-end, overtaking, a left turn
+    across oncoming traffic); a vehicle may leave the lanes (drift, evasive
+    swerve, turning off).  Otherwise (crossing paths) participant 2 gets a
+    road 2 of its own, built the same way along its path (the roads overlap;
+    no junction is modelled).  Roads reach :data:`ROAD_MARGIN` beyond every
+    point they carry.
 
     Parameters
     ----------
@@ -631,31 +646,28 @@ def case_roads(x1: npt.ArrayLike, y1: npt.ArrayLike, yaw1: npt.ArrayLike,
         notes.append("participant 1 hardly moves: straight road")
 
     def build(path: _Path, extra: _Path | None) -> tuple[ReferenceLine, float]:
-        start = reference_points(path.x[:1], path.y[:1], path.yaw[:1], lane_width)[0]
-        if chosen == "straight":
-            pts = path.xy if extra is None else np.concatenate([path.xy, extra.xy])
-            return straight_reference(float(start[0]), float(start[1]), float(path.yaw[0]),
-                                      pts, margin), 0.0
+        if chosen == "straight" or path.length() < 1.0:
+            start = reference_points(path.x[:1], path.y[:1], path.yaw[:1], lane_width)[0]
+            cg, yaws = path.xy, path.yaw
+            if extra is not None:
+                cg = np.concatenate([cg, extra.xy])
+                yaws = np.concatenate([yaws, extra.yaw])
+            heading = _road_heading(yaws, float(path.yaw[0]))
+            return straight_reference(float(start[0]), float(start[1]), heading, cg,
+                                      margin), 0.0
         pts = reference_points(path.x, path.y, path.yaw, lane_width) if extra is None \
             else _merged_points(path, extra, lane_width)
         return fit_reference_line(pts, margin=margin)
 
-    shared = chosen == "straight" or _same_road(ego, other)
-    ref1, err1 = build(ego, other if shared else None)
-    road1 = Road(1, ref1, lane_width, friction, "road of participant 1")
-    if shared and road1.contains(other.xy):
-        return CaseRoads((road1,), chosen, err1, tuple(notes))
-    if shared:  # participant 2 is not on it after all: road 1 from the ego alone
-        ref1, err1 = build(ego, None)
-        road1 = Road(1, ref1, lane_width, friction, "road of participant 1")
-    if chosen == "path" and other.length() < 1.0:
-        start = reference_points(other.x[:1], other.y[:1], other.yaw[:1], lane_width)[0]
-        ref2, err2 = straight_reference(float(start[0]), float(start[1]),
-                                        float(other.yaw[0]), other.xy, margin), 0.0
-    else:
-        ref2, err2 = build(other, None)
-    notes.append("participant 2 leaves road 1: it has a road of its own (no junction)")
-    return CaseRoads((road1, Road(2, ref2, lane_width, friction, "road of participant 2")),
+    if _same_road(ego, other):
+        ref1, err1 = build(ego, other)
+        return CaseRoads((Road(1, ref1, lane_width, friction, "road of both participants"),),
+                         chosen, err1, tuple(notes))
+    ref1, err1 = build(ego, None)
+    ref2, err2 = build(other, None)
+    notes.append("participant 2 crosses road 1: it has a road of its own (no junction)")
+    return CaseRoads((Road(1, ref1, lane_width, friction, "road of participant 1"),
+                      Road(2, ref2, lane_width, friction, "road of participant 2")),
                      chosen, max(err1, err2), tuple(notes))
 
 

@@ -92,6 +92,8 @@ VEHICLE_CATEGORIES: tuple[str, ...] = ("car", "van", "truck", "bus", "motorbike"
 #: OpenSCENARIO misc object categories for fixed objects; others are written as "obstacle".
 MISC_CATEGORIES: tuple[str, ...] = ("barrier", "pole", "obstacle", "tree", "building",
                                     "railing", "streetLamp", "soundBarrier", "gantry")
+#: Decimals written for positions [m] (1 micrometre), headings [rad] and vertex times [s].
+POSITION_DECIMALS, HEADING_DECIMALS, TIME_DECIMALS = 6, 9, 9
 #: Prefix of the vfs properties.
 PREFIX = "vfs."
 
@@ -240,12 +242,19 @@ def _entity(xosc: Any, name: str, row: pd.Series, max_speed: float) -> Any:
     return entity
 
 
+def _world_position(xosc: Any, x: float, y: float, h: float) -> Any:
+    """A WorldPosition on the ground, rounded (:data:`POSITION_DECIMALS` etc.)."""
+    return xosc.WorldPosition(round(float(x), POSITION_DECIMALS),
+                              round(float(y), POSITION_DECIMALS), 0.0,
+                              round(float(h), HEADING_DECIMALS))
+
+
 def _trajectory(xosc: Any, name: str, motion: ParticipantMotion, offset: float,
                 t_start: float) -> Any:
     xr, yr = to_reference(motion.x, motion.y, motion.yaw, offset)
-    positions = [xosc.WorldPosition(float(a), float(b), 0.0, float(h))
-                 for a, b, h in zip(xr, yr, motion.yaw, strict=True)]
-    times = [float(t - t_start) for t in motion.t]
+    positions = [_world_position(xosc, a, b, h) for a, b, h in zip(xr, yr, motion.yaw,
+                                                                   strict=True)]
+    times = [round(float(t - t_start), TIME_DECIMALS) for t in motion.t]
     traj = xosc.Trajectory(f"{name}_trajectory", False)
     traj.add_shape(xosc.Polyline(times, positions))
     return traj
@@ -297,7 +306,7 @@ def scenario_document(db: Database, case_id: object, motion: CaseMotion, road_fi
 
     rows = _participant_rows(db, case_id)
     t_start = float(min(m.t[0] for m in motion.participants))
-    t_end = float(max(m.t[-1] for m in motion.participants)) - t_start
+    t_end = round(float(max(m.t[-1] for m in motion.participants)) - t_start, TIME_DECIMALS)
     vmax = max(float(np.max(m.speed)) for m in motion.participants)
     entities = xosc.Entities()
     init = xosc.Init()
@@ -314,7 +323,7 @@ def scenario_document(db: Database, case_id: object, motion: CaseMotion, road_fi
                                                    max(MIN_MAX_SPEED, 1.2 * vmax)))
         xr, yr = to_reference(m.x[:1], m.y[:1], m.yaw[:1], offset)
         init.add_init_action(name, xosc.TeleportAction(
-            xosc.WorldPosition(float(xr[0]), float(yr[0]), 0.0, float(m.yaw[0]))))
+            _world_position(xosc, xr[0], yr[0], m.yaw[0])))
         if not fixed:
             init.add_init_action(name, xosc.AbsoluteSpeedAction(
                 float(m.speed[0]), xosc.TransitionDynamics(xosc.DynamicsShapes.step,

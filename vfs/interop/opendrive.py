@@ -23,6 +23,7 @@ Units: m, rad, 1/m.
 
 from __future__ import annotations
 
+import datetime as _dt
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -69,12 +70,12 @@ CURVATURE_RESOLUTION = 5e-4
 #: Weight of the distance along the line from a point's station in the fit [-].
 ALONG_WEIGHT = 0.1
 #: Weights of the curvature's second differences in the fit, per knot spacing squared [-]
-#: (with 10, a second difference of 1e-3 1/m between 10 m pieces costs like a lateral miss
-#: of 1 m; with 0.1 like 1 cm), tried from the smoothest: the next is taken only while it
+#: (with 100, a second difference of 1e-3 1/m between 10 m pieces costs like a lateral miss
+#: of 10 m; with 0.1 like 1 cm), tried from the smoothest: the next is taken only while it
 #: brings the largest lateral distance below LADDER_GAIN times the previous one.  A
-#: vehicle's drift across its lane (the points move off the road however the road bends)
-#: then stays in the trajectory, while a road that really bends sharply is followed.
-SMOOTHNESS_LADDER: tuple[float, ...] = (10.0, 1.0, 0.1)
+#: vehicle's drift across its lane (its points leave any smooth road) then stays in the
+#: trajectory, while a road that really bends sharply is followed.
+SMOOTHNESS_LADDER: tuple[float, ...] = (100.0, 10.0, 1.0, 0.1)
 #: See SMOOTHNESS_LADDER [-].
 LADDER_GAIN = 0.7
 #: How ``case_roads`` builds the road: see :func:`case_roads`.
@@ -732,6 +733,7 @@ def opendrive_document(roads: CaseRoads, name: str) -> ET.Element:
         header.set("south", repr(min(ys) - pad))
         header.set("east", repr(max(xs) + pad))
         header.set("west", repr(min(xs) - pad))
+        header.set("date", _dt.datetime.now().replace(microsecond=0).isoformat())
     return root
 
 

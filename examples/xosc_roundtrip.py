@@ -24,20 +24,26 @@ import pandas as pd
 
 from vfs.database import open_database
 from vfs.interop import export_case, import_xosc, schema_errors, study_motion
+from vfs.interop.opendrive import road_curvature_at
 from vfs.simulation import CaseBatch, results_table, simulate_cases
 from vfs.study import run_study
 
 
 def roundtrip(db_name: str, out: Path) -> dict:
     db = open_database(db_name)
-    atype = db.cases.set_index("case_id")["accident_type"]
+    cases = db.cases.set_index("case_id")
     rows, files = [], []
     start = time.perf_counter()
     for cid in db.case_ids:
         t = time.perf_counter()
         r = export_case(db, cid, out / "files")
         files.append(r.xosc)
-        rows.append({"case_id": cid, "accident_type": int(atype[cid]), "mode": r.roads.mode,
+        end = db.trajectory(cid, 1).iloc[-1]
+        curvature = road_curvature_at(r.roads.roads, float(end["x"]), float(end["y"]))
+        rows.append({"case_id": cid, "accident_type": int(cases.loc[cid, "accident_type"]),
+                     "curvature_error": abs(curvature / cases.loc[cid, "road_curvature"] - 1)
+                     if cases.loc[cid, "road_curvature"] != 0 else np.nan,
+                     "mode": r.roads.mode,
                      "roads": len(r.roads.roads), "fit_error_m": r.roads.fit_error,
                      "geometries": len(r.roads.roads[0].reference.segments),
                      "export_s": time.perf_counter() - t})
@@ -68,6 +74,7 @@ def roundtrip(db_name: str, out: Path) -> dict:
         "roads": {f"{a} {m} {n}": int(k) for (a, m, n), k in
                   table.groupby(["accident_type", "mode", "roads"]).size().items()},
         "fit_error_m": path["fit_error_m"].describe().to_dict(),
+        "curvature_error_at_collision": path["curvature_error"].describe().to_dict(),
         "geometries_path": path["geometries"].describe().to_dict(),
         "max_position_difference_m": dpos, "max_heading_difference_rad": dyaw,
         "max_speed_difference_m_s": dspeed,

@@ -596,7 +596,8 @@ def case_roads(x1: npt.ArrayLike, y1: npt.ArrayLike, yaw1: npt.ArrayLike,
     """The roads of one case from the CG paths of its two vehicles.
 
     Road 1 carries participant 1 (the ego), which starts in the middle of
-    the right lane.  ``mode``:
+    the right lane (exactly on a straight road, approximately on a fitted
+    one).  ``mode``:
 
     * ``"straight"``: a straight road in the median direction of the
       vehicles it carries (:func:`_road_heading`), placed so that the ego

@@ -1,4 +1,4 @@
-"""OpenSCENARIO 1.3 export and import of cases (two vehicles, timed polylines).
+"""OpenSCENARIO 1.3 export of cases (two vehicles, timed polylines) and the reference point.
 
 Export (:func:`export_case`) writes per case an OpenSCENARIO file
 ``case_<id>.xosc`` and its road ``case_<id>.xodr`` (:mod:`vfs.interop.opendrive`):
@@ -21,8 +21,8 @@ Export (:func:`export_case`) writes per case an OpenSCENARIO file
 * ``StopTrigger`` at the last sample time;
 * ``FileHeader`` properties with the case's data (``vfs.case_id``,
   ``vfs.t0`` -- the record time of simulation time 0 --, accident type,
-  friction, road curvature, collision, ...), so that :func:`import_xosc`
-  restores the case.
+  friction, road curvature, collision, ...), so that an import restores
+  the case.
 
 :func:`vfs.interop.scenario_import.import_xosc` reads that subset back.
 
@@ -61,11 +61,13 @@ __all__ = [
     "DEFAULT_HEIGHTS",
     "ENTITY_NAMES",
     "OSC_MINOR_VERSION",
+    "PREFIX",
     "WHEEL_DIAMETER",
     "XoscExport",
     "bounding_box_center",
     "export_case",
     "reference_offset",
+    "scenario_document",
     "to_cg",
     "to_reference",
 ]

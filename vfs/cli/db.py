@@ -181,10 +181,13 @@ def add_parsers(
     argparse.ArgumentParser
         The ``db`` parser.
     """
-    db = subparsers.add_parser("db", help="accident-case databases: validate, convert, import",
+    db = subparsers.add_parser("db", help="accident-case databases: validate, convert, import, "
+                               "exchange with OpenSCENARIO",
                                description="Accident-case databases: validate a folder against the "
                                "schema, convert between Parquet, CSV and PreCrash-Matrix folders, "
-                               "import PreCrash-Matrix data. Format: docs/data-format.md.")
+                               "import PreCrash-Matrix data, export cases as OpenSCENARIO/"
+                               "OpenDRIVE files and import such files. Format: "
+                               "docs/data-format.md; OpenSCENARIO: docs/interop.md.")
     commands = db.add_subparsers(dest="db_command", metavar="COMMAND", required=True)
 
     validate = commands.add_parser("validate", help="check a database against the schema")

@@ -230,7 +230,7 @@ def test_chunk_bisection_isolates_several_cases() -> None:
             return super().controller(batch, equipped)
 
     task = RunTask(chunk=0, case_ids=ids, system_index=1, system=Picky("picky"),
-                   db_path=str(bundled_database_path()), db_format="parquet", batch=None,
+                   db="default", db_format="parquet", batch=None,
                    equip="1", seed=0, params=FAST, impact_parameters="reconstruction")
     table = run_task(task)
     assert len(table) == 8 and list(table["case_id"]) == list(ids)

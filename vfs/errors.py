@@ -114,3 +114,7 @@ class MissingExtraError(VfsError, ImportError):
     """An optional dependency of a feature is not installed; the message names the extra
     (``pip install "vfs[NAME]"``).
     """
+
+
+class ClusterError(VfsError, RuntimeError):
+    """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.database import database_location
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams
 from vfs.study.layout import BASELINE, CASES_FILE, DEFAULT_CHUNK_SIZE, equipped_flags
@@ -146,11 +147,14 @@ def replay_study_cases(study: str | os.PathLike[str] | StudyResult, case_ids: Se
     """
     res = study if isinstance(study, StudyResult) else load_study(study)
     m = res.manifest
-    db_path = str(m.get("db", ""))
-    if not db_path or db_path.startswith("<") or not Path(db_path).exists():
+    # what the study's workers resolved (bundled name, URL or absolute folder); older
+    # manifests have only the folder
+    db_ref = str(m.get("db_reference") or m.get("db", ""))
+    where = database_location(db_ref) if db_ref and not db_ref.startswith("<") else ""
+    if not where or ("://" not in where and not Path(where).exists()):
         raise DataError(DataProblem("study.json", "db", None, None,
-                                    f"the study's database {db_path or '(none)'} is not a "
-                                    "folder that exists here; its cases cannot be "
+                                    f"the study's database {db_ref or '(none)'} is not a "
+                                    "folder or URL that exists here; its cases cannot be "
                                     "re-simulated"))
     if not (res.path / CASES_FILE).is_file():
         raise DataError(DataProblem(CASES_FILE, "", None, None,
@@ -169,7 +173,7 @@ def replay_study_cases(study: str | os.PathLike[str] | StudyResult, case_ids: Se
 
     def task(ids: Sequence[Any]) -> RunTask:
         return RunTask(chunk=-1, case_ids=np.asarray(ids), system_index=0, system=None,
-                       db_path=db_path, db_format=str(m.get("db_format", "parquet")),
+                       db=db_ref, db_format=str(m.get("db_format", "parquet")),
                        batch=None, equip=equip, seed=seed, params=params,
                        impact_parameters=impact_parameters)
 

@@ -1,7 +1,10 @@
 """One chunk of a study: load its cases, run them with one system, the runs table.
 
-Tasks run in worker processes (or dask workers); they get the database path
-and the case ids, not arrays, and load their cases themselves.
+Tasks run in worker processes (or dask workers); they get the database
+*reference* (a bundled name such as ``"default"``, an fsspec URL or an absolute
+folder: :func:`vfs.database.database_reference`) and the case ids, not arrays,
+and load their cases themselves: each worker resolves the reference with its
+own install (:func:`vfs.database.database_location`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from vfs.database import Database, load_any, load_database
+from vfs.database import Database, database_location, load_any, load_database
 from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import (
     CaseBatch,
@@ -51,8 +54,10 @@ class RunTask:
         j: 0 for the baseline, 1.. for the systems in the study's order.
     system : object or None
         The AEB system; None for the baseline.
-    db_path : str or None
-        Database folder the worker loads the cases from.
+    db : str or None
+        Database reference the worker loads the cases from: a bundled name
+        (``"default"``), an fsspec URL or an absolute folder
+        (:func:`vfs.database.database_reference`), resolved on the worker.
     db_format : str
         ``"parquet"``, ``"csv"`` or ``"pcm"`` (``"memory"`` with ``batch``).
     batch : CaseBatch or None
@@ -72,7 +77,7 @@ class RunTask:
     case_ids: np.ndarray
     system_index: int
     system: Any | None
-    db_path: str | None
+    db: str | None
     db_format: str
     batch: CaseBatch | None
     equip: str
@@ -95,20 +100,22 @@ def _whole_database(path: str, fmt: str, stamp: float) -> Database:
 def load_chunk(task: RunTask) -> CaseBatch:
     """The chunk's cases as a batch, in the task's order.
 
-    Parquet databases are read case-selectively (duckdb on the files, only
-    the chunk's rows); CSV and PCM folders are loaded whole once per process.
+    Parquet databases are read case-selectively (duckdb on the files, or
+    pyarrow with a ``case_id`` filter for a URL: only the chunk's rows); CSV
+    and PCM folders are loaded whole once per process.
     """
     if task.batch is not None:
         return task.batch
-    if task.db_path is None:
-        raise ParameterError("a chunk task needs a database path or a batch")
+    if task.db is None:
+        raise ParameterError("a chunk task needs a database reference or a batch")
+    location = database_location(task.db)  # this worker's own install for "default"
     ids = np.asarray(task.case_ids)
     if task.db_format == "parquet":
         where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
-        db = load_database(task.db_path, where=where, validate=False)
+        db = load_database(location, where=where, validate=False)
     else:
-        stamp = max(p.stat().st_mtime for p in Path(task.db_path).iterdir())
-        db = _whole_database(task.db_path, task.db_format, stamp)
+        stamp = max(p.stat().st_mtime for p in Path(location).iterdir())
+        db = _whole_database(location, task.db_format, stamp)
     return CaseBatch.from_database(db, ids, impact_parameters=task.impact_parameters)
 
 

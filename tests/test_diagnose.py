@@ -369,6 +369,12 @@ def _reduce(argv: list[str], cases: int) -> list[str]:
         out.append("--quick")
     if out[0] == "diagnose":
         out += ["--worst", "1"]
+        if slow_scale() < 1.0:
+            # reduced form: the law-learning part of diagnose has its own tests
+            # (tests/test_learn.py); the tutorial's chain is what is checked here
+            out += ["--laws", "none"]
+    if out[0] == "compare" and slow_scale() < 1.0:
+        out.append("--no-case-pages")
     return out
 
 
@@ -407,7 +413,7 @@ def test_tutorial_commands_run(tmp_path, monkeypatch):
                     warnings.warn(f"skipped {body!r}: vfs compare rejects the keys of the "
                                   f"calibrated model configuration ({exc})", stacklevel=1)
                     continue
-                assert vfs_main(argv[1:]) == 0, body
+                assert vfs_main(_reduce(argv[1:], cases)) == 0, body
             elif argv[0] == "vfs":
                 assert vfs_main(_reduce(argv[1:], cases)) == 0, body
             else:

@@ -309,7 +309,8 @@ def _n_cases() -> int:
 def _slow_options() -> dict[str, int]:
     if slow_scale() >= 1.0:
         return {"folds": 5, "grid_points": 9, "zoom_rounds": 3, "n_boot": 1000}
-    return {"folds": 4, "grid_points": 7, "zoom_rounds": 3, "n_boot": 500}
+    # reduced form (CI): a coarser search; the ranking and significance must still hold
+    return {"folds": 3, "grid_points": 5, "zoom_rounds": 2, "n_boot": 500}
 
 
 @pytest.mark.slow
@@ -339,6 +340,8 @@ def test_noise_only_no_candidate_is_significant_full():
                                   ("restitution_speed", "wheel_lock"),
                                   ("penetration_depth", "ees_stiffness")])
 def test_two_hidden_effects_are_both_in_the_top_three(pair):
+    if slow_scale() < 1.0 and pair != ("restitution_speed", "wheel_lock"):
+        pytest.skip("reduced form (VFS_SLOW_SCALE < 1): one pair; all three at full size")
     db, _ = generate_database("default", n_cases=_n_cases(), seed=23, hidden=pair)
     diag = diagnose(db, effects=list(BUILTIN_EFFECTS), worst=0, **_slow_options())
     print(f"\n{pair}: {diag.ranking}")

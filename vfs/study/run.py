@@ -409,6 +409,7 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any],
     if len(done) == len(chunks):
         runs = combine_chunks(out_dir, ids, [BASELINE, *names])
         write_table(out_dir / RUNS_FILE, runs, field_metadata(runs.columns))
+        del runs  # one copy of the runs table at a time
         table = pd.read_parquet(out_dir / RUNS_FILE)  # dtypes exactly as load_study gives
         summary["systems"] = counts_summary(table, names)
         manifest["status"] = "complete"

@@ -20,8 +20,9 @@ value that best reproduces the case's reconstruction:
 4. per case, a parabola through the best value tried and its neighbours
    gives the refined value, simulated once more for all cases together
    (each case at its own value) and kept where it is better;
-5. the uncertainty interval is the profile interval chi^2 <= min + 1 (linear
-   interpolation of the profile of all values tried); flags: ``flat`` (the objective
+5. the uncertainty interval is the profile interval chi^2 <= min + 1
+   (between the values tried, sqrt(chi^2 - min) interpolated linearly: exact
+   for a parabolic profile); flags: ``flat`` (the objective
    varies by less than 1 over the whole range), ``multimodal`` (another
    local minimum within min + 1 separated by a rise above it),
    ``at_bound`` (the interval reaches a bound of the range).  A value is
@@ -179,8 +180,13 @@ def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
         k = np.clip(j - side, 0, m - 1)  # the point inside
         y0, y1 = prof[k, cols], prof[j, cols]
         x0, x1 = xs[k, cols], xs[j, cols]
+        # interpolate sqrt(chi^2 - min), linear in the distance for a parabolic profile
+        # (chi^2 itself would put the edge far too close to a minimum between two values
+        # tried far apart)
+        s0 = np.sqrt(np.maximum(y0 - fmin, 0.0))
+        s1 = np.sqrt(np.maximum(y1 - fmin, 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.clip((level - y0) / (y1 - y0), 0.0, 1.0)
+            t = np.clip((1.0 - s0) / (s1 - s0), 0.0, 1.0)
         edge = np.where(hit, xs[-1] if side > 0 else xs[0], x0 + t * (x1 - x0))
         if side > 0:
             high = np.maximum(edge, best)

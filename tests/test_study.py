@@ -293,7 +293,8 @@ def test_cli_study_writes_the_study(tmp_path, monkeypatch, capsys) -> None:
     assert len(runs) == 12 and (~runs["equipped1"]).all()
     assert len(pd.read_parquet(out / "cases.parquet")) == 6
     # the report reads what the study wrote
-    assert main(["report", "effectiveness", str(out), "--bootstrap", "50"]) == 0
+    assert main(["report", "effectiveness", str(out), "--bootstrap", "50",
+                 "--no-case-pages"]) == 0
     assert "early" in (out / "report" / "report.md").read_text()
     # a second run without --resume is refused with exit code 2
     assert main(["study", "--db", "default", "--systems", "early", "--out", str(out),

@@ -60,9 +60,13 @@ def cmd_report_effectiveness(args: argparse.Namespace) -> int:
     from vfs.report.effectiveness import write_effectiveness_report
 
     started = time.perf_counter()
+    from vfs.cli.common import say
+
     report = write_effectiveness_report(args.study, risk_curves=args.risk_curve or None,
                                         n_boot=args.bootstrap, seed=args.seed,
-                                        confidence=args.confidence)
+                                        confidence=args.confidence,
+                                        case_pages=args.case_pages, list_cases=args.list_cases,
+                                        say=say)
     print(f"report -> {report} ({time.perf_counter() - started:.1f} s)")
     return 0
 
@@ -150,4 +154,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--confidence", type=float, default=0.95,
                    help="confidence level (default 0.95)")
     r.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default 0)")
+    r.add_argument("--list-cases", type=int, default=5, metavar="N",
+                   help="cases listed per system and kind (new crash, not avoided, avoided) "
+                   "under 'Cases to look into' (default 5; 0: none)")
+    r.add_argument("--case-pages", action=argparse.BooleanOptionalAction, default=True,
+                   help="write a page per listed case (report/cases/<id>.html: top views, "
+                   "speed and brake traces with the AEB events, impact table) by "
+                   "re-simulating only those cases (default: on)")
     r.set_defaults(func=cmd_report_effectiveness)

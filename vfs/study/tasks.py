@@ -17,11 +17,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from vfs.database import Database, database_location, load_any, load_database
 from vfs.errors import ParameterError, SimulationError
-from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
+from vfs.simulation import (
+    CaseBatch,
+    CaseResults,
+    SimulationParams,
+    results_table,
+    simulate_cases,
+)
 from vfs.study.layout import (
     BASELINE,
     BOOL_COLUMNS,
@@ -30,6 +37,7 @@ from vfs.study.layout import (
     KEY_COLUMNS,
     equipped_flags,
 )
+from vfs.study.traces import RunTrace, simulate_with_traces
 
 
 @dataclass(frozen=True)
@@ -132,19 +140,47 @@ def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
     return cols
 
 
-def _run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
-               params: SimulationParams, rng: np.random.Generator) -> pd.DataFrame:
-    """One vectorised run of ``batch`` (baseline when ``system`` is None) as a table."""
+def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+              params: SimulationParams, rng: np.random.Generator,
+              record: npt.ArrayLike | None = None
+              ) -> tuple[pd.DataFrame, CaseResults, dict[int, RunTrace]]:
+    """One vectorised run of ``batch`` (baseline when ``system`` is None).
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    system : AEB system or None
+    equipped : ndarray of bool (N, 2)
+        Vehicles carrying the system.
+    params : SimulationParams
+        Base parameters; the system replaces the pre-crash part.
+    rng : numpy.random.Generator
+    record : array_like of int, optional
+        Batch positions whose pre-crash traces are recorded
+        (:mod:`vfs.study.traces`; the results do not change).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        :func:`results_table` with the controller's events (``<key>1``, ``<key>2``).
+    results : CaseResults
+    traces : dict of int to RunTrace
+        By batch position (empty without ``record``).
+    """
     controller = None
     if system is not None:
         params = dataclasses.replace(params,
                                      precrash=system.precrash_params(params.precrash))
         controller = system.controller(batch, equipped)
-    res = simulate_cases(batch, controller=controller, params=params, rng=rng)
+    traces: dict[int, RunTrace] = {}
+    if record is None:
+        res = simulate_cases(batch, controller=controller, params=params, rng=rng)
+    else:
+        res, traces = simulate_with_traces(batch, controller, params, rng, record)
     table = results_table(batch, res)
     for name, values in _events_columns(controller, batch.size).items():
         table[name] = values
-    return table
+    return table, res, traces
 
 
 def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
@@ -162,7 +198,7 @@ def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
         sub = batch if whole else batch.take(np.arange(start, stop))
         rng = np.random.default_rng(key if whole else [*key, start, stop - start])
         try:
-            table = _run_batch(sub, system, equipped[start:stop], params, rng)
+            table = run_batch(sub, system, equipped[start:stop], params, rng)[0]
         except Exception as exc:  # recorded per case; the study goes on
             if stop - start == 1:
                 return [], {start: error_text(exc)}
@@ -249,4 +285,5 @@ def normalise_runs(df: pd.DataFrame, cases: pd.DataFrame | None = None) -> pd.Da
 
 
 
-__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_task"]
+__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_batch",
+           "run_task"]

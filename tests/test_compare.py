@@ -411,7 +411,7 @@ def test_margins_reach_the_tost(small_db):
 def test_report_files(study36, tmp_path):
     _, c = study36
     files = write_comparison_report(c, tmp_path / "cmp", database=study36[0], top=5,
-                                    sketches=2)
+                                    sketches=2, case_pages=False)
     for key in ("json", "report_md", "report_html", "table1", "paired", "pairs_parquet",
                 "case_errors", "contingency", "poi_distances", "rest_distances", "cases",
                 "fig_impact_types", "fig_poi", "fig_boxplots", "fig_bland_altman",
@@ -434,7 +434,8 @@ def test_cli_writes_all_files(tmp_path, capsys):
     cfg.write_text(json.dumps({"effects": []}))
     out = tmp_path / "compare"
     code = main(["compare", "--db", "default", "--where", "case_id <= 60", "--model", str(cfg),
-                 "--margins", "delta_v=3,rest_x=0.5m", "--sketches", "1", "--out", str(out)])
+                 "--margins", "delta_v=3,rest_x=0.5m", "--sketches", "1", "--no-case-pages",
+                 "--out", str(out)])
     assert code == 0
     printed = capsys.readouterr().out
     assert "chi-squared" in printed and "report ->" in printed
@@ -503,7 +504,8 @@ def test_report_states_the_impact_parameters_first(tmp_path):
     db, truth = generate_database("clean", n_cases=10, seed=4)
     folder = write_generated(db, truth, tmp_path / "db")
     out = tmp_path / "c"
-    assert main(["compare", "--db", str(folder), "--out", str(out), "--sketches", "0"]) == 0
+    assert main(["compare", "--db", str(folder), "--out", str(out), "--sketches", "0",
+                 "--no-case-pages"]) == 0
     lines = [ln for ln in (out / "report.md").read_text().splitlines() if ln.strip()]
     assert lines[1].startswith("Impact parameters: the model's generic defaults")
     assert "restitution 0.1, contact friction 0.6" in lines[1]

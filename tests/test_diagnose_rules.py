@@ -7,7 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vfs.analysis.calibrate import FitSpace
+from vfs.analysis.calibrate import (
+    CalibrationData,
+    FitSpace,
+    VariantSimulator,
+    cross_validate_many,
+    kfold_indices,
+)
 from vfs.analysis.diagnose import MIN_CASES, Reduction, diagnose, helps
 from vfs.effects import get_effect
 from vfs.scenarios.generator import generate_database
@@ -34,6 +40,30 @@ def test_primary_fit_puts_the_other_parameters_at_neutral():
     assert rs["reference_speed"] == 15.0
     assert FitSpace.of(["ees_stiffness"], "all", "neutral").effects[0]["side_factor"] == 0.2
     assert FitSpace.of(["ees_stiffness"]).effects[0]["side_factor"] == 0.2
+
+
+def test_primary_alternatives_are_neutral_and_nominal_where_they_differ():
+    off, nominal = FitSpace.alternatives(["ees_stiffness"], "primary")
+    assert off.effects[0]["side_factor"] == 1.0 and nominal.effects[0]["side_factor"] == 0.2
+    assert off.free == nominal.free == ((0, 0),)
+    # one parameter, or no neutral secondary: a single space
+    assert len(FitSpace.alternatives(["yaw_inertia"], "primary")) == 1
+    assert len(FitSpace.alternatives(["ees_stiffness"], "all")) == 1
+
+
+def test_each_fold_keeps_the_alternative_that_fits_its_training_cases():
+    # hidden at nominal strength (side factor 0.2): the nominal alternative must win in
+    # every fold, and the candidate must beat the neutral-only fit
+    db, _ = generate_database("default", n_cases=150, seed=5, hidden=("ees_stiffness",))
+    data = CalibrationData.from_database(db, "delta_v,ees")
+    sim = VariantSimulator(data)
+    held = kfold_indices(data.n, 3, 0)
+    both, = cross_validate_many(sim, [FitSpace.alternatives(["ees_stiffness"])], held,
+                                allow_off=True, grid_points=5, zoom_rounds=1)
+    off_only, = cross_validate_many(sim, [FitSpace.of(["ees_stiffness"], "primary", "neutral")],
+                                    held, allow_off=True, grid_points=5, zoom_rounds=1)
+    assert both.space.effects[0]["side_factor"] == 0.2
+    assert both.overall_rmse() < off_only.overall_rmse()
 
 
 def test_ees_mass_law_without_side_factor_is_found():

@@ -230,7 +230,7 @@ def test_chunk_bisection_isolates_several_cases() -> None:
             return super().controller(batch, equipped)
 
     task = RunTask(chunk=0, case_ids=ids, system_index=1, system=Picky("picky"),
-                   db_path=str(bundled_database_path()), db_format="parquet", batch=None,
+                   db="default", db_format="parquet", batch=None,
                    equip="1", seed=0, params=FAST, impact_parameters="reconstruction")
     table = run_task(task)
     assert len(table) == 8 and list(table["case_id"]) == list(ids)
@@ -293,7 +293,8 @@ def test_cli_study_writes_the_study(tmp_path, monkeypatch, capsys) -> None:
     assert len(runs) == 12 and (~runs["equipped1"]).all()
     assert len(pd.read_parquet(out / "cases.parquet")) == 6
     # the report reads what the study wrote
-    assert main(["report", "effectiveness", str(out), "--bootstrap", "50"]) == 0
+    assert main(["report", "effectiveness", str(out), "--bootstrap", "50",
+                 "--no-case-pages"]) == 0
     assert "early" in (out / "report" / "report.md").read_text()
     # a second run without --resume is refused with exit code 2
     assert main(["study", "--db", "default", "--systems", "early", "--out", str(out),

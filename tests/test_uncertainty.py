@@ -573,7 +573,13 @@ def test_cli_writes_tables_and_report(db_folder, tmp_path, capsys):
     for f in ("report.md", "report.html", "figures/relative_half_width.png",
               "figures/bands_delta_v1.png", "cases.csv", "inputs.csv"):
         assert (out / f).is_file(), f
-    assert "Monte-Carlo uncertainty" in (out / "report.md").read_text(encoding="utf-8")
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert "Monte-Carlo uncertainty" in md
+    # the one-screen summary first: the median half-width of the pooled delta-v bands
+    short = md.split("## In short", 1)[1].split("\n## ", 1)[0]
+    dv = bands[bands["outcome"].isin(["delta_v1", "delta_v2"])]["rel_half_width"]
+    assert f"Delta-v within +-{100 * np.nanmedian(dv):.0f} % [" in short
+    assert "Only 5 case(s)" in short and "Impact type in doubt" in short
 
 
 def test_cli_user_errors_give_exit_code_2(db_folder, tmp_path, capsys):

@@ -23,6 +23,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from vfs.errors import (
+    ClusterError,
     DataError,
     GeometryError,
     ParameterError,
@@ -100,6 +101,7 @@ _register_gym_envs()
 __all__ = [
     "OUTCOMES",
     "CaseBatch",
+    "ClusterError",
     "DataError",
     "Database",
     "GeometryError",

@@ -108,3 +108,13 @@ class SimulationError(VfsError, RuntimeError):
 
 class TargetExistsError(VfsError, FileExistsError):
     """The output path exists and does not look like a folder vfs may replace."""
+
+
+class MissingExtraError(VfsError, ImportError):
+    """An optional dependency of a feature is not installed; the message names the extra
+    (``pip install "vfs[NAME]"``).
+    """
+
+
+class ClusterError(VfsError, RuntimeError):
+    """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""

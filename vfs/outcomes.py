@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from vfs.errors import ParameterError
-from vfs.physics.impact import IMPACT_TYPE_NAMES
+from vfs.physics.impact import impact_type_names
 from vfs.units import KMH_PER_MS, wrap_angle
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -423,9 +423,8 @@ def result_columns(res: CaseResults) -> dict[str, np.ndarray]:
     """
     pre, imp, ro = res.precrash, res.impact, res.runout
     st = pre.impact_state
-    names = np.array([IMPACT_TYPE_NAMES[k] for k in sorted(IMPACT_TYPE_NAMES)], dtype=object)
     cols: dict[str, np.ndarray] = {
-        "impact_type": names[imp.impact_type],
+        "impact_type": impact_type_names(imp.impact_type).astype(object),
         "energy_loss": imp.energy_loss,
         "closing_speed": imp.closing_speed,
     }

@@ -22,11 +22,11 @@ from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import (
     FIXED_OBJECT_MASS,
-    IMPACT_TYPE_NAMES,
     ImpactConfig,
     ImpactParams,
     ImpactResult,
     deformation_energies,
+    impact_type_names,
     solve_impact,
     with_outcome,
 )
@@ -592,8 +592,7 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
         "avoided": ~pre.collided,
         "contact_time": pre.contact_time,
         "impact_time": pre.impact_time,
-        "impact_type": np.array([IMPACT_TYPE_NAMES[int(k)] for k in imp.impact_type],
-                                dtype=object),
+        "impact_type": impact_type_names(imp.impact_type).astype(object),
     }
     for i in (1, 2):
         j = i - 1

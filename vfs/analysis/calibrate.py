@@ -338,6 +338,26 @@ class FitSpace:
             free += [(i, j) for j in range(n_par if parameters == "all" else min(n_par, 1))]
         return cls(tuple(inst), tuple(free))
 
+    @classmethod
+    def alternatives(cls, effects: Iterable[Effect | type[Effect] | str],
+                     parameters: str = "primary") -> tuple[FitSpace, ...]:
+        """The spaces a diagnosis tries for ``effects``.
+
+        With ``parameters="primary"``: the parameters that are not fitted at
+        their neutral values and, where that differs, at their nominal
+        strengths (two alternatives; :func:`cross_validate_many` keeps, per
+        fold, the one that fits the training cases better).  With "all": one
+        space.
+        """
+        effects = list(effects)
+        if parameters != "primary":
+            return (cls.of(effects, parameters),)
+        off = cls.of(effects, parameters, "neutral")
+        nominal = cls.of(effects, parameters, "default")
+        same = all(np.array_equal(a.vector(), b.vector())
+                   for a, b in zip(off.effects, nominal.effects, strict=True))
+        return (off,) if same else (off, nominal)
+
     def start(self) -> np.ndarray:
         """Start values of the free parameters."""
         return np.array([self.effects[i].vector()[j] for i, j in self.free], float)
@@ -612,37 +632,58 @@ class CVResult:
         return [e.to_dict() for e in self.fitted_model()]
 
 
-def cross_validate_many(sim: VariantSimulator, spaces: Sequence[FitSpace],
+def cross_validate_many(sim: VariantSimulator,
+                        spaces: Sequence[FitSpace | Sequence[FitSpace]],
                         folds: Sequence[np.ndarray], labels: Sequence[str | None] | None = None,
                         fit_all: bool = True, allow_off: bool = False,
                         **fit_options: Any) -> list[CVResult]:
-    """:func:`cross_validate` of several models; their searches share simulation calls."""
+    """:func:`cross_validate` of several models; their searches share simulation calls.
+
+    An entry of ``spaces`` may be a sequence of *alternative* spaces with the
+    same free parameters but different fixed values (e.g. the secondary
+    parameters at their neutral values and at their nominal strengths): each
+    fold then keeps the alternative with the lowest training error, so the
+    choice is made on the training cases only, like the free parameters.
+    """
     n = sim.data.n
     all_rows = np.arange(n)
     train = [np.setdiff1d(all_rows, h) for h in folds]
     if fit_all:
         train = train + [all_rows]
-    gens = [fit_steps(sim.data, sp, train, **fit_options) for sp in spaces]
-    fits = run_fits(sim, gens)
+    groups = [(sp,) if isinstance(sp, FitSpace) else tuple(sp) for sp in spaces]
+    flat = [sp for g in groups for sp in g]
+    gens = [fit_steps(sim.data, sp, train, **fit_options) for sp in flat]
+    all_fits = run_fits(sim, gens)
     w = fit_options.get("weights")
     e0 = sim.data.case_errors(sim.residuals([()])[0]) if allow_off else None
     out = []
-    labels = list(labels) if labels is not None else [None] * len(spaces)
-    for space, fit, label in zip(spaces, fits, labels, strict=True):
-        if e0 is not None and space.free:
+    labels = list(labels) if labels is not None else [None] * len(groups)
+    k = len(folds)
+    pos = 0
+    for group, label in zip(groups, labels, strict=True):
+        fits = all_fits[pos:pos + len(group)]
+        pos += len(group)
+        # per training set, the alternative with the lowest training error
+        mse = np.array([fit.train_mse for fit in fits])
+        pick = np.argmin(np.where(np.isfinite(mse), mse, np.inf), axis=0)
+        x = np.array([fits[a].x[f] for f, a in enumerate(pick)], float)
+        train_mse = mse[pick, np.arange(len(train))]
+        chosen = [group[a] for a in pick]
+        if e0 is not None and group[0].free:
             for f, t in enumerate(train):
-                if not overall_mse(e0, t, w) > fit.train_mse[f]:
-                    fit.x[f] = np.nan
-        k = len(folds)
-        fold_x = fit.x[:k]
-        fit_x = fit.x[k] if fit_all else fold_x[0]
-        res = sim.residuals([space.model(x) for x in fold_x])
+                if not overall_mse(e0, t, w) > train_mse[f]:
+                    x[f] = np.nan
+        fold_x = x[:k]
+        fit_x = x[k] if fit_all else fold_x[0]
+        space = chosen[k] if fit_all else chosen[0]
+        res = sim.residuals([sp.model(xf) for sp, xf in zip(chosen[:k], fold_x, strict=True)])
         residuals = np.full_like(sim.data.observed, np.nan)
         for h, r in zip(folds, res, strict=True):
             residuals[h] = r[h]
         errors = sim.data.case_errors(residuals)
         name = label or ("+".join(e.name for e in space.effects) or "default")
-        out.append(CVResult(name, space, fold_x, fit_x, residuals, errors, fit.variants))
+        out.append(CVResult(name, space, fold_x, fit_x, residuals, errors,
+                            sum(fit.variants for fit in fits)))
     return out
 
 

@@ -26,8 +26,9 @@ database (never with a ground-truth file):
    ``min_cases`` cases (or with held-out folds of fewer than
    :data:`MIN_FOLD_CASES` cases) nothing is claimed: the result is reported as
    unreliable.  With ``parameters="primary"`` the parameters that are not
-   fitted sit at their neutral values (that part of the effect off), not at
-   their nominal strengths.  Residual structure left
+   fitted sit at their neutral values (that part of the effect off) or at
+   their nominal strengths, whichever fits each fold's training cases better
+   (:meth:`vfs.analysis.calibrate.FitSpace.alternatives`).  Residual structure left
    after the best effect (significant associations of its held-out
    residuals) is reported with the strata it points to.
 
@@ -446,7 +447,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         bootstrap.
     parameters : {"primary", "all"}
         Fit only each effect's primary parameter (the others at their neutral
-        values where they have one, else their defaults) or all its
+        values or their nominal strengths, per fold whichever fits the
+        training cases better) or all its
         parameters (coordinate search, slower).
     grid_points, zoom_rounds : int
         Coarse grid and refinement rounds of :func:`vfs.analysis.calibrate.fit_folds`.
@@ -495,7 +497,6 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     sim = VariantSimulator(data, params)
     held = kfold_indices(data.n, folds, seed)
     reliable = data.n >= min_cases and min(len(h) for h in held) >= MIN_FOLD_CASES
-    fixed = "neutral" if parameters == "primary" else "default"
     rng = np.random.default_rng(seed)
     features = case_features(data)
     base = cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False)
@@ -509,8 +510,9 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     fit_opts: dict[str, Any] = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
     classes = [get_effect(name) for name in names]
     t1, v1 = time.perf_counter(), sim.n_variants
-    cvs = cross_validate_many(sim, [FitSpace.of([cls], parameters, fixed) for cls in classes], held,
-                              names, allow_off=True, **fit_opts) if classes else []
+    spaces = [FitSpace.alternatives([cls], parameters) for cls in classes]
+    cvs = cross_validate_many(sim, spaces, held, names, allow_off=True,
+                              **fit_opts) if classes else []
     fit_seconds = time.perf_counter() - t1
     say(f"fitted {len(classes)} candidates: {sim.n_variants - v1} model variants in "
         f"{fit_seconds:.1f} s")
@@ -544,7 +546,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
             effects=tuple(p0.effects) + tuple(best_model)))
         base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
         cvs2 = cross_validate_many(
-            sim2, [FitSpace.of([get_effect(c.name)], parameters, fixed) for c in rest], held,
+            sim2, [FitSpace.alternatives([get_effect(c.name)], parameters) for c in rest], held,
             [f"{best.name}+{c.name}" for c in rest], allow_off=True, **fit_opts)
         for c, cv2 in zip(rest, cvs2, strict=True):
             c.given_best = Reduction(*reduction_ci(cv2.errors, base2.errors, rng,
@@ -554,7 +556,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 if helps(c.overall, min_reduction) and helps(c.given_best, min_reduction)]
         best_cls = get_effect(best.name)
         cvs3 = cross_validate_many(
-            sim, [FitSpace.of([best_cls, get_effect(c.name)], parameters, fixed) for c in keep],
+            sim, [FitSpace.alternatives([best_cls, get_effect(c.name)], parameters) for c in keep],
             held, [f"{best.name}+{c.name} (refit)" for c in keep], allow_off=True,
             **fit_opts) if keep else []
         for c, cv3 in zip(keep, cvs3, strict=True):
@@ -589,7 +591,9 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 "simultaneous_confidence": level, "n_boot": n_boot,
                 "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
                 "candidates": names, "min_cases": min_cases, "reliable": reliable,
-                "fixed_parameters": fixed,
+                "fixed_parameters": ("neutral or nominal, per fold the better on the "
+                                     "training cases" if parameters == "primary" else
+                                     "none (all fitted)"),
                 "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
                 "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
     diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,

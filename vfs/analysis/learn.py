@@ -7,29 +7,50 @@ each channel, only the identifiable cases are used, weighted by
 1 / sigma^2 with sigma the half width of the chi^2 + 1 interval (floored at
 a tenth of the spread of the values, so that no case dominates).
 
+Some cases are identified at a wrong minimum of their objective: where
+the outcomes react to the channel on a scale finer than the identification
+grid, or are chaotic in it, a case can prefer a value far from the law
+(penetration time: a few percent of the cases tens of milliseconds off,
+often with a narrow interval, i.e. a large weight).  Least squares let
+these few cases pull the law (a 2-3 ms bias at small overlaps, enough to
+lose a third of the outcome-error reduction), so every fit is an
+M-estimate: iteratively reweighted least squares with Huber's, then
+Tukey's biweight weights of the standardised residuals sqrt(w) (y - f(x))
+(scale: their normal-consistent MAD), which gives the misidentified cases
+no weight.
+
 For each numeric feature, k-fold cross-validation (seeded) of
 
 * a smoothing spline (:func:`scipy.interpolate.make_smoothing_spline`, its
   smoothness chosen by generalised cross-validation), with a bootstrap band;
+  its robust weights come from one robust fit over all cases per feature
+  (the folds and the band reuse them: each spline fit chooses its
+  smoothness anew and is costly);
 * the closed forms of :data:`vfs.effects.learned.FORMS` (constant, linear,
   power, exponential, saturating, step): the nonlinear coefficient by a
-  grid and :func:`scipy.optimize.minimize_scalar`, the linear ones by
-  weighted least squares.
+  grid and :func:`scipy.optimize.minimize_scalar` (the step's threshold:
+  the midpoints between the data values around the best grid point), the
+  linear ones by weighted least squares.
 
-The best (feature, form) is the one with the lowest CV error; a closed form
-is preferred to the spline when its CV error is at most 2 % higher (a
-formula the user can read).  The law is *significant* when the bootstrap
-CI (over cases, Bonferroni over the features) of its CV RMSE reduction
-against the null model (the better of a constant and the model's own
-value of the channel, e.g. the EES stiffness ratio m1 / m2 of the default
-model) lies above zero and the reduction reaches
-``min_reduction``; otherwise the channel is reported as "no structure".
+The CV error is the same robust loss: Tukey's biweight of the held-out
+standardised residuals (u^2 near 0, bounded for a misidentified case) at
+one scale per channel, the smallest robust residual scale of the features'
+splines (the identification noise), so that all candidates and the null
+are scored alike.  The best (feature, form) is the one with the lowest CV
+error; a closed form is preferred to the spline when its CV error is at
+most 2 % higher (a formula the user can read).  The law is *significant*
+when the bootstrap CI (over cases, Bonferroni over the features) of its
+CV reduction (1 - sqrt of the ratio of mean losses) against the null model
+(the better of a constant and the model's own value of the channel, e.g.
+the EES stiffness ratio m1 / m2 of the default model) lies above zero and
+the reduction reaches ``min_reduction``; otherwise the channel is reported
+as "no structure".
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,6 +67,14 @@ LEARN_FEATURES: tuple[str, ...] = tuple(LAW_FEATURES)
 CLOSED_FORM_TOLERANCE = 0.02
 #: Fewest identifiable cases for a law.
 MIN_LAW_CASES = 30
+#: Tuning constants of the robust fits: Huber's and Tukey's biweight (95 % efficiency
+#: for normal errors), in units of the robust scale of the standardised residuals.
+HUBER_C = 1.345
+BIWEIGHT_C = 4.685
+#: Most reweighting iterations of each stage of a robust fit (closed forms; smoothing
+#: splines, whose smoothness is chosen anew by generalised cross-validation each time).
+ROBUST_ITERATIONS = 10
+SPLINE_ROBUST_ITERATIONS = 1
 
 
 def _wls(cols: Sequence[np.ndarray], y: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -54,8 +83,11 @@ def _wls(cols: Sequence[np.ndarray], y: np.ndarray, w: np.ndarray) -> np.ndarray
     return np.asarray(coef, float)
 
 
-def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray) -> list[float]:
-    """Weighted least-squares coefficients of a closed form (:data:`FORMS`)."""
+def _fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
+                 near: float | None = None) -> list[float]:
+    """Weighted least-squares coefficients of a closed form (:data:`FORMS`); ``near``
+    restricts the search of the nonlinear coefficient to the grid cells around it.
+    """
     from scipy.optimize import minimize_scalar
 
     one = np.ones_like(x)
@@ -93,10 +125,22 @@ def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray) -> list[flo
         grid = span * np.geomspace(0.02, 5.0, 25)
     else:
         grid = np.unique(np.quantile(x, np.linspace(0.05, 0.95, 37)))
+    if near is not None and math.isfinite(near):
+        k = int(np.argmin(np.abs(grid - near)))
+        grid = np.unique(np.append(grid[max(k - 2, 0):k + 3], near))
     vals = [inner(float(c)) for c in grid]
     k = int(np.argmin([v[0] for v in vals]))
     best = vals[k]
-    if form != "step" and len(grid) > 2:
+    if form == "step" and len(grid) > 1:
+        # the partition changes only between data values: try the midpoints between
+        # the distinct values of x in the grid cells around the best threshold
+        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
+        ux = np.unique(x[(x >= lo) & (x <= hi)])
+        for c in 0.5 * (ux[1:] + ux[:-1]):
+            cand = inner(float(c))
+            if cand[0] < best[0]:
+                best = cand
+    elif len(grid) > 2:
         lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
         if hi > lo:
             r = minimize_scalar(lambda c: inner(c)[0], bounds=(lo, hi), method="bounded",
@@ -109,12 +153,13 @@ def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray) -> list[flo
     return best[1]
 
 
-def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
+def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
     """Smoothing spline through weighted means of equal x (increasing abscissas)."""
     from scipy.interpolate import make_smoothing_spline
 
-    order = np.argsort(x, kind="stable")
-    xs, ys, ws = x[order], y[order], w[order]
+    keep = w > 0
+    order = np.argsort(x[keep], kind="stable")
+    xs, ys, ws = x[keep][order], y[keep][order], w[keep][order]
     ux, inv = np.unique(np.round(xs, 9), return_inverse=True)
     sw = np.bincount(inv, ws)
     my = np.bincount(inv, ws * ys) / sw
@@ -126,6 +171,105 @@ def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
 def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """Spline values, held constant outside [lo, hi] (no extrapolation)."""
     return np.asarray(spl(np.clip(x, lo, hi)), float)
+
+def robust_scale(r: np.ndarray) -> float:
+    """Normal-consistent median absolute deviation of residuals r (their unit)."""
+    r = r[np.isfinite(r)]
+    if r.size == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+
+
+def _robust_weights(u: np.ndarray, kind: str) -> np.ndarray:
+    a = np.abs(u)
+    if kind == "huber":
+        return np.minimum(1.0, HUBER_C / np.maximum(a, 1e-300))
+    return np.where(a < BIWEIGHT_C, (1.0 - (u / BIWEIGHT_C) ** 2) ** 2, 0.0)
+
+
+def robust_loss(u: np.ndarray) -> np.ndarray:
+    """Tukey's biweight loss of standardised residuals u, scaled to u^2 near 0
+    (bounded by ``BIWEIGHT_C ** 2 / 3``).
+    """
+    a = np.minimum(np.abs(u) / BIWEIGHT_C, 1.0)
+    return BIWEIGHT_C ** 2 / 3.0 * (1.0 - (1.0 - a ** 2) ** 3)
+
+
+def _irls(fit: Callable[[np.ndarray], Any], predict: Callable[[Any], np.ndarray],
+          y: np.ndarray, w: np.ndarray, iterations: int = ROBUST_ITERATIONS,
+          start: Any = None) -> tuple[Any, np.ndarray, float]:
+    """Iteratively reweighted fit: Huber weights (scale re-estimated by the MAD of
+    the standardised residuals), then Tukey's biweight at the last scale; at most
+    ``iterations`` refits per stage; ``start``: the fit with weights w if known.
+
+    Returns the fit, the robust weights (0 = rejected) and the scale.
+    """
+    sw = np.sqrt(w)
+    rw = np.ones_like(y)
+    model = fit(w) if start is None else start
+    scale = 0.0
+    for kind in ("huber", "biweight"):
+        for _ in range(iterations):
+            r = sw * (y - predict(model))
+            if kind == "huber" or scale <= 0:
+                scale = robust_scale(r)
+            if not scale > 0:
+                return model, rw, scale
+            new_rw = _robust_weights(r / scale, kind)
+            if np.max(np.abs(new_rw - rw)) < 1e-2:
+                break
+            rw = new_rw
+            model = fit(w * rw)
+    return model, rw, scale
+
+
+def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
+             robust: bool = True) -> list[float]:
+    """Coefficients of a closed form (:data:`FORMS`) fitted to (x, y) with weights w.
+
+    Weighted least squares, or (``robust``) an M-estimate: iteratively
+    reweighted least squares with Huber's then Tukey's biweight weights of
+    the standardised residuals sqrt(w) (y - f(x)), so that cases whose
+    identification went to a wrong minimum do not pull the law.
+    """
+    if not robust:
+        return _fit_form_ls(form, x, y, w)
+    last: list[float] = []
+
+    def fit(wt: np.ndarray) -> list[float]:
+        # the nonlinear coefficient is searched near the previous one after the first fit
+        near = last[-1] if last and form not in ("constant", "linear") else None
+        last[:] = _fit_form_ls(form, x, y, wt, near)
+        return list(last)
+
+    coef, _, _ = _irls(fit, lambda c: evaluate_law({"form": form, "coefficients": c}, x),
+                       y, w)
+    return list(coef)
+
+
+def _robust_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray
+                   ) -> tuple[Any, np.ndarray, float]:
+    """Smoothing spline (:func:`_spline_ls`) fitted robustly as :func:`fit_form`: the
+    spline (None if too few distinct abscissas), the robust weights and the scale.
+    """
+    lo, hi = float(np.min(x)), float(np.max(x))
+    first = _spline_ls(x, y, w)
+    if first is None:
+        return None, np.ones_like(y), 0.0
+
+    def fit(wt: np.ndarray) -> Any:
+        s = _spline_ls(x, y, wt)
+        return first if s is None else s
+
+    return _irls(fit, lambda s: predict_spline(s, x, lo, hi), y, w,
+                 SPLINE_ROBUST_ITERATIONS, start=first)
+
+
+def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool = True) -> Any:
+    """Smoothing spline (:func:`_spline_ls`), robust as :func:`fit_form`; None if too
+    few distinct abscissas.
+    """
+    return _robust_spline(x, y, w)[0] if robust else _spline_ls(x, y, w)
 
 
 @dataclass
@@ -173,19 +317,30 @@ class ChannelLaw:
 
 
 def _cv_predictions(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
-                    held: Sequence[np.ndarray]) -> np.ndarray:
+                    held: Sequence[np.ndarray], robust: bool = True) -> np.ndarray:
     pred = np.full_like(y, np.nan)
     for h in held:
         tr = np.setdiff1d(np.arange(y.size), h)
         if form == "spline":
-            spl = _spline(x[tr], y[tr], w[tr])
+            spl = _spline(x[tr], y[tr], w[tr], robust)
             if spl is None:
                 continue
             pred[h] = predict_spline(spl, x[h], x[tr].min(), x[tr].max())
         else:
-            coef = fit_form(form, x[tr], y[tr], w[tr])
+            coef = fit_form(form, x[tr], y[tr], w[tr], robust)
             pred[h] = evaluate_law({"form": form, "coefficients": coef}, x[h])
     return pred
+
+
+def _noise_scale(scales: Iterable[float], y: np.ndarray, w: np.ndarray) -> float:
+    """Robust scale of the identification noise (the channel's unit at weight 1):
+    the smallest of ``scales`` (those of the robust splines over the features) and
+    of the residuals from the median; the scale of the robust CV loss.
+    """
+    sw = np.sqrt(w)
+    cand = [v for v in (robust_scale(sw * (y - np.median(y))), *scales) if v > 0]
+    s = min(cand) if cand else 0.0
+    return s if s > 0 else float(np.std(sw * y)) or 1.0
 
 
 def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarray,
@@ -245,11 +400,10 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
     polish : bool
         Then refit the law's first coefficient (closed forms) on the training
         cases' *outcomes* (:func:`vfs.analysis.calibrate.fit_folds`, bounds
-        +-30 % of its value or a tenth of the channel's range): the outcomes
-        can be more sensitive to the channel than its identification is
-        precise (penetration time: 2.5 ms off cost a fifth of the reduction;
-        the polish did not recover it in the test of tests/test_learn.py, off
-        by default).
+        +-30 % of its value or a tenth of the channel's range), for outcomes
+        more sensitive to the channel than its identification is precise
+        (off by default: with the robust fits of the identified values the
+        laws of tests/test_learn.py reach the true law's reduction without it).
     grid_points, zoom_rounds : int
         Search of the polish.
 
@@ -334,26 +488,41 @@ def learn_channel(table: pd.DataFrame, channel: str,
     form_names = list(forms) if forms is not None else list(FORMS)
     if "constant" not in form_names:
         form_names.insert(0, "constant")
+    # per feature: robust smoothing spline over all cases, whose weights flag the cases
+    # identified at a wrong minimum (the spline's folds reuse them) and whose residual
+    # scale gives that of the robust CV loss
+    splines: dict[str, tuple[Any, np.ndarray, float]] = {}
+    for feat in feats:
+        x = t[feat].to_numpy(float)
+        if np.isfinite(x).all() and np.ptp(x) > 0:
+            splines[feat] = _robust_spline(x, y, w)
+    scale = _noise_scale([v[2] for v in splines.values() if v[0] is not None], y, w)
+
+    def loss(pred: np.ndarray) -> np.ndarray:
+        """Per-case robust loss of predictions (the channel's unit squared)."""
+        return scale ** 2 * robust_loss(np.sqrt(w) * (y - pred) / scale)
+
     const_pred = _cv_predictions("constant", y, y, w, held)
-    e0 = w * (y - const_pred) ** 2
+    e0 = loss(const_pred)
     null = "constant"
     if "model_value" in t.columns:  # the model's own value of the channel (no law)
         mv = t["model_value"].to_numpy(float)
-        em = w * (y - mv) ** 2
+        em = loss(mv)
         if np.isfinite(em).all() and em.mean() < e0.mean():
             e0, null = em, "model"
     mse0 = float(np.mean(e0))
     rows: list[dict[str, Any]] = []
-    for feat in feats:
+    for feat in splines:
         x = t[feat].to_numpy(float)
-        ok = np.isfinite(x)
-        if ok.sum() < n or np.ptp(x) == 0:
-            continue
+        rw = splines[feat][1]
         for form in [f for f in form_names if f != "constant"] + ["spline"]:
             if form == "power" and x.min() <= 0:
                 continue
-            pred = _cv_predictions(form, x, y, w, held)
-            e = w * (y - pred) ** 2
+            if form == "spline":
+                pred = _cv_predictions(form, x, y, w * rw, held, robust=False)
+            else:
+                pred = _cv_predictions(form, x, y, w, held)
+            e = loss(pred)
             if not np.isfinite(e).all():
                 continue
             mse = float(np.mean(e))
@@ -375,8 +544,10 @@ def learn_channel(table: pd.DataFrame, channel: str,
             float(closed["cv_mse"].iloc[0]) <= (1 + CLOSED_FORM_TOLERANCE) * float(top["cv_mse"]):
         form = str(closed["form"].iloc[0])
     x = t[feat].to_numpy(float)
-    pred = _cv_predictions(form, x, y, w, held)
-    e = w * (y - pred) ** 2
+    spl, rw, _ = splines[feat]
+    pred = _cv_predictions(form, x, y, w * rw, held, robust=False) if form == "spline" \
+        else _cv_predictions(form, x, y, w, held)
+    e = loss(pred)
     level = 1.0 - (1.0 - confidence) / max(len(feats), 1)
     rng = np.random.default_rng(seed)
     est, lo, hi = reduction_ci(e[:, None], e0[:, None], rng, confidence=level, n_boot=n_boot)
@@ -386,14 +557,13 @@ def learn_channel(table: pd.DataFrame, channel: str,
                            "channel_unit": ch.unit, "feature_unit": LAW_FEATURES[feat],
                            "mode": ch.mode}
     xg = np.linspace(float(x.min()), float(x.max()), 41)
-    spl = _spline(x, y, w)
     band: dict[str, list[float]] = {}
     if spl is not None:
         curve = predict_spline(spl, xg, x.min(), x.max())
         boots = []
-        for _ in range(band_boot):
+        for _ in range(band_boot):  # resampled cases, their robust weights held
             idx = rng.integers(0, n, n)
-            s = _spline(x[idx], y[idx], w[idx])
+            s = _spline_ls(x[idx], y[idx], (w * rw)[idx])
             if s is not None:
                 boots.append(predict_spline(s, xg, x[idx].min(), x[idx].max()))
         b = np.array(boots) if boots else np.array([curve])
@@ -531,7 +701,8 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "MIN_LAW_CASES", "ChannelLaw",
+__all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES",
+           "MIN_LAW_CASES", "ROBUST_ITERATIONS", "SPLINE_ROBUST_ITERATIONS", "ChannelLaw",
            "cross_validate_law", "fit_form", "law_rows", "laws_document", "learn",
-           "learn_channel", "plugin_source", "refit_law",
-           "predict_spline", "read_laws"]
+           "learn_channel", "plugin_source", "predict_spline", "read_laws", "refit_law",
+           "robust_loss", "robust_scale"]

@@ -265,6 +265,17 @@ class VariantSimulator:
                 self._cache[k] = r
         return [self._cache[k] for k in keys]
 
+    def uncached_residuals(self, models: Sequence[Model]) -> list[np.ndarray]:
+        """Residual arrays (n, n_columns) of each model, simulated without the cache
+        (for models whose parameters do not describe them, e.g. values per case);
+        stacked calls of at most ``max_cases`` cases, counted in the statistics.
+        """
+        per_call = max(1, self.max_cases // self.data.n)
+        out: list[np.ndarray] = []
+        for start in range(0, len(models), per_call):
+            out += self._simulate(models[start:start + per_call])
+        return out
+
     def simulate(self, models: Sequence[Model]) -> CaseResults:
         """Results of the variants, stacked (variant-major: rows g n .. (g + 1) n - 1)."""
         data = self.data

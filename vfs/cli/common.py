@@ -16,7 +16,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from vfs.database import Database
 
 #: Help text of ``--db``.
-DB_HELP = "database folder (Parquet, CSV or PCM) or 'default' for the bundled one"
+DB_HELP = ("database folder (Parquet, CSV or PCM), 'default' for the bundled one, or the "
+           "fsspec URL of a Parquet database (file:///shared/db, s3://bucket/db)")
 #: Help text of ``--where``.
 WHERE_HELP = "SQL predicate on the cases table, e.g. \"accident_type IN (241, 242)\""
 

@@ -49,6 +49,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "generic defaults for every case (default; the prospective protocol of the "
                    "frontal-collision paper) or each case's reconstructed values (not used "
                    "with --run)")
+    p.add_argument("--case-pages", action=argparse.BooleanOptionalAction, default=True,
+                   help="write a page per case in the report's tables (OUT/cases/<id>.html: "
+                   "the simulation beside the reconstruction, top views, impact table, speed "
+                   "over time) by re-simulating only those cases (default: on)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=run_compare)
 
@@ -68,7 +72,7 @@ def run_compare(args: argparse.Namespace) -> int:
                                   margins=parse_margins(args.margins), alpha=args.alpha,
                                   impact_parameters=setting)
     files = write_comparison_report(comparison, args.out, database=db, top=args.top,
-                                    sketches=args.sketches)
+                                    sketches=args.sketches, case_pages=args.case_pages)
     print(comparison.summary())
     print(f"report -> {files['report_md']} and {files['report_html']} ({len(files)} files)")
     return 0

@@ -1,4 +1,5 @@
-"""Command-line interface of the database tools: ``vfs db validate|convert|import-pcm``.
+"""Command-line interface of the database tools:
+``vfs db validate|schema|convert|import-pcm|export-xosc|import-xosc``.
 
 :func:`add_parsers` adds the command group to the main ``vfs`` parser; every
 subcommand sets ``func``, a callable ``func(args) -> int`` returning the exit
@@ -14,7 +15,7 @@ from pathlib import Path
 from vfs.database.io import save_csv_folder, save_database
 from vfs.database.pcm import export_pcm, import_pcm
 from vfs.database.source import FORMATS, load_any, resolve_database_path
-from vfs.errors import DataError, VfsError
+from vfs.errors import DataError, ParameterError, VfsError
 
 
 def _path(arg: str | Path) -> str:
@@ -114,6 +115,57 @@ def cmd_import_pcm(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export_xosc(args: argparse.Namespace) -> int:
+    """``vfs db export-xosc --db DIR --case ID [...] [--run STUDY] [--system NAME] --out DIR``."""
+    from vfs.database import open_database
+    from vfs.interop.motion import simulated_motion, study_motion
+    from vfs.interop.openscenario import export_case
+
+    if args.run and not args.system:
+        raise ParameterError("--run needs --system NAME (one of the study's systems)")
+    db = open_database(args.db)
+    for case in args.case:
+        motion = None
+        if args.run:
+            motion = study_motion(args.run, args.db, case, args.system)
+        elif args.system:
+            motion = simulated_motion(db, case, args.system, equip=args.equip, seed=args.seed)
+        result = export_case(db, case, args.out, motion=motion, road=args.road,
+                             lane_width=args.lane_width_m, validate=args.validate)
+        roads = result.roads
+        m = result.motion
+        ending = (f"collision at t = {m.impact_time:.3f} s" if m.collided and
+                  m.impact_time == m.impact_time else "collision" if m.collided
+                  else "no collision")
+        print(f"case {m.case_id} ({m.source}, {ending}) -> {result.xosc}")
+        print(f"  road -> {result.xodr}: {len(roads.roads)} road(s), {roads.mode}"
+              + (f", largest lateral distance of a lane centre from the fitted reference "
+                 f"line {roads.fit_error:.2f} m" if roads.mode == "path" else ""))
+        for note in (*m.notes, *roads.notes):
+            print(f"  {note}")
+        if args.validate:
+            print("  both files validate against the ASAM schemas (OpenSCENARIO 1.3.1, "
+                  "OpenDRIVE 1.7)")
+    return 0
+
+
+def cmd_import_xosc(args: argparse.Namespace) -> int:
+    """``vfs db import-xosc FILE.xosc [...] --out DIR``: OpenSCENARIO -> Parquet database."""
+    from vfs.interop.scenario_import import import_xosc
+
+    try:
+        db = import_xosc(args.files, name=args.name or "")
+        out = save_database(db, args.out)
+    except DataError as error:
+        _print_problems(error)
+        return 1
+    print(f"imported {db.n_cases} case(s) from {len(args.files)} file(s) into {out}")
+    notes = db.meta.get("import_notes", [])
+    for note in notes if isinstance(notes, list) else []:
+        print(f"  {note}")
+    return 0
+
+
 def add_parsers(
     subparsers: argparse._SubParsersAction[argparse.ArgumentParser],
 ) -> argparse.ArgumentParser:
@@ -129,10 +181,13 @@ def add_parsers(
     argparse.ArgumentParser
         The ``db`` parser.
     """
-    db = subparsers.add_parser("db", help="accident-case databases: validate, convert, import",
+    db = subparsers.add_parser("db", help="accident-case databases: validate, convert, import, "
+                               "exchange with OpenSCENARIO",
                                description="Accident-case databases: validate a folder against the "
                                "schema, convert between Parquet, CSV and PreCrash-Matrix folders, "
-                               "import PreCrash-Matrix data. Format: docs/data-format.md.")
+                               "import PreCrash-Matrix data, export cases as OpenSCENARIO/"
+                               "OpenDRIVE files and import such files. Format: "
+                               "docs/data-format.md; OpenSCENARIO: docs/interop.md.")
     commands = db.add_subparsers(dest="db_command", metavar="COMMAND", required=True)
 
     validate = commands.add_parser("validate", help="check a database against the schema")
@@ -165,4 +220,49 @@ def add_parsers(
     pcm.add_argument("source", type=Path, help="folder with participant_data.csv, ...")
     pcm.add_argument("destination", type=Path, help="output database folder (replaced)")
     pcm.set_defaults(func=cmd_import_pcm)
+
+    export = commands.add_parser(
+        "export-xosc", help="cases -> OpenSCENARIO (.xosc) + OpenDRIVE (.xodr) files",
+        description="Write each case as an OpenSCENARIO 1.3 scenario and an OpenDRIVE 1.7 "
+        "road: both vehicles (rear-axle reference point, dimensions, mass, axles) with their "
+        "trajectories as timed polylines, a two-lane road (straight, or fitted to the "
+        "recorded paths). With --system the motion is re-simulated with that AEB system; "
+        "with --run STUDY exactly as that study simulated it. Needs the optional extra: "
+        'pip install "vfs[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
+        "case_1.xosc. See docs/interop.md.")
+    export.add_argument("--db", required=True, help="database folder, or 'default'")
+    export.add_argument("--case", required=True, nargs="+", metavar="ID", help="case id(s)")
+    export.add_argument("--out", required=True, type=Path, help="output folder")
+    export.add_argument("--run", metavar="STUDY", type=Path,
+                        help="study folder: export the motion with --system as the study "
+                        "simulated it (same chunk, seed and equip rule)")
+    export.add_argument("--system", metavar="NAME",
+                        help="AEB system: export the motion with the system instead of the "
+                        "recorded one (vfs study --help lists the systems)")
+    export.add_argument("--equip", choices=("1", "2", "both"), default="both",
+                        help="vehicles carrying --system without --run (default both)")
+    export.add_argument("--seed", type=int, default=0,
+                        help="seed of --system without --run (default 0)")
+    export.add_argument("--road", choices=("auto", "straight", "path"), default="auto",
+                        help="road: straight along participant 1's initial heading, or "
+                        "fitted to the recorded paths (lines, arcs, spirals); auto = "
+                        "straight where the case's road curvature is 0 (default)")
+    export.add_argument("--lane-width-m", type=float, default=3.5, metavar="W",
+                        help="width of each of the two lanes [m] (default 3.5)")
+    export.add_argument("--validate", action="store_true",
+                        help="validate the files against the ASAM XSD schemas (xmlschema)")
+    export.set_defaults(func=cmd_export_xosc)
+
+    imp = commands.add_parser(
+        "import-xosc", help="OpenSCENARIO files (two vehicles, polylines) -> database",
+        description="Read OpenSCENARIO 1.x files, one case each, into a Parquet database: "
+        "two entities (Vehicle or MiscObject: dimensions, mass, axles) and their "
+        "FollowTrajectoryAction polylines of timed WorldPosition vertices (reference point "
+        "converted to the CG); friction and curvature from the OpenDRIVE road where the "
+        "file has no vfs properties. Needs no extra. See docs/interop.md.")
+    imp.add_argument("files", nargs="+", type=Path, metavar="FILE.xosc")
+    imp.add_argument("--out", required=True, type=Path,
+                     help="output database folder (replaced)")
+    imp.add_argument("--name", help="database name in meta.json")
+    imp.set_defaults(func=cmd_import_xosc)
     return db

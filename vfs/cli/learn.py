@@ -22,11 +22,12 @@ def cmd_identify(args: argparse.Namespace) -> int:
     db = open_database(args.db)
     data = CalibrationData.from_database(db, args.outputs)
     t0 = time.perf_counter()
-    table = identify(data, args.parameters, grid_points=args.grid)
+    table = identify(data, args.parameters, grid_points=args.grid, zoom_starts=args.zoom)
     seconds = time.perf_counter() - t0
     paths = write_identification(table, identification_features(data), args.out,
                                  {"database": str(resolve_database_path(args.db)),
-                                  "grid_points": args.grid, "seconds": round(seconds, 2),
+                                  "grid_points": args.grid, "zoom_starts": args.zoom,
+                                  "seconds": round(seconds, 2),
                                   "outputs": list(data.group_names)})
     for ch, g in table.groupby("channel", sort=False):
         say(f"{ch} [{g['unit'].iloc[0]}]: median {g['value'].median():.4g}, identifiable "
@@ -98,6 +99,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="channels, comma separated, or 'all' (default)")
     p.add_argument("--outputs", default=None, help="compared outputs (default all available)")
     p.add_argument("--grid", type=int, default=21, help="grid values per channel (default 21)")
+    p.add_argument("--zoom", type=int, default=0, metavar="N",
+                   help="zoom per case into the N lowest minima of its grid profile (finer "
+                        "than the grid; two more simulations per channel; default 0 = off)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_identify)
 

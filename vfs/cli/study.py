@@ -38,7 +38,7 @@ def cmd_study(args: argparse.Namespace) -> int:
             args.db, systems, args.out, engine=args.engine, workers=args.workers,
             scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
             where=args.where, equip=args.equip, resume=args.resume, overwrite=args.overwrite,
-            impact_parameters=args.impact_parameters,
+            impact_parameters=args.impact_parameters, dashboard=args.dashboard,
         )
     except KeyboardInterrupt:
         print(f"interrupted; finished chunks are kept in {args.out}; continue with the same "
@@ -60,9 +60,13 @@ def cmd_report_effectiveness(args: argparse.Namespace) -> int:
     from vfs.report.effectiveness import write_effectiveness_report
 
     started = time.perf_counter()
+    from vfs.cli.common import say
+
     report = write_effectiveness_report(args.study, risk_curves=args.risk_curve or None,
                                         n_boot=args.bootstrap, seed=args.seed,
-                                        confidence=args.confidence)
+                                        confidence=args.confidence,
+                                        case_pages=args.case_pages, list_cases=args.list_cases,
+                                        say=say)
     print(f"report -> {report} ({time.perf_counter() - started:.1f} s)")
     return 0
 
@@ -107,11 +111,16 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="vehicles carrying the system in the treatment runs (default both)")
     p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
                    help="executor: serial, local processes (default), dask, or one registered "
-                   "with vfs.study.register_executor")
+                   "with vfs.study.register_executor or by an installed package (entry-point "
+                   "group vfs.executors)")
     p.add_argument("--workers", type=_positive_int,
                    help="parallel workers (default: min(CPUs, chunks))")
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="dask scheduler address (with --engine dask; default a local cluster)")
+                   help="dask scheduler address, e.g. tcp://host:8786 (with --engine dask; "
+                   "default a local cluster); its workers need the same vfs and numpy")
+    p.add_argument("--dashboard", metavar="ADDRESS",
+                   help="serve the dashboard of the local dask cluster at ADDRESS, e.g. :8787, "
+                   "and print its link (needs bokeh; default off)")
     p.add_argument("--chunk-size", type=_positive_int, default=200,
                    help="cases per chunk (default 200)")
     p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
@@ -145,4 +154,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--confidence", type=float, default=0.95,
                    help="confidence level (default 0.95)")
     r.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default 0)")
+    r.add_argument("--list-cases", type=int, default=5, metavar="N",
+                   help="cases listed per system and kind (new crash, not avoided, avoided) "
+                   "under 'Cases to look into' (default 5; 0: none)")
+    r.add_argument("--case-pages", action=argparse.BooleanOptionalAction, default=True,
+                   help="write a page per listed case (report/cases/<id>.html: top views, "
+                   "speed and brake traces with the AEB events, impact table) by "
+                   "re-simulating only those cases (default: on)")
     r.set_defaults(func=cmd_report_effectiveness)

@@ -10,7 +10,6 @@ plus :data:`OUTPUT_COLUMNS`.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 from typing import Literal
 
@@ -19,10 +18,10 @@ import pandas as pd
 
 from vfs.errors import DataError, DataProblem
 from vfs.physics.impact import (
-    IMPACT_TYPE_NAMES,
     ImpactConfig,
     config_problems,
     describe_range,
+    impact_type_names,
     solve_impact,
 )
 
@@ -69,26 +68,6 @@ def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
     if df.empty:
         raise DataError(DataProblem(p.name, "", None, None, f"file {p} has no rows"))
     return df
-
-
-def write_table_atomic(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
-    """Write a table (format from the suffix) atomically: temporary file, then rename."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=p.parent)
-    os.close(fd)
-    try:
-        if p.suffix.lower() in (".parquet", ".pq"):
-            df.to_parquet(tmp, index=False)
-        elif p.suffix.lower() == ".csv":
-            df.to_csv(tmp, index=False)
-        else:
-            raise DataError(DataProblem(p.name, "", None, None,
-                                        f"unknown table format {p.suffix!r}"))
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def _numeric_column(df: pd.DataFrame, name: str, table: str,
@@ -169,8 +148,7 @@ def solve_impact_table(
     )
     result = solve_impact(safe, stiffness_ratio=stiffness)
     out = df.copy()
-    names = np.array([IMPACT_TYPE_NAMES[k] for k in sorted(IMPACT_TYPE_NAMES)], dtype=object)
-    impact_type = names[result.impact_type].astype(object)
+    impact_type = impact_type_names(result.impact_type).astype(object)
     impact_type[bad_rows] = "error"
     out["impact_type"] = impact_type
     rd = result._asdict()

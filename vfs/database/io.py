@@ -5,19 +5,28 @@ A database folder holds ``<table>.parquet`` for the four tables of
 is the same with ``<table>.csv``.  Writes are atomic: the files go into a
 temporary sibling folder which then replaces the target.  Case selection
 (``where``) is SQL evaluated by duckdb directly on the Parquet files.
+
+A Parquet database can also be read from an fsspec URL (``file://...``,
+``memory://...``, ``s3://...`` where the backend package is installed): its
+tables are read with pyarrow through the fsspec file system, a selection is
+evaluated by duckdb on the cases table and the other tables are read with a
+``case_id`` filter.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable, Iterable
+import re
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 import duckdb
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from vfs.atomic import with_field_metadata, write_folder
@@ -28,6 +37,7 @@ from vfs.database.schema import (
     TABLE_NAMES,
     TABLES,
     empty_table,
+    normalise_table,
     table_from_file_units,
     table_to_file_units,
 )
@@ -49,8 +59,8 @@ def read_meta(folder: str | os.PathLike[str]) -> tuple[dict[str, object], list[D
 
     Parameters
     ----------
-    folder : path
-        Database folder.
+    folder : path or URL
+        Database folder, or its fsspec URL (:func:`is_url`).
 
     Returns
     -------
@@ -59,12 +69,22 @@ def read_meta(folder: str | os.PathLike[str]) -> tuple[dict[str, object], list[D
     problems : list of DataProblem
         Problems reading the file (missing, invalid JSON, not an object).
     """
-    file = Path(folder) / META_FILE
-    if not file.is_file():
+    text: str | None
+    if is_url(folder):
+        fs, root = url_filesystem(os.fspath(folder))
+        file = f"{os.fspath(folder).rstrip('/')}/{META_FILE}"
+        found = fs.isfile(f"{root}/{META_FILE}")
+        read = lambda: fs.cat_file(f"{root}/{META_FILE}").decode("utf-8")  # noqa: E731
+    else:
+        path = Path(folder) / META_FILE
+        file, found = str(path), path.is_file()
+        read = lambda: path.read_text(encoding="utf-8")  # noqa: E731
+    if not found:
         return {}, [DataProblem("meta", "schema_version", None, None,
                                 f"{META_FILE} not found in {folder}")]
     try:
-        meta = json.loads(file.read_text(encoding="utf-8"))
+        text = read()
+        meta = json.loads(text)
     except (OSError, ValueError) as exc:
         return {}, [DataProblem("meta", "", None, None, f"cannot read {file}: {exc}")]
     if not isinstance(meta, dict):
@@ -84,6 +104,42 @@ def _json_default(value: object) -> object:
     if isinstance(value, np.ndarray):
         return value.tolist()
     raise TypeError(f"meta value {value!r} is not JSON serialisable")
+
+
+# ----------------------------------------------------------------------------
+# Databases by URL (fsspec)
+# ----------------------------------------------------------------------------
+
+#: ``scheme://`` at the start of a database location: an fsspec URL.
+_URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.\-]*://")
+
+
+def is_url(location: object) -> bool:
+    """True for an fsspec URL (``file://``, ``memory://``, ``s3://``, ...), not a plain path.
+
+    >>> is_url("memory://db"), is_url("s3://bucket/db"), is_url("/data/db"), is_url("default")
+    (True, True, False, False)
+    """
+    return isinstance(location, str | os.PathLike) and bool(_URL.match(os.fspath(location)))
+
+
+def url_filesystem(url: str) -> tuple[Any, str]:
+    """The fsspec file system of a database URL and the folder's path on it.
+
+    Raises
+    ------
+    DataError
+        Unknown protocol, or its fsspec backend is not installed (e.g. s3fs
+        for ``s3://``).
+    """
+    import fsspec
+
+    try:
+        fs, root = fsspec.core.url_to_fs(url)
+    except (ImportError, ValueError) as exc:
+        raise DataError(DataProblem("meta", "", None, None,
+                                    f"cannot open database URL {url}: {exc}")) from None
+    return fs, str(root).rstrip("/")
 
 
 # ----------------------------------------------------------------------------
@@ -160,9 +216,10 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
 
 
 def _read_parquet_tables(
-    folder: Path, where: str | None, problems: list[DataProblem]
+    folder: Path, where: str | None, problems: list[DataProblem],
+    names: Iterable[str] = TABLE_NAMES,
 ) -> dict[str, pd.DataFrame]:
-    files = {name: folder / f"{name}.parquet" for name in TABLE_NAMES}
+    files = {name: folder / f"{name}.parquet" for name in names}
     present = {}
     for name, file in files.items():
         if file.is_file():
@@ -214,12 +271,19 @@ def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFram
         except duckdb.Error as exc:
             raise _sql_error(where, exc) from exc
         con.register("selected_cases", selected)
+        # the range of the selected ids lets duckdb skip row groups of files sorted by case
+        # (their statistics); it selects nothing more than the IN
+        ids = selected.column("case_id")
+        bounds = pc.min_max(ids) if ids.null_count == 0 and len(ids) and \
+            pa.types.is_integer(ids.type) else None
+        between = "" if bounds is None else \
+            f"AND case_id BETWEEN {int(bounds['min'].as_py())} AND {int(bounds['max'].as_py())} "
         frames = {}
         for name, file in files.items():
             table = con.sql(
                 "SELECT * EXCLUDE (file_row_number) "
                 "FROM read_parquet($file, file_row_number = true) "
-                "WHERE case_id IN (SELECT case_id FROM selected_cases) "
+                f"WHERE case_id IN (SELECT case_id FROM selected_cases) {between}"
                 "ORDER BY file_row_number",
                 params={"file": str(file)},
             ).to_arrow_table()
@@ -227,6 +291,56 @@ def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFram
         return frames
     finally:
         con.close()
+
+
+def _read_parquet_tables_url(
+    url: str, where: str | None, problems: list[DataProblem],
+    names: Iterable[str] = TABLE_NAMES,
+) -> dict[str, pd.DataFrame]:
+    """The tables of a Parquet database at an fsspec URL (pyarrow through fsspec).
+
+    With ``where``, duckdb evaluates it on the cases table and every table is
+    read with a ``case_id`` filter (row groups outside the selection are
+    skipped); rows keep their file order, as :func:`_select_parquet` does.
+    """
+    fs, root = url_filesystem(url)
+    present = {}
+    for name in dict.fromkeys(["cases", *names]) if where else names:
+        file = f"{root}/{name}.parquet"
+        if fs.isfile(file):
+            present[name] = file
+        else:
+            problems.append(DataProblem(name, "", None, None,
+                                        f"file {name}.parquet missing in {url}"))
+
+    def read(name: str, filters: Any = None) -> pa.Table | None:
+        try:
+            return pq.read_table(present[name], filesystem=fs, filters=filters)
+        except (OSError, pa.ArrowException) as exc:
+            problems.append(DataProblem(name, "", None, None,
+                                        f"cannot read {url.rstrip('/')}/{name}.parquet: {exc}"))
+            return None
+
+    tables: dict[str, pa.Table | None] = {}
+    if where is None:
+        tables = {name: read(name) for name in present}
+    elif "cases" in present:
+        cases = read("cases")
+        if cases is not None:
+            con = duckdb.connect(":memory:")
+            try:
+                con.register("vfs_cases", cases)
+                selected = con.sql(_selection_sql("vfs_cases", where)).to_arrow_table()
+            except duckdb.Error as exc:
+                raise _sql_error(where, exc) from exc
+            finally:
+                con.close()
+            ids = selected.column("case_id").combine_chunks()
+            keep = pc.field("case_id").isin(ids)
+            tables = {name: cases.filter(keep) if name == "cases" else read(name, keep)
+                      for name in present if name in names}
+    frames = {name: table.to_pandas() for name, table in tables.items() if table is not None}
+    return {name: frames.get(name, empty_table(name)) for name in TABLE_NAMES}
 
 
 def _finish_loading(
@@ -253,8 +367,10 @@ def load_database(
 
     Parameters
     ----------
-    path : path
-        Database folder (``<table>.parquet`` files and ``meta.json``).
+    path : path or URL
+        Database folder (``<table>.parquet`` files and ``meta.json``), or its
+        fsspec URL (``file:///data/db``, ``memory://db``, ``s3://bucket/db``
+        with s3fs installed).
     where : str, optional
         SQL predicate on the cases table, evaluated by duckdb, e.g.
         ``"accident_type = 241 AND road_friction < 0.5"``; the other tables
@@ -274,6 +390,15 @@ def load_database(
         If the folder or a table file is missing, the predicate is invalid
         SQL, or (with ``validate``) the data violate the schema.
     """
+    if is_url(path):
+        url = os.fspath(path)
+        fs, root = url_filesystem(url)
+        if not fs.isdir(root):
+            raise DataError(DataProblem("meta", "", None, None, f"database URL {url} "
+                                                                "does not exist"))
+        meta, problems = read_meta(url)
+        frames = _read_parquet_tables_url(url, where, problems)
+        return _finish_loading(frames, meta, problems, validate)
     folder = Path(path)
     if not folder.is_dir():
         raise DataError(DataProblem("meta", "", None, None, f"database folder {folder} "
@@ -281,6 +406,82 @@ def load_database(
     meta, problems = read_meta(folder)
     frames = _read_parquet_tables(folder, where, problems)
     return _finish_loading(frames, meta, problems, validate)
+
+
+def load_cases(path: str | os.PathLike[str], where: str | None = None) -> pd.DataFrame:
+    """The cases table of a Parquet database (folder or URL), without the other tables.
+
+    Parameters
+    ----------
+    path : path or URL
+        Database folder or its fsspec URL.
+    where : str, optional
+        SQL predicate selecting cases (duckdb), as in :func:`load_database`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The selected rows in file order, normalised and in SI units: the
+        ``cases`` table :func:`load_database` gives for the same arguments.
+
+    Raises
+    ------
+    DataError
+        The folder or its cases table is missing or unreadable, or the
+        predicate is invalid.
+    """
+    problems: list[DataProblem] = []
+    if is_url(path):
+        frames = _read_parquet_tables_url(os.fspath(path), where, problems, names=("cases",))
+    else:
+        folder = Path(path)
+        if not folder.is_dir():
+            raise DataError(DataProblem("meta", "", None, None, f"database folder {folder} "
+                                                                "does not exist"))
+        frames = _read_parquet_tables(folder, where, problems, names=("cases",))
+    if problems:
+        raise DataError(problems)
+    return table_from_file_units(normalise_table(frames["cases"], "cases"), "cases")
+
+
+def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | None = None,
+               *, batch_rows: int = 65536) -> Iterator[pd.DataFrame]:
+    """One table of a Parquet database in batches of rows, without holding it whole.
+
+    Parameters
+    ----------
+    path : path or URL
+        Database folder or its fsspec URL.
+    table : str
+        Table name (:data:`vfs.database.schema.TABLE_NAMES`).
+    case_ids : ndarray, optional
+        Keep only the rows of these cases.
+    batch_rows : int
+        Rows read at a time (before the case filter).
+
+    Yields
+    ------
+    pandas.DataFrame
+        Consecutive parts of the table in file order, each normalised and in
+        SI units as in :func:`load_database`; at least one (empty for an
+        empty table), so the columns are always known.
+    """
+    keep = None if case_ids is None else pa.array(np.asarray(case_ids))
+    if is_url(path):
+        fs, root = url_filesystem(os.fspath(path))
+        source: Any = fs.open(f"{root}/{table}.parquet", "rb")
+    else:
+        source = open(Path(path) / f"{table}.parquet", "rb")  # closed below
+    with source, pq.ParquetFile(source, pre_buffer=False) as file:  # memory: a batch at a time
+        empty = True
+        for batch in file.iter_batches(batch_size=batch_rows):
+            if keep is not None:
+                batch = batch.filter(pc.is_in(batch.column("case_id"), value_set=keep))
+            empty = False
+            yield table_from_file_units(normalise_table(batch.to_pandas(), table), table)
+        if empty:
+            frame = file.schema_arrow.empty_table().to_pandas()
+            yield table_from_file_units(normalise_table(frame, table), table)
 
 
 def select_cases(db: Database, where: str) -> Database:

@@ -1,4 +1,4 @@
-"""Where a database comes from: a bundled name, a folder in any format, or memory.
+"""Where a database comes from: a bundled name, a folder in any format, a URL, or memory.
 
 :func:`open_database` is the one way in for users and commands alike::
 
@@ -6,7 +6,16 @@
     db = open_database("path/to/folder", where="accident_type = 241")
 
 Bundled databases ship inside the package (``vfs/data/<name>``) and are
-found with :mod:`importlib.resources`, so they work from any install.
+found with :mod:`importlib.resources`, so they work from any install.  A
+Parquet database can also be named by an fsspec URL (``file:///data/db``,
+``memory://db``, ``s3://bucket/db``; :func:`vfs.database.io.is_url`).
+
+A ``--db`` value has two forms: its *reference* (:func:`database_reference`:
+the bundled name, the URL, or the absolute folder), which is what study tasks
+carry to the workers, and its *location* on one machine
+(:func:`database_location`), which each worker derives from the reference with
+its own install, so ``--db default`` works on workers that have vfs installed
+elsewhere.
 """
 
 from __future__ import annotations
@@ -17,7 +26,13 @@ from importlib import resources
 from pathlib import Path
 
 from vfs.database.database import Database
-from vfs.database.io import load_csv_folder, load_database, select_cases
+from vfs.database.io import (
+    is_url,
+    load_csv_folder,
+    load_database,
+    select_cases,
+    url_filesystem,
+)
 from vfs.database.pcm import import_pcm
 from vfs.errors import DataError, DataProblem, ParameterError
 
@@ -61,14 +76,53 @@ def resolve_database_path(source: str | os.PathLike[str]) -> Path:
     return Path(text)
 
 
+def database_reference(source: str | os.PathLike[str]) -> str:
+    """A ``--db`` value as workers on any machine resolve it.
+
+    A bundled name stays the name and a URL stays the URL (each worker
+    finds them itself, :func:`database_location`); a path becomes absolute.
+
+    >>> database_reference("default"), database_reference("memory://db")
+    ('default', 'memory://db')
+    """
+    text = os.fspath(source)
+    if text in BUNDLED_DATABASES or is_url(text):
+        return text
+    return str(Path(text).resolve())
+
+
+def database_location(reference: str | os.PathLike[str]) -> str:
+    """Where a ``--db`` value (or a :func:`database_reference`) is on this machine.
+
+    A bundled name becomes the folder of this install, a URL stays the URL,
+    a path is returned as given.
+    """
+    text = os.fspath(reference)
+    if is_url(text):
+        return text
+    return str(resolve_database_path(text))
+
+
 def detect_format(path: str | os.PathLike[str]) -> str:
     """Format of a database folder: ``"parquet"``, ``"csv"`` or ``"pcm"``.
+
+    A database given by URL (:func:`vfs.database.io.is_url`) must be Parquet.
 
     Raises
     ------
     DataError
-        If the folder holds none of them.
+        If the folder holds none of them, or a URL holds no Parquet database.
     """
+    if is_url(path):
+        fs, root = url_filesystem(os.fspath(path))
+        names = {str(p).rsplit("/", 1)[-1].lower() for p in fs.ls(root, detail=False)} \
+            if fs.isdir(root) else set()
+        if "cases.parquet" in names:
+            return "parquet"
+        raise DataError(DataProblem(
+            "meta", "", None, None,
+            f"{os.fspath(path)} is not a Parquet database (no cases.parquet); a database "
+            "given by URL must be Parquet (convert a folder with vfs db convert)"))
     folder = Path(path)
     names = {p.name.lower() for p in folder.iterdir()} if folder.is_dir() else set()
     if "cases.parquet" in names:
@@ -115,21 +169,26 @@ def load_any(
 
 @dataclass(frozen=True)
 class DatabaseSelection:
-    """A selected database and where it came from (workers reload from ``folder``).
+    """A selected database and where it came from (workers reload from ``reference``).
 
     Attributes
     ----------
     database : Database
         The selected cases.
     folder : str or None
-        Resolved folder; None for an in-memory database.
+        Resolved folder (or URL) on this machine; None for an in-memory database.
     fmt : str
         ``"parquet"``, ``"csv"``, ``"pcm"`` or ``"memory"``.
+    reference : str or None
+        What a worker resolves with :func:`database_location`: the bundled
+        name, the URL or the absolute folder (:func:`database_reference`);
+        None for an in-memory database.
     """
 
     database: Database
     folder: str | None
     fmt: str
+    reference: str | None = None
 
 
 def select_database(source: str | os.PathLike[str] | Database, where: str | None = None,
@@ -139,8 +198,9 @@ def select_database(source: str | os.PathLike[str] | Database, where: str | None
     Parameters
     ----------
     source : str, path or Database
-        ``"default"`` (or another bundled name), a folder in any format, or
-        a database in memory.
+        ``"default"`` (or another bundled name), a folder in any format, the
+        fsspec URL of a Parquet database (``file://``, ``memory://``,
+        ``s3://``, ...), or a database in memory.
     where : str, optional
         SQL predicate on the cases table (duckdb); on Parquet folders it is
         evaluated on the files, so only the selected cases are read.
@@ -164,6 +224,11 @@ def select_database(source: str | os.PathLike[str] | Database, where: str | None
     if not isinstance(source, str | os.PathLike):
         raise ParameterError(f"db must be a folder, a bundled name or a Database, got "
                              f"{type(source).__name__}")
+    reference = database_reference(source)
+    if is_url(reference):
+        fmt = detect_format(reference)
+        return DatabaseSelection(load_database(reference, where=where, validate=validate),
+                                 reference, fmt, reference)
     folder = resolve_database_path(source).resolve()
     fmt = detect_format(folder)
     if fmt == "parquet":
@@ -172,7 +237,7 @@ def select_database(source: str | os.PathLike[str] | Database, where: str | None
         loaded = load_any(folder, fmt=fmt, validate=validate)
         if where:
             loaded = select_cases(loaded, where)
-    return DatabaseSelection(loaded, str(folder), fmt)
+    return DatabaseSelection(loaded, str(folder), fmt, reference)
 
 
 def open_database(source: str | os.PathLike[str] | Database = "default",
@@ -182,7 +247,8 @@ def open_database(source: str | os.PathLike[str] | Database = "default",
     Parameters
     ----------
     source : str, path or Database
-        Bundled name (:data:`BUNDLED_DATABASES`), folder, or database in memory.
+        Bundled name (:data:`BUNDLED_DATABASES`), folder, fsspec URL of a
+        Parquet database, or database in memory.
     where : str, optional
         SQL predicate on the cases table selecting cases, e.g.
         ``"accident_type IN (241, 242)"``.
@@ -209,6 +275,8 @@ __all__ = [
     "DatabaseSelection",
     "bundled_database_path",
     "data_path",
+    "database_location",
+    "database_reference",
     "detect_format",
     "load_any",
     "open_database",

@@ -55,7 +55,7 @@ from vfs.gym.observation import (
     observe,
 )
 from vfs.gym.render import EpisodeTrace, FrameRenderer, ansi_line, record_step, start_trace
-from vfs.physics.impact import IMPACT_TYPE_NAMES
+from vfs.physics.impact import impact_type_names
 from vfs.physics.precrash import KinematicState, PrecrashObservation, PrecrashRun
 from vfs.simulation import (
     CaseBatch,
@@ -410,7 +410,7 @@ class EpisodeBatch:
             info["delta_v"][pos] = dv[e]
             info["delta_v_other"][pos] = dv[1 - e]
             info["closing_speed"][pos] = imp.closing_speed
-            info["impact_type"][pos] = [IMPACT_TYPE_NAMES[int(k)] for k in imp.impact_type]
+            info["impact_type"][pos] = impact_type_names(imp.impact_type).tolist()
             if risk is not None:
                 info["injury_risk"][pos] = risk
         return info

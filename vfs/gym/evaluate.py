@@ -88,7 +88,8 @@ def evaluate_policy(policy: str | Any | Sequence[str | Any],
                        impact_parameters=base_cfg.impact_parameters,
                        params=base_cfg.simulation)
     if report and result.complete:
-        write_effectiveness_report(out, n_boot=n_boot, seed=seed)
+        # no case pages: the policies are not registered systems a replay could look up
+        write_effectiveness_report(out, n_boot=n_boot, seed=seed, case_pages=False)
         write_leaderboard(out, ego)
     return result
 

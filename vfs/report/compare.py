@@ -35,6 +35,7 @@ from vfs.analysis.compare import (
     Comparison,
 )
 from vfs.atomic import write_atomic, write_table, write_text
+from vfs.report.case_pages import case_link, write_comparison_case_pages
 from vfs.report.figures import new_figure, save_figure
 from vfs.report.references import cite
 from vfs.report.render import (
@@ -374,17 +375,17 @@ def plot_worst_cases(comparison: Comparison, folder: Path, count: int,
     """Top views of the ``count`` worst cases of ``database``, re-simulated with the
     comparison's model.
 
-    The VFS is drawn by :func:`vfs.report.figures.plot_case_topview`; the
-    reconstruction's POI (open circle), contact plane (grey line) and rest
-    positions (grey dashed outlines) are added.  Returns (file, caption) pairs;
+    The VFS is drawn by :func:`vfs.report.figures.plot_case_topview`, zoomed on the
+    impact with the whole path as an inset; the reconstruction's POI (open circle),
+    contact plane (grey line) and rest positions (grey dashed outlines) are added
+    (:func:`vfs.report.figures.reconstruction_scene`).  Returns (file, caption) pairs;
     none without a database.
     """
     db = database
     worst = comparison.case_errors.head(count)
     if db is None or worst.empty:
         return []
-    from vfs.physics.geometry import vehicle_outline
-    from vfs.report.figures import plot_case_topview
+    from vfs.report.figures import plot_case_topview, reconstruction_scene
     from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
     ids = worst["case_id"].to_numpy()
@@ -394,37 +395,12 @@ def plot_worst_cases(comparison: Comparison, folder: Path, count: int,
     rec = db.reconstruction.drop_duplicates("case_id").set_index("case_id").loc[ids]
     out = []
     for k, row in enumerate(worst.itertuples(index=False)):
-        r = rec.iloc[k]
         title = (f"case {row.case_id} (rank {row.rank}): reconstruction {row.reference_type}, "
                  f"VFS {row.vfs_type}; worst {row.worst} ({_num(row.score, 1)} x margin)")
-        fig = plot_case_topview(batch, res, k, None, title=title)
-        ax = fig.axes[0]
-        extra: list[np.ndarray] = []
-        for j, veh in enumerate((batch.vehicle1, batch.vehicle2)):
-            i = j + 1
-            o = vehicle_outline(veh.take([k]), [r[f"rest_x{i}"]], [r[f"rest_y{i}"]],
-                                [r[f"rest_yaw{i}"]])[0]
-            ring = np.vstack([o, o[:1]])
-            ax.plot(ring[:, 0], ring[:, 1], "--", color="#555555", lw=1.0,
-                    label="reconstruction at rest")
-            ax.plot(o[:2, 0], o[:2, 1], "-", color="#555555", lw=2.5)  # front edge
-            extra.append(o)
-        d = 2.5 * np.array([math.cos(r["cp_angle"]), math.sin(r["cp_angle"])])
-        ax.plot([r["poi_x"] - d[0], r["poi_x"] + d[0]], [r["poi_y"] - d[1], r["poi_y"] + d[1]],
-                "-", color="#777777", lw=1.0, label="reconstruction contact plane")
-        ax.plot(r["poi_x"], r["poi_y"], "o", mfc="none", mec="black", ms=10,
-                label="reconstruction POI")
-        pts = np.vstack(extra)
-        pts = pts[np.isfinite(pts).all(axis=1)]
-        if pts.size:  # widen the view to the reconstruction's rest positions
-            (x_lo, x_hi), (y_lo, y_hi) = ax.get_xlim(), ax.get_ylim()
-            ax.set_xlim(min(x_lo, pts[:, 0].min() - 5.0), max(x_hi, pts[:, 0].max() + 5.0))
-            ax.set_ylim(min(y_lo, pts[:, 1].min() - 5.0), max(y_hi, pts[:, 1].max() + 5.0))
-        handles, labels = ax.get_legend_handles_labels()
-        unique = dict(zip(labels, handles, strict=True))
-        ax.legend(unique.values(), unique.keys(), fontsize=7, loc="best")
+        fig = plot_case_topview(batch, res, k, None, title=title,
+                                overlay=reconstruction_scene(batch, k, rec.iloc[k], overlay=True))
         file = folder / f"worst_{row.rank:02d}_case_{row.case_id}.png"
-        _save(fig, file)
+        save_figure(fig, file, dpi=110)
         out.append((file, title))
     return out
 
@@ -528,10 +504,12 @@ def _paired_display(paired: pd.DataFrame) -> pd.DataFrame:
     })
 
 
-def _worst_display(comparison: Comparison, top: int) -> pd.DataFrame:
+def _worst_display(comparison: Comparison, top: int,
+                   pages: dict[Any, str] | None = None) -> pd.DataFrame:
     e = comparison.case_errors.head(top)
     out = pd.DataFrame({
-        "rank": e["rank"], "case": e["case_id"], "reconstruction": e["reference_type"],
+        "rank": e["rank"], "case": [case_link(cid, pages) for cid in e["case_id"]],
+        "reconstruction": e["reference_type"],
         "VFS": e["vfs_type"], "score": e["score"].map(lambda v: _num(v, 1)),
         "worst": e["worst"].fillna("-"),
     })
@@ -563,7 +541,7 @@ def _margins_text(comparison: Comparison) -> str:
 
 def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str], *,
                             database: Database | None = None, top: int = 10,
-                            sketches: int = 4) -> dict[str, Path]:
+                            sketches: int = 4, case_pages: bool = True) -> dict[str, Path]:
     """Write every table, figure and the Markdown / HTML report into a folder.
 
     Parameters
@@ -579,6 +557,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     sketches : int
         Number of worst cases re-simulated and drawn as top views (0: none;
         needs ``database``).
+    case_pages : bool
+        Write a page per case in the report's tables (``cases/<id>.html``: the
+        simulation beside the reconstruction, :mod:`vfs.report.case_pages`) and link
+        the case ids to them (needs ``database``; re-simulates those cases only).
 
     Returns
     -------
@@ -622,7 +604,14 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     for k, (sketch, _) in enumerate(worst):
         files[f"fig_worst_{k + 1}"] = sketch
 
-    blocks = _report_blocks(comparison, top, worst, folder)
+    pages: dict[Any, str] = {}
+    if case_pages and database is not None:
+        linked = [*comparison.case_errors["case_id"].head(top).tolist(),
+                  *comparison.excluded["case_id"].tolist()]
+        if comparison.measured is not None and len(comparison.measured):
+            linked = [*comparison.measured["case_id"].tolist(), *linked]
+        pages = write_comparison_case_pages(folder, comparison, database, linked)
+    blocks = _report_blocks(comparison, top, worst, folder, pages)
     files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))
     return files
 
@@ -644,7 +633,7 @@ def _display(outcome: str) -> tuple[str, float]:
     return "km/h", KMH_PER_MS
 
 
-def measured_blocks(c: Comparison) -> list[Block]:
+def measured_blocks(c: Comparison, pages: dict[Any, str] | None = None) -> list[Block]:
     """Crash tests: model against every measured value, with its stated uncertainty."""
     m = c.measured
     if m is None or len(m) == 0:
@@ -655,7 +644,8 @@ def measured_blocks(c: Comparison) -> list[Block]:
         sd = "" if not np.isfinite(r.sd) else f"{r.sd * f:.2f}"
         z = "" if not np.isfinite(r.z) else f"{r.z:+.1f}"
         rel = (f"{100 * r.difference / r.measured:+.1f} %" if r.measured else "")
-        rows.append((str(r.case_id), f"{r.outcome} [{unit}]", f"{r.measured * f:.2f}", sd,
+        rows.append((case_link(r.case_id, pages), f"{r.outcome} [{unit}]", f"{r.measured * f:.2f}",
+                     sd,
                      f"{r.model * f:.2f}", f"{r.difference * f:+.2f}", rel, z))
     return [
         Heading("Measured outcomes (crash tests)", 2),
@@ -719,7 +709,7 @@ def impact_parameter_sentence(c: Comparison) -> str:
 
 
 def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str]],
-                   folder: Path) -> list[Block]:
+                   folder: Path, pages: dict[Any, str] | None = None) -> list[Block]:
     c = comparison
     cont = c.contingency
     counts = c.status_counts
@@ -738,7 +728,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   "angles in degrees. The analysis follows "
                   f"{cite('momentum-impact-model')} (Figures 4-6, Table 1); formulas "
                   "and conventions: docs/compare.md."),
-        *measured_blocks(c),
+        *measured_blocks(c, pages),
         Heading("1 Impact type (the Momentum Based Impact Model paper, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "
@@ -795,17 +785,21 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
         Paragraph(f"The {min(top, len(c.case_errors))} cases with the largest error, ranked by "
                   "score = the largest |VFS - reconstruction| / margin over delta-v, EES, "
                   "change of velocity angle, post-impact speed and rest x/y of both vehicles "
-                  "(full list: case_errors.csv)."),
-        _table(_worst_display(c, top)),
+                  "(full list: case_errors.csv)."
+                  + (" Each case id links to its page: the simulation beside the "
+                     "reconstruction (top views, impact table, speed over time)." if pages
+                     else "")),
+        _table(_worst_display(c, top, pages)),
     ]
     for file, caption in worst:
         b.append(Figure(file.relative_to(folder).as_posix(),
-                        caption + " (VFS in colour, reconstruction POI and rest positions in "
-                        "grey)"))
+                        caption + " (VFS in colour, zoomed on the impact, inset: the whole "
+                        "path; reconstruction POI, contact plane and rest positions in grey)"))
     b += [
         Heading("8 Cases not compared", 2),
         _table(pd.DataFrame({
-            "case": excluded["case_id"], "status": excluded["status"],
+            "case": [case_link(cid, pages) for cid in excluded["case_id"]],
+            "status": excluded["status"],
             "reconstruction": excluded["reference_type"],
             "message": excluded["error"].fillna("")})),
         Heading("Files", 2),

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -19,7 +20,12 @@ import pandas as pd
 from vfs.accident_types import accident_type_label
 from vfs.analysis.diagnose import Diagnosis, LawFinding, summary_dict
 from vfs.atomic import write_json, write_table
-from vfs.report.figures import new_figure, plot_case_topview, save_figure
+from vfs.report.figures import (
+    new_figure,
+    plot_case_topview,
+    reconstruction_scene,
+    save_figure,
+)
 from vfs.report.render import (
     Block,
     BulletList,
@@ -164,18 +170,8 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
                 batch, res, k,
                 title=(f"case {d.case_ids[i]} ({accident_type_label(row['accident_type'])}, "
                        f"{row['impact_type']} in the reconstruction): worst output "
-                       f"{row['worst_output']}"))
-            ax = fig.axes[0]
-            for j, color in ((1, "#1f77b4"), (2, "#d62728")):
-                ax.plot(rec[f"rest_x{j}"].iloc[i], rec[f"rest_y{j}"].iloc[i], "X",
-                        color=color, ms=11, mec="k",
-                        label=f"vehicle {j} at rest (reconstruction)")
-            if {"poi_x", "poi_y"} <= set(rec.columns):
-                ax.plot(rec["poi_x"].iloc[i], rec["poi_y"].iloc[i], "P", color="orange",
-                        ms=10, mec="k", label="POI (reconstruction)")
-            handles, labels = ax.get_legend_handles_labels()
-            uniq = dict(zip(labels, handles, strict=True))
-            ax.legend(uniq.values(), uniq.keys(), fontsize=6, loc="best")
+                       f"{row['worst_output']}"),
+                overlay=reconstruction_scene(batch, k, rec.iloc[i], overlay=True))
             name = f"case_{k + 1}_{d.case_ids[i]}.png"
             save_figure(fig, out / name, dpi=100)
             figs[f"case_{k + 1:02d}"] = f"{rel}/{name}"
@@ -214,12 +210,76 @@ def _table(df: pd.DataFrame) -> Table:
     return Table.from_frame(df, floatfmt=FLOAT_FORMAT)
 
 
+def summary_blocks(diag: Diagnosis) -> list[Block]:
+    """The one-screen summary: the verdict's status first, then the headline figures.
+
+    Says "Unreliable" when the sample is too small for any claim and "Unsure" when no
+    candidate helps significantly; otherwise names the most likely missing effect with
+    its cross-validated RMSE reduction and simultaneous interval.
+    """
+    s = diag.settings
+    level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', 0.95)):.1f} %"
+    items: list[str] = []
+    cands = diag.candidates
+    top = cands[0] if cands else None
+
+    def red(r: Any) -> str:
+        return f"{100 * r.estimate:.1f} % [{100 * r.low:.1f}, {100 * r.high:.1f}]"
+
+    if not diag.reliable:
+        items.append(f"Unreliable: {diag.data.n} cases in {s.get('folds', '?')} folds are too "
+                     "few for any claim; the figures below are shown, not concluded from.")
+    if top is None:
+        items.append("Unsure: no candidate effect was tested.")
+    elif diag.best is None:
+        items.append(f"Unsure: no candidate effect helps significantly. The best, `{top.name}`, "
+                     f"lowers the cross-validated RMSE by {red(top.overall)} (simultaneous "
+                     f"{level} interval): its interval includes 0 or the reduction stays below "
+                     f"{100 * s.get('min_reduction', 0):.0f} %.")
+    else:
+        b = diag.best
+        items.append(f"Most likely missing effect: `{b.name}`. It lowers the cross-validated "
+                     f"RMSE of all outputs by {red(b.overall)} (simultaneous {level} "
+                     f"interval) and of its own outputs by {red(b.affected)}.")
+        more = [c for c in cands[1:] if c.significant and c.given_best is not None]
+        if more:
+            items.append("On top of it also: " + ", ".join(
+                f"`{c.name}` {red(c.given_best)}" for c in more[:3]) + ".")
+    laws = [f for f in diag.laws if f.significant]
+    if laws:
+        f = laws[0]
+        items.append(f"Beyond the library: the identified {f.channel} follows "
+                     f"{f.learned.law['formula']}, lowering the outcome error by "
+                     f"{red(f.outcome)}.")
+    d = diag.data
+    rmse = np.asarray(diag.default.rmse(), float)
+    if rmse.size and np.isfinite(rmse).any():
+        k = int(np.nanargmax(rmse))
+        items.append(f"Default model: cross-validated RMSE {diag.default.overall_rmse():.3g} "
+                     f"(residuals divided by each output's scale); worst output "
+                     f"{d.group_names[k]} ({rmse[k]:.3g}).")
+    rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
+        diag.remaining
+    who = "the default model" if diag.remaining_model == "default" else diag.remaining_model
+    if len(rem):
+        r = rem.iloc[0]
+        items.append(f"Unexplained structure remains with {who}: {len(rem)} significant "
+                     f"residual-feature association(s), strongest {r['residual']} ~ "
+                     f"{r['feature']}.")
+    else:
+        items.append(f"No significant residual-feature association remains with {who}.")
+    return [Heading("In short", 2), BulletList(tuple(items)),
+            Paragraph(f"{d.n} cases with a reconstruction, {s.get('folds', '?')}-fold "
+                      "cross-validation by case; details and the full verdict below.")]
+
+
 def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     """The blocks of the diagnosis report (``figures``: key -> path relative to the report)."""
     d = diag.data
     s = diag.settings
     doc: list[Block] = [
         Heading("Model diagnosis", 1),
+        *summary_blocks(diag),
         Paragraph(f"Database: {diag.database or '(in memory)'}; {d.n} cases with a "
                   f"reconstruction; {s['folds']}-fold cross-validation by case (seed "
                   f"{s['seed']}); outputs: {', '.join(d.group_names)}. Errors are RMSEs of "
@@ -340,8 +400,9 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                                                 for v in worst["accident_type"]])
         doc.append(_table(worst))
     for k, key in enumerate(sorted(k for k in figures if k.startswith("case_")), start=1):
-        doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model; "
-                          "X markers: the reconstruction's rest positions"))
+        doc.append(Figure(figures[key], f"Worst case {k}: top view of the default model, "
+                          "zoomed on the impact (inset: the whole path); grey: the "
+                          "reconstruction's POI, contact plane and rest positions"))
     st2 = diag.stats
     doc += [
         Heading("Cost", 2),
@@ -352,4 +413,5 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     return doc
 
 
-__all__ = ["FLOAT_FORMAT", "diagnosis_figures", "report_blocks", "write_diagnosis_report"]
+__all__ = ["FLOAT_FORMAT", "diagnosis_figures", "report_blocks", "summary_blocks",
+           "write_diagnosis_report"]

@@ -10,7 +10,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,8 @@ from vfs.accident_types import accident_type_label
 from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
-from vfs.report.figures import new_figure, save_figure
+from vfs.report.case_pages import case_link, write_effectiveness_case_pages
+from vfs.report.figures import RUN_COLORS, new_figure, save_figure
 from vfs.report.render import (
     Block,
     BulletList,
@@ -107,7 +108,8 @@ def summary_blocks(eff: Effectiveness) -> list[Block]:
                       "below.")]
 
 
-def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[str, str]
+def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[str, str],
+                   cases: list[Block] | None = None, pages: dict[Any, str] | None = None
                    ) -> list[Block]:
     pct = int(round(100 * eff.confidence))
     n_valid = eff.pairs[0].size
@@ -217,6 +219,7 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         Table.from_frame(_metric_table(eff, risk_metrics, labels=risk_labels)),
         *_figure_block(figures, "injury_risk",
                        f"Expected injured drivers per system with {pct} % bootstrap intervals"),
+        *(cases or []),
         Heading("Excluded cases", 2),
     ]
     if eff.excluded.empty:
@@ -225,6 +228,7 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         blocks.append(Paragraph(f"{n_bad} case(s) with a failed run are excluded from every "
                                 "comparison:"))
         shown = eff.excluded.head(50).copy()
+        shown["case_id"] = [case_link(c, pages) for c in shown["case_id"]]
         blocks.append(Table.from_frame(shown))
         if len(eff.excluded) > 50:
             blocks.append(Paragraph(f"... and {len(eff.excluded) - 50} more failed runs."))
@@ -259,6 +263,87 @@ def _per_type_table(eff: Effectiveness, metric: str) -> pd.DataFrame:
 
 
 # ----------------------------------------------------------------------------
+# Cases to look into
+# ----------------------------------------------------------------------------
+
+#: Default number of cases listed per kind and system (``--list-cases``).
+LIST_CASES = 5
+
+
+def notable_cases(eff: Effectiveness, per_kind: int = LIST_CASES) -> pd.DataFrame:
+    """Cases worth a look, per system: new crashes, crashes not avoided, crashes avoided.
+
+    Per system and kind at most ``per_kind`` cases: crashes the system causes (largest
+    impact speed with it first), baseline crashes it does not avoid (largest remaining
+    impact speed first) and baseline crashes it avoids (fastest baseline impact first).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``system``, ``kind``, ``case_id``, ``accident_type``, ``speed_base``,
+        ``speed_treat`` [m/s], ``dv_base``, ``dv_treat`` [m/s] (the larger of both
+        vehicles; 0 without a crash), ``crash_base``, ``crash_treat``.
+    """
+    frames = []
+    for pair in eff.pairs:
+        kinds = (("new crash", pair.crash_treat & ~pair.crash_base, pair.speed_treat),
+                 ("not avoided", pair.crash_base & pair.crash_treat, pair.speed_treat),
+                 ("avoided", pair.crash_base & ~pair.crash_treat, pair.speed_base))
+        for kind, mask, key in kinds:
+            idx = np.flatnonzero(mask)
+            idx = idx[np.argsort(-key[idx], kind="stable")][:max(0, int(per_kind))]
+            frames.append(pd.DataFrame({
+                "system": pair.system, "kind": kind, "case_id": pair.case_id[idx],
+                "accident_type": pair.accident_type[idx],
+                "speed_base": pair.speed_base[idx], "speed_treat": pair.speed_treat[idx],
+                "dv_base": pair.delta_v_base[idx].max(axis=1, initial=0.0),
+                "dv_treat": pair.delta_v_treat[idx].max(axis=1, initial=0.0),
+                "crash_base": pair.crash_base[idx], "crash_treat": pair.crash_treat[idx]}))
+    if not frames:
+        return pd.DataFrame(columns=["system", "kind", "case_id", "accident_type",
+                                     "speed_base", "speed_treat", "dv_base", "dv_treat",
+                                     "crash_base", "crash_treat"])
+    return pd.concat(frames, ignore_index=True)
+
+
+def _crash_cell(speed: float, crash: bool) -> str:
+    """A speed [m/s] as km/h, or "no crash"."""
+    return f"{speed * KMH_PER_MS:.1f}" if crash else "no crash"
+
+
+def notable_blocks(eff: Effectiveness, notable: pd.DataFrame, pages: dict[Any, str],
+                   problem: str = "") -> list[Block]:
+    """The section listing :func:`notable_cases` per system, case ids linked to their pages."""
+    per_kind = int(notable.groupby(["system", "kind"]).size().max()) if len(notable) else 0
+    blocks: list[Block] = [
+        Heading("Cases to look into", 2),
+        Paragraph(f"Per system up to {per_kind} cases of each kind: crashes the system causes, "
+                  "baseline crashes it does not avoid (largest impact speed with the system "
+                  "first) and crashes it avoids (fastest baseline impact first). "
+                  + ("Each case id links to its page: top views, speed and brake traces of "
+                     "the baseline and every system, the AEB events and the impact table."
+                     if pages else "")),
+    ]
+    if problem:
+        blocks.append(Note(f"No case pages: {problem}", "warning"))
+    for pair in eff.pairs:
+        sub = notable[notable["system"] == pair.system]
+        blocks.append(Paragraph(f"`{pair.system}`:"))
+        blocks.append(Table(
+            ("case", "accident type", "listed as", "impact speed [km/h]: baseline \u2192 "
+             "with system", "delta-v [km/h]: baseline \u2192 with system"),
+            tuple((case_link(r.case_id, pages), accident_type_label(r.accident_type), r.kind,
+                   f"{_crash_cell(r.speed_base, r.crash_base)} \u2192 "
+                   f"{_crash_cell(r.speed_treat, r.crash_treat)}",
+                   f"{_crash_cell(r.dv_base, r.crash_base)} \u2192 "
+                   f"{_crash_cell(r.dv_treat, r.crash_treat)}")
+                  for r in sub.itertuples(index=False)),
+            align=("left", "left", "left", "right", "right"),
+            empty="No case changes its outcome with this system."))
+    return blocks
+
+
+# ----------------------------------------------------------------------------
 # Figures
 # ----------------------------------------------------------------------------
 
@@ -269,7 +354,7 @@ def _figure(width: float, height: float, ncols: int = 1) -> tuple[Any, Any]:
     return fig, axes
 
 
-_COLORS = ("#444444", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+_COLORS = RUN_COLORS
 
 
 def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
@@ -374,7 +459,9 @@ def write_figures(eff: Effectiveness, folder: Path) -> dict[str, str]:
 def write_effectiveness_report(study: str | os.PathLike[str], *,
                                risk_curves: Iterable[str] | None = None, n_boot: int = 2000,
                                seed: int = 0, confidence: float = 0.95,
-                               out: str | os.PathLike[str] | None = None) -> Path:
+                               out: str | os.PathLike[str] | None = None,
+                               case_pages: bool = True, list_cases: int = LIST_CASES,
+                               say: Callable[[str], None] | None = None) -> Path:
     """Analyse a finished study and write its report.
 
     Parameters
@@ -387,12 +474,20 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
         Bootstrap settings.
     out : path, optional
         Report folder; default ``STUDY/report``.
+    case_pages : bool
+        Write a page per case listed in the report's tables (``cases/<id>.html``,
+        :mod:`vfs.report.case_pages`; re-simulates those cases only) and link the
+        case ids to them.
+    list_cases : int
+        Cases listed per system and kind in "Cases to look into" (0: none).
+    say : callable, optional
+        Progress lines.
 
     Returns
     -------
     Path
         ``report.md`` (next to ``report.html``, ``metrics.csv``,
-        ``crosstabs.csv`` and the PNG figures).
+        ``crosstabs.csv``, the PNG figures and the case pages).
 
     Raises
     ------
@@ -413,7 +508,14 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
     folder.mkdir(parents=True, exist_ok=True)
     figures = write_figures(eff, folder) if baseline_crashes(eff) > 0 else {}
     manifest = {**result.manifest, "name": result.path.name}
-    blocks = _report_blocks(eff, manifest, figures)
+    notable = notable_cases(eff, list_cases)
+    pages: dict[Any, str] = {}
+    problem = ""
+    if case_pages:
+        linked = [*notable["case_id"].tolist(), *eff.excluded["case_id"].head(50).tolist()]
+        pages, problem = write_effectiveness_case_pages(folder, result, linked, say=say)
+    cases = notable_blocks(eff, notable, pages, problem) if list_cases > 0 else []
+    blocks = _report_blocks(eff, manifest, figures, cases, pages)
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))
     write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
     cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()
@@ -423,4 +525,5 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
     return folder / "report.md"
 
 
-__all__ = ["write_effectiveness_report", "write_figures"]
+__all__ = ["LIST_CASES", "notable_blocks", "notable_cases", "write_effectiveness_report",
+           "write_figures"]

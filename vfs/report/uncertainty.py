@@ -27,6 +27,7 @@ from vfs.report.render import (
     BulletList,
     Figure,
     Heading,
+    Note,
     Paragraph,
     Report,
     Table,
@@ -117,11 +118,8 @@ def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     ax.set_yticks(np.arange(len(outcomes)), [OUTCOMES_BY_NAME[o].label for o in outcomes])
     ax.invert_yaxis()
     ax.set_xlabel("relative half-width (p95 - p5) / (2 median) [%]")
-    ax.axvline(13, color="grey", ls=":", lw=1)
-    ax.axvline(28, color="grey", ls="--", lw=1)
-    ax.text(13, -0.8, " 13 %", color="grey", fontsize=8)
-    ax.text(28, -0.8, " 28 % (Collision Calculation\n Uncertainty paper)", color="grey",
-            fontsize=8)
+    ax.axvline(13, color="grey", ls=":", lw=1, label="13 %: documented crash test")
+    ax.axvline(28, color="grey", ls="--", lw=1, label="28 %: unknown road friction")
     ax.legend(loc="lower right", fontsize=8)
     ax.set_title("Monte-Carlo uncertainty per case (whiskers 1.5 IQR)", fontsize=10)
     return _save(fig, path)
@@ -187,6 +185,82 @@ def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: Headline outcomes of the "In short" summary: label -> outcomes pooled (both vehicles).
+SUMMARY_OUTCOMES: dict[str, tuple[str, ...]] = {
+    "delta-v": ("delta_v1", "delta_v2"),
+    "EES": ("ees1", "ees2"),
+    "impact-to-rest distance": ("runout_distance1", "runout_distance2"),
+}
+
+
+def summary_blocks(result: UncertaintyResult, confidence: float = 0.95,
+                   n_boot: int = 1000) -> list[Block]:
+    """The one-screen summary: band widths with intervals, coverage, impact-type doubt.
+
+    Per headline outcome (:data:`SUMMARY_OUTCOMES`, both vehicles pooled) the median
+    relative half-width of the 5-95 % band with a percentile-bootstrap interval over
+    the cases, and the share of vehicles whose reconstruction value lies inside the
+    band with a Wilson interval; then the cases whose impact type is in doubt.
+    """
+    from vfs.analysis.intervals import wilson_interval
+    from vfs.analysis.stats import bootstrap_ci
+
+    bands, cases = result.bands, result.cases
+    n_cases = len(cases)
+    if n_cases == 0 or bands.empty:
+        return []
+    pct = int(round(100 * confidence))
+    rng = np.random.default_rng(result.seed if result.seed is not None else 0)
+    items = []
+    for label, names in SUMMARY_OUTCOMES.items():
+        sub = bands[bands["outcome"].isin(names)]
+        if sub.empty:
+            continue
+        wide = sub.pivot_table(index="case_id", columns="outcome", values="rel_half_width",
+                               dropna=False)
+        values = wide.to_numpy(float)
+        if not np.isfinite(values).any():
+            continue
+        est, lo, hi = bootstrap_ci(lambda x: float(np.nanmedian(x)), values, n_boot=n_boot,
+                                   confidence=confidence, rng=rng, vectorized=False)
+        p90 = float(np.nanquantile(values, 0.9))
+        name = label[0].upper() + label[1:]
+        text = (f"{name} within +-{100 * est:.0f} % [{100 * lo:.0f}, {100 * hi:.0f}] for "
+                f"the median vehicle, 9 in 10 vehicles within +-{100 * p90:.0f} %")
+        inband = sub["recorded_in_band"].to_numpy(float)
+        inband = inband[np.isfinite(inband)]
+        if inband.size:
+            k = float(inband.sum())
+            w_lo, w_hi = wilson_interval(k, inband.size, confidence)
+            text += (f"; the reconstruction lies inside the band for "
+                     f"{100 * k / inband.size:.0f} % [{100 * float(w_lo):.0f}, "
+                     f"{100 * float(w_hi):.0f}] of {inband.size} vehicles")
+        items.append(text + ".")
+    p = cases["p_sliding"].to_numpy(float)
+    doubt = int(np.sum((p > 0.1) & (p < 0.9)))
+    d_lo, d_hi = wilson_interval(doubt, n_cases, confidence)
+    items.append(f"Impact type in doubt (a sliding impact with a probability between 10 % and "
+                 f"90 %) in {doubt} of {n_cases} cases ({100 * doubt / n_cases:.0f} % "
+                 f"[{100 * float(d_lo):.0f}, {100 * float(d_hi):.0f}]); mean probability of a "
+                 f"sliding impact {100 * float(np.nanmean(p)):.0f} %.")
+    blocks: list[Block] = [
+        Heading("In short", 2), BulletList(tuple(items)),
+        Paragraph(f"+-: half the 5-95 % band relative to its median, {n_cases} cases x "
+                  f"{result.n_samples} samples. Brackets: {pct} % confidence intervals "
+                  "(bootstrap over cases for the half-widths, Wilson for shares). For "
+                  "comparison, "
+                  + cite("collision-uncertainty") + " finds +-13 % for a documented crash "
+                  "test and up to +-28 % with unknown road friction. A band that holds the "
+                  "reconstruction for about 90 % of the vehicles fits inputs whose spread "
+                  "describes the real uncertainty; far fewer means the bands are too narrow, "
+                  "nearly all that they may be wider than it."),
+    ]
+    if n_cases < 10:
+        blocks.insert(1, Note(f"Only {n_cases} case(s): the intervals are wide and the "
+                              "figures describe these cases, not a population.", "warning"))
+    return blocks
+
+
 def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[str], *,
                              plots: bool = True) -> dict[str, Path]:
     """Write the tables, JSON summary, report and figures of a Monte-Carlo run.
@@ -238,6 +312,7 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     types = result.cases["nominal_type"].value_counts()
     blocks = [
         Heading("Monte-Carlo uncertainty of the collision outcomes", 1),
+        *summary_blocks(result),
         Paragraph(f"{n_cases} cases x {result.n_samples} samples = "
                   f"{n_cases * result.n_samples} model runs (impact from the reconstruction's "
                   f"configuration, run-out at dt = {result.config.runout_dt * 1e3:g} ms) in "
@@ -261,9 +336,9 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
     if plots:
         blocks += [
             Figure("figures/relative_half_width.png",
-                   "Relative half-width per case and outcome (the Collision Calculation "
-                   "Uncertainty paper's 13 % and 28 % "
-                   "dotted and dashed)."),
+                   "Relative half-width per case and outcome; dotted and dashed: the "
+                   "Collision Calculation Uncertainty paper's 13 % (a documented crash test) "
+                   "and 28 % (unknown road friction)."),
             Figure("figures/bands_delta_v1.png",
                    "Delta-v 1: 5-95 % band, median and reconstruction of the first "
                    "cases."),
@@ -599,7 +674,8 @@ def write_reconstruct_report(rec: Any, out: str | os.PathLike[str], *, plots: bo
 
 
 __all__ = [
-    "plot_case_bands", "plot_reconstruction_rest", "plot_reconstruction_speeds",
+    "SUMMARY_OUTCOMES", "plot_case_bands", "plot_reconstruction_rest", "plot_reconstruction_speeds",
     "plot_relative_half_widths", "plot_sliding_probability", "plot_sobol_ranking",
-    "write_reconstruct_report", "write_sensitivity_report", "write_uncertainty_report",
+    "summary_blocks", "write_reconstruct_report", "write_sensitivity_report",
+    "write_uncertainty_report",
 ]

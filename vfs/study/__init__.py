@@ -3,8 +3,10 @@
 :func:`run_study` runs (or resumes) a study into a folder, :func:`load_study`
 reads one.  The parts: :mod:`~vfs.study.layout` (names, files, columns),
 :mod:`~vfs.study.systems` (what a system is, lookup by name),
+:mod:`~vfs.study.inputs` (what the client reads of the database),
 :mod:`~vfs.study.tasks` (one chunk with one system), :mod:`~vfs.study.executors`
-(serial, processes, dask), :mod:`~vfs.study.manifest` (the folder, resume,
+(serial, processes, dask, registered ones), :mod:`~vfs.study.orphans` (workers
+end with the study process), :mod:`~vfs.study.manifest` (the folder, resume,
 reading) and :mod:`~vfs.study.run`.  See docs/study.md.
 """
 

@@ -1,28 +1,63 @@
-"""Executors: how the tasks of a study run (serial, local processes, dask).
+"""Executors: how the tasks of a study run (serial, local processes, dask, your own).
 
-An executor is a function ``executor(tasks, on_result, options)`` that runs
-every task with :func:`vfs.study.tasks.run_task` and calls
-``on_result(task, table)`` in the main process for each; results must not
-depend on the executor.  Add one with :func:`register_executor`.
+An executor is a function ``executor(tasks, on_result, options)``:
+
+* ``tasks`` is a sequence of :class:`vfs.study.tasks.RunTask` (small, picklable);
+* it runs every task with :func:`vfs.study.tasks.run_task` (in any process or
+  on any machine where vfs of the same version is installed) and calls
+  ``on_result(task, table)`` **in the calling thread**, once per task, in any
+  order; ``on_result`` writes the chunk files, so results must not depend on
+  the executor;
+* it keeps at most ``options.max_in_flight(slots)`` tasks submitted but not
+  yet handed to ``on_result`` and drops every reference to a result once
+  ``on_result`` has returned, so that memory stays flat with the number of
+  cases (:func:`run_windowed` does both for any ``concurrent.futures``-style
+  pool);
+* ``options`` (:class:`ExecutorOptions`) says how many workers, which
+  scheduler and dashboard;
+* if a task raises, it stops and raises that error.
+
+Executors are looked up by name (``--engine``) in :data:`EXECUTORS`: the
+built-in ``serial``, ``process`` and ``dask``, those added from Python with
+:func:`register_executor` and those of other installed packages, declared in
+the ``vfs.executors`` entry-point group (:data:`ENTRY_POINT_GROUP`), e.g. in
+their ``pyproject.toml``::
+
+    [project.entry-points."vfs.executors"]
+    ray = "my_package.executors:run_ray"
+
+``examples/ray_executor.py`` is a complete executor for Ray.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import multiprocessing
 import os
+import sys
+import threading
 import uuid
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
-from vfs.errors import ParameterError
+from vfs.errors import ClusterError, ParameterError
 from vfs.registry import Registry
+from vfs.study.orphans import exit_with_parent
 from vfs.study.tasks import RunTask, run_task
+from vfs.version import __version__
 
 OnResult = Callable[[RunTask, pd.DataFrame], None]
+
+#: Entry-point group through which other packages add executors (``--engine`` choices).
+ENTRY_POINT_GROUP = "vfs.executors"
+
+#: Tasks submitted but not yet consumed, per worker slot (default of ``max_in_flight``).
+IN_FLIGHT_PER_SLOT = 2
 
 
 @dataclass(frozen=True)
@@ -38,14 +73,78 @@ class ExecutorOptions:
         starts a local cluster.
     dask_processes : bool
         Local dask cluster with worker processes (True) or threads (False).
+    dashboard : str or None
+        Address of the dashboard of a local dask cluster (``":8787"``,
+        ``"127.0.0.1:0"``); None: no dashboard.
+    in_flight : int or None
+        Tasks submitted but not yet consumed by ``on_result`` at any time;
+        None: :data:`IN_FLIGHT_PER_SLOT` per worker slot.
     """
 
     workers: int
     scheduler: str | None = None
     dask_processes: bool = True
+    dashboard: str | None = None
+    in_flight: int | None = None
+
+    def max_in_flight(self, slots: int | None = None) -> int:
+        """Tasks an executor may have submitted and not yet consumed.
+
+        Parameters
+        ----------
+        slots : int, optional
+            Worker slots (threads) of the cluster; default ``workers``.
+        """
+        if self.in_flight is not None:
+            return max(1, int(self.in_flight))
+        return IN_FLIGHT_PER_SLOT * max(1, int(slots or self.workers))
 
 
 Executor = Callable[[Sequence[RunTask], OnResult, ExecutorOptions], None]
+
+
+def notify(message: str) -> None:
+    """A one-line note of an executor for the user (stderr), e.g. the dashboard's address."""
+    print(message, file=sys.stderr, flush=True)
+
+
+def run_windowed(submit: Callable[[RunTask], Future[pd.DataFrame]], tasks: Iterable[RunTask],
+                 on_result: OnResult, limit: int) -> None:
+    """Run tasks through a ``concurrent.futures`` pool with at most ``limit`` in flight.
+
+    Each finished future is handed to ``on_result`` and dropped, so no result
+    outlives its ``on_result`` call and the pool never holds more than
+    ``limit`` tasks (submitting 100,000 tasks at once would keep them all).
+
+    Parameters
+    ----------
+    submit : callable
+        ``submit(task) -> Future`` (e.g. ``lambda t: pool.submit(run_task, t)``).
+    tasks : iterable of RunTask
+        Submitted in this order.
+    on_result : callable
+        ``on_result(task, table)``, called in this thread.
+    limit : int
+        Tasks submitted but not yet consumed.
+    """
+    queue = iter(tasks)
+    pending: dict[Future[pd.DataFrame], RunTask] = {}
+
+    def fill() -> None:
+        while len(pending) < limit:
+            task = next(queue, None)
+            if task is None:
+                return
+            pending[submit(task)] = task
+
+    fill()
+    while pending:
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for future in done:
+            task = pending.pop(future)
+            on_result(task, future.result())
+        del done
+        fill()
 
 
 def _run_serial(tasks: Sequence[RunTask], on_result: OnResult,
@@ -60,56 +159,160 @@ def _mp_context() -> Any:
     methods = multiprocessing.get_all_start_methods()
     if "forkserver" in methods:
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["vfs.study.tasks"])
+        preload = ["vfs.study.tasks"]
+        if threading.current_thread() is threading.main_thread():
+            preload.append("vfs.study.forkserver_guard")  # the server dies with this process
+        ctx.set_forkserver_preload(preload)
         return ctx
     return multiprocessing.get_context("spawn")
 
 
 def _run_processes(tasks: Sequence[RunTask], on_result: OnResult,
                    options: ExecutorOptions) -> None:
-    pool = ProcessPoolExecutor(max_workers=options.workers, mp_context=_mp_context())
+    # exit_with_parent: the workers die with this process, even after kill -9
+    pool = ProcessPoolExecutor(max_workers=options.workers, mp_context=_mp_context(),
+                               initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
-        futures = {pool.submit(run_task, task): task for task in tasks}
-        for future in as_completed(futures):
-            on_result(futures[future], future.result())
+        run_windowed(lambda task: pool.submit(run_task, task), tasks, on_result,
+                     options.max_in_flight())
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown(wait=True)
 
 
-def _run_dask(tasks: Sequence[RunTask], on_result: OnResult,
-              options: ExecutorOptions) -> None:
+def worker_versions() -> dict[str, str]:
+    """Versions that must be equal on the client and every worker: vfs and numpy."""
+    return {"vfs": __version__, "numpy": np.__version__}
+
+
+def check_worker_versions(client: Any, expected: dict[str, str] | None = None) -> None:
+    """Refuse a dask cluster whose workers run another vfs or numpy than this process.
+
+    Parameters
+    ----------
+    client : dask.distributed.Client
+        Connected client.
+    expected : dict, optional
+        The versions the workers must have; default :func:`worker_versions`
+        of this process.
+
+    Raises
+    ------
+    ClusterError
+        Naming each mismatching worker with its versions (or the error it
+        gave, e.g. vfs not installed there).
+    """
+    expected = worker_versions() if expected is None else expected
+    try:
+        found = client.run(worker_versions, on_error="return")
+    except Exception as exc:  # e.g. a worker that cannot unpickle vfs functions
+        raise ClusterError(f"could not ask the dask workers for their vfs version: "
+                           f"{type(exc).__name__}: {exc}") from None
+    bad = []
+    for worker, versions in sorted(found.items()):
+        if isinstance(versions, BaseException):
+            bad.append(f"{worker} ({type(versions).__name__}: {versions})")
+        elif versions != expected:
+            diff = ", ".join(f"{k} {versions.get(k)}" for k in expected
+                             if versions.get(k) != expected[k])
+            bad.append(f"{worker} ({diff})")
+    if bad:
+        want = ", ".join(f"{k} {v}" for k, v in expected.items())
+        raise ClusterError(f"{len(bad)} of {len(found)} dask worker(s) do not run the client's "
+                           f"{want}: {'; '.join(bad)}; install the same versions on every "
+                           "worker")
+
+
+def _start_local_cluster(options: ExecutorOptions) -> tuple[Any, Any]:
     import logging
 
+    from dask.distributed import Client, LocalCluster
+
+    dashboard = options.dashboard
+    if dashboard and importlib.util.find_spec("bokeh") is None:
+        notify("dask dashboard: not available, the bokeh package is not installed "
+               "(pip install 'bokeh>=3.1'); running without it")
+        dashboard = None
+    cluster = LocalCluster(n_workers=options.workers, threads_per_worker=1,
+                           processes=options.dask_processes, dashboard_address=dashboard,
+                           silence_logs=logging.ERROR)
+    client = Client(cluster)
+    if dashboard:
+        notify(f"dask dashboard: {dashboard_link(client.dashboard_link, dashboard)}")
+    return cluster, client
+
+
+def dashboard_link(link: str, address: str) -> str:
+    """The dashboard's link with the host of ``address`` where one is given.
+
+    dask builds the link from the machine's address, which does not answer
+    when the dashboard listens on one interface only (``127.0.0.1:8787``).
+
+    >>> dashboard_link("http://10.0.0.5:8787/status", "127.0.0.1:8787")
+    'http://127.0.0.1:8787/status'
+    >>> dashboard_link("http://10.0.0.5:8787/status", ":8787")
+    'http://10.0.0.5:8787/status'
+    """
+    from urllib.parse import urlsplit, urlunsplit
+
+    host = str(address).rpartition(":")[0].strip("[]")
+    parts = urlsplit(link)
+    if not host or host in ("0.0.0.0", "::") or parts.port is None:
+        return link
+    host = f"[{host}]" if ":" in host else host
+    return urlunsplit(parts._replace(netloc=f"{host}:{parts.port}"))
+
+
+def _run_dask(tasks: Sequence[RunTask], on_result: OnResult,
+              options: ExecutorOptions) -> None:
     try:
-        from dask.distributed import Client, LocalCluster
-        from dask.distributed import as_completed as dask_completed
+        from dask.distributed import Client, as_completed
     except ImportError as exc:
         raise ParameterError(f"engine 'dask' needs dask.distributed ({exc})") from None
     cluster = None
     if options.scheduler:
         client = Client(options.scheduler)
     else:
-        cluster = LocalCluster(n_workers=options.workers, threads_per_worker=1,
-                               processes=options.dask_processes, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
+        cluster, client = _start_local_cluster(options)
     try:
+        check_worker_versions(client)
+        limit = options.max_in_flight(sum(client.nthreads().values()))
         token = uuid.uuid4().hex[:8]
-        futures = {client.submit(run_task, task, pure=False,
-                                 key=f"vfs-study-{token}-{task.chunk}-{task.system_index}"): task
-                   for task in tasks}
-        for future in dask_completed(list(futures)):
-            on_result(futures[future], future.result())
+        queue = iter(tasks)
+        pending: dict[str, RunTask] = {}
+        finished = as_completed(loop=client.loop)
+
+        def submit(n: int) -> None:
+            for _ in range(n):
+                task = next(queue, None)
+                if task is None:
+                    return
+                future = client.submit(run_task, task, pure=False,
+                                       key=f"vfs-study-{token}-{task.chunk}-{task.system_index}")
+                pending[future.key] = task
+                finished.add(future)
+
+        submit(limit)
+        for future in finished:
+            task = pending.pop(future.key)
+            table = future.result()
+            future.release()  # the worker forgets the result now, not at the end
+            del future
+            on_result(task, table)
+            del table
+            submit(1)
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
 
 
-#: Executors by name (``--engine``); add one with :func:`register_executor`.
-EXECUTORS: Registry[Executor] = Registry("executor (engine)", same=lambda old, new: old is new)
+#: Executors by name (``--engine``): built-in, added with :func:`register_executor`, and those
+#: of the ``vfs.executors`` entry-point group (loaded when the registry is first read).
+EXECUTORS: Registry[Executor] = Registry("executor (engine)",
+                                         entry_point_group=ENTRY_POINT_GROUP,
+                                         same=lambda old, new: old is new)
 EXECUTORS.add("serial", _run_serial)
 EXECUTORS.add("process", _run_processes)
 EXECUTORS.add("dask", _run_dask)
@@ -134,6 +337,7 @@ def cpu_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-
-__all__ = ["EXECUTORS", "Executor", "ExecutorOptions", "OnResult", "cpu_count",
-           "register_executor"]
+__all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT", "Executor",
+           "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count", "dashboard_link",
+           "notify",
+           "register_executor", "run_windowed", "worker_versions"]

@@ -24,6 +24,7 @@ columns and the command line in docs/study.md.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import time
@@ -36,11 +37,12 @@ import numpy as np
 import pandas as pd
 
 from vfs.atomic import write_json, write_table
-from vfs.database import Database, DatabaseSelection, select_database
+from vfs.database import Database
 from vfs.database.metadata import field_metadata
-from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
+from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch, SimulationParams
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
+from vfs.study.inputs import StudyInput, study_input
 from vfs.study.layout import (
     BASELINE,
     CASES_FILE,
@@ -59,11 +61,11 @@ from vfs.study.manifest import (
     case_ids_hash,
     combine_chunks,
     counts_summary,
-    data_hash,
     environment_versions,
     now,
     prepare_folder,
 )
+from vfs.study.orphans import pid_alive
 from vfs.study.systems import SystemRegistry, resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, error_text
 
@@ -78,19 +80,20 @@ def _positive_int(name: str, value: object) -> int:
     return int(value)
 
 
-def _new_manifest(selection: DatabaseSelection, where: str | None, chunk_size: int,
+def _new_manifest(selection: StudyInput, where: str | None, chunk_size: int,
                   n_chunks: int, systems: Sequence[Any], equip: str, seed: int,
                   impact_parameters: str, params: SimulationParams, engine: str
                   ) -> dict[str, Any]:
     """``study.json`` of a study about to start (status ``running``)."""
-    database, ids = selection.database, selection.database.case_ids
+    ids = selection.case_ids
     names = [str(s.name) for s in systems]
     return {
         "format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "status": "running",
         "created": now(), "updated": now(),
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
-        "db_format": selection.fmt, "db_name": str(database.meta.get("name", "")),
-        "where": where, "data_hash": data_hash(database), "case_ids_hash": case_ids_hash(ids),
+        "db_reference": selection.reference, "db_format": selection.fmt,
+        "db_name": str(selection.meta.get("name", "")),
+        "where": where, "data_hash": selection.data_hash, "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": chunk_size, "n_chunks": n_chunks,
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
@@ -144,16 +147,6 @@ def lock_path(out: Path) -> Path:
     return out.parent / f".{out.name}.lock"
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # exists, owned by another user
-        return True
-    return True
-
-
 def acquire_lock(out: Path) -> Path:
     """Claim study folder ``out`` for this process: a lock file with pid, host and time.
 
@@ -175,7 +168,7 @@ def acquire_lock(out: Path) -> Path:
             except (OSError, ValueError):
                 owner = {}
             pid, host = owner.get("pid"), owner.get("host")
-            if host == me["host"] and isinstance(pid, int) and not _pid_alive(pid):
+            if host == me["host"] and isinstance(pid, int) and not pid_alive(pid):
                 lock.unlink(missing_ok=True)  # stale: its process is gone
                 continue
             raise ParameterError(
@@ -220,21 +213,28 @@ def run_study(
     dask_processes: bool = True,
     max_chunks: int | None = None,
     on_chunk: Callable[[int, int], None] | None = None,
+    dashboard: str | None = None,
+    in_flight: int | None = None,
 ) -> StudyResult:
     """Run (or resume) an AEB effectiveness study and write its folder.
 
     Parameters
     ----------
-    db : path, ``"default"`` or Database
+    db : path, URL, ``"default"`` or Database
         Database folder (Parquet, CSV or PCM), ``"default"`` for the bundled
-        database, or an in-memory :class:`vfs.database.Database` (its chunks
-        are then pickled to the workers).
+        database (each worker finds its own copy), the fsspec URL of a Parquet
+        database (``file:///shared/db``, ``s3://bucket/db``; ``memory://db``
+        only with workers in this process: serial, or dask with threads), or
+        an in-memory :class:`vfs.database.Database` (its chunks are then
+        pickled to the workers).
     systems : sequence of str or system objects, or "a,b"
         AEB systems; names are looked up with :func:`resolve_system`.
     out : path
         Study folder (created).
-    engine : {"serial", "process", "dask"}
-        Executor (:data:`EXECUTORS`); default local processes.
+    engine : str
+        Executor (:data:`vfs.study.executors.EXECUTORS`): ``"serial"``,
+        ``"process"`` (default: local processes), ``"dask"`` or one
+        registered from Python or by an installed package.
     workers : int, optional
         Parallel workers; default ``min(cpu count, tasks to run)`` (a task = one
         chunk with one system).
@@ -272,6 +272,13 @@ def run_study(
         (to be resumed); for tests and staged runs.
     on_chunk : callable, optional
         ``on_chunk(chunk_index, cases_done)`` after each chunk file is written.
+    dashboard : str, optional
+        Serve the dashboard of the local dask cluster at this address
+        (``":8787"``; needs bokeh); default none.  Not with ``scheduler`` (a
+        running scheduler serves its own).
+    in_flight : int, optional
+        Tasks submitted to the workers and not yet written at any time
+        (default 2 per worker).
 
     Returns
     -------
@@ -290,6 +297,11 @@ def run_study(
     chunk_size = _positive_int("chunk_size", chunk_size)
     if workers is not None:
         workers = _positive_int("workers", workers)
+    if in_flight is not None:
+        in_flight = _positive_int("in_flight", in_flight)
+    if dashboard is not None and (engine != "dask" or scheduler):
+        raise ParameterError("dashboard: only for the local cluster of engine 'dask' (a "
+                             "running scheduler serves its own dashboard)")
     if impact_parameters not in IMPACT_PARAMETER_SOURCES:
         raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
                              f"{', '.join(IMPACT_PARAMETER_SOURCES)}")
@@ -300,41 +312,38 @@ def run_study(
     system_objs = resolve_systems(systems, registry)
     names = [str(s.name) for s in system_objs]
 
-    selection = select_database(db, where)
-    ids = selection.database.case_ids
-    if ids.size == 0:
-        raise DataError(DataProblem("cases", "", None, None,
-                                    "no case selected" + (f" by {where!r}" if where else "")))
+    selection = study_input(db, where)
+    ids = selection.case_ids  # never empty (study_input refuses)
     chunks = [ids[i:i + chunk_size] for i in range(0, ids.size, chunk_size)]
     out_dir = Path(out)
     lock = acquire_lock(out_dir)
     try:
         return _run_locked(out_dir, selection, where, chunk_size, chunks, system_objs, names,
                            equip, seed, impact_parameters, params, engine, resume, overwrite,
-                           max_chunks, workers, scheduler, dask_processes, progress,
+                           max_chunks, workers, ExecutorOptions(
+                               0, scheduler, dask_processes, dashboard, in_flight), progress,
                            on_chunk, started, executor)
     finally:
         lock.unlink(missing_ok=True)
 
 
-def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: int,
+def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_size: int,
                 chunks: list[np.ndarray], system_objs: list[Any], names: list[str], equip: str,
                 seed: int, impact_parameters: str, params: SimulationParams, engine: str,
                 resume: bool, overwrite: bool, max_chunks: int | None, workers: int | None,
-                scheduler: str | None, dask_processes: bool, progress: bool | None,
+                options: ExecutorOptions, progress: bool | None,
                 on_chunk: Callable[[int, int], None] | None, started: float,
                 executor: Any) -> StudyResult:
     """The study in its locked folder (see :func:`run_study`)."""
-    database, folder = selection.database, selection.folder
-    ids = database.case_ids
+    ids = selection.case_ids
     manifest = prepare_folder(
         out_dir, _new_manifest(selection, where, chunk_size, len(chunks), system_objs, equip,
                                seed, impact_parameters, params, engine), resume, overwrite)
     try:
-        return _run_chunks(out_dir, manifest, database, folder, ids, chunk_size, chunks,
+        return _run_chunks(out_dir, manifest, ids, chunk_size, chunks,
                            system_objs, names, equip, seed, impact_parameters, params, engine,
-                           max_chunks, workers, scheduler, dask_processes, progress, on_chunk,
-                           started, executor, selection.fmt)
+                           max_chunks, workers, options, progress, on_chunk,
+                           started, executor, selection)
     except BaseException as exc:
         # whatever failed (a full disk included), the manifest must not say "running"
         if manifest.get("status") == "running":
@@ -347,18 +356,17 @@ def _run_locked(out_dir: Path, selection: Any, where: str | None, chunk_size: in
         raise
 
 
-def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: Any,
+def _run_chunks(out_dir: Path, manifest: dict[str, Any],
                 ids: np.ndarray, chunk_size: int, chunks: list[np.ndarray],
                 system_objs: list[Any], names: list[str], equip: str, seed: int,
                 impact_parameters: str, params: SimulationParams, engine: str,
-                max_chunks: int | None, workers: int | None, scheduler: str | None,
-                dask_processes: bool, progress: bool | None,
-                on_chunk: Callable[[int, int], None] | None, started: float, executor: Any,
-                fmt: Any) -> StudyResult:
+                max_chunks: int | None, workers: int | None, options: ExecutorOptions,
+                progress: bool | None, on_chunk: Callable[[int, int], None] | None,
+                started: float, executor: Any, selection: StudyInput) -> StudyResult:
     """Write the folder's inputs, run the chunks still to do, combine them."""
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
-    cases_meta = database.cases.reset_index(drop=True)
+    cases_meta = selection.cases.reset_index(drop=True)
     write_table(out_dir / CASES_FILE, cases_meta,
                 field_metadata(cases_meta.columns, table="cases"))
 
@@ -366,8 +374,9 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
     if max_chunks is not None:
         todo = todo[:max(0, int(max_chunks))]
     batch_all = None
-    if folder is None:  # in memory: the tasks carry their cases
-        batch_all = CaseBatch.from_database(database, impact_parameters=impact_parameters)
+    if selection.database is not None:  # in memory: the tasks carry their cases
+        batch_all = CaseBatch.from_database(selection.database,
+                                            impact_parameters=impact_parameters)
     runners: list[Any | None] = [None, *system_objs]
     tasks = []
     for k in todo:
@@ -376,16 +385,16 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
             np.arange(start, start + chunks[k].size))
         for j, system in enumerate(runners):
             tasks.append(RunTask(
-                chunk=k, case_ids=chunks[k], system_index=j, system=system, db_path=folder,
-                db_format=fmt, batch=sub, equip=equip, seed=seed, params=params,
-                impact_parameters=impact_parameters))
+                chunk=k, case_ids=chunks[k], system_index=j, system=system,
+                db=selection.reference, db_format=selection.fmt, batch=sub, equip=equip,
+                seed=seed, params=params, impact_parameters=impact_parameters))
     n_workers = 1 if engine == "serial" else (
         workers if workers else max(1, min(cpu_count(), len(tasks))))
     bar = _progress_bar(sum(chunks[k].size for k in todo), progress)
     writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, on_chunk)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
-            executor(tasks, writer, ExecutorOptions(n_workers, scheduler, dask_processes))
+            executor(tasks, writer, dataclasses.replace(options, workers=n_workers))
     finally:
         bar.close()
     manifest.pop("error", None)
@@ -400,6 +409,7 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any], database: Any, folder: 
     if len(done) == len(chunks):
         runs = combine_chunks(out_dir, ids, [BASELINE, *names])
         write_table(out_dir / RUNS_FILE, runs, field_metadata(runs.columns))
+        del runs  # one copy of the runs table at a time
         table = pd.read_parquet(out_dir / RUNS_FILE)  # dtypes exactly as load_study gives
         summary["systems"] = counts_summary(table, names)
         manifest["status"] = "complete"

@@ -1,7 +1,10 @@
 """One chunk of a study: load its cases, run them with one system, the runs table.
 
-Tasks run in worker processes (or dask workers); they get the database path
-and the case ids, not arrays, and load their cases themselves.
+Tasks run in worker processes (or dask workers); they get the database
+*reference* (a bundled name such as ``"default"``, an fsspec URL or an absolute
+folder: :func:`vfs.database.database_reference`) and the case ids, not arrays,
+and load their cases themselves: each worker resolves the reference with its
+own install (:func:`vfs.database.database_location`).
 """
 
 from __future__ import annotations
@@ -14,11 +17,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
-from vfs.database import Database, load_any, load_database
+from vfs.database import Database, database_location, load_any, load_database
 from vfs.errors import ParameterError, SimulationError
-from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
+from vfs.simulation import (
+    CaseBatch,
+    CaseResults,
+    SimulationParams,
+    results_table,
+    simulate_cases,
+)
 from vfs.study.layout import (
     BASELINE,
     BOOL_COLUMNS,
@@ -27,6 +37,7 @@ from vfs.study.layout import (
     KEY_COLUMNS,
     equipped_flags,
 )
+from vfs.study.traces import RunTrace, simulate_with_traces
 
 
 @dataclass(frozen=True)
@@ -43,8 +54,10 @@ class RunTask:
         j: 0 for the baseline, 1.. for the systems in the study's order.
     system : object or None
         The AEB system; None for the baseline.
-    db_path : str or None
-        Database folder the worker loads the cases from.
+    db : str or None
+        Database reference the worker loads the cases from: a bundled name
+        (``"default"``), an fsspec URL or an absolute folder
+        (:func:`vfs.database.database_reference`), resolved on the worker.
     db_format : str
         ``"parquet"``, ``"csv"`` or ``"pcm"`` (``"memory"`` with ``batch``).
     batch : CaseBatch or None
@@ -64,7 +77,7 @@ class RunTask:
     case_ids: np.ndarray
     system_index: int
     system: Any | None
-    db_path: str | None
+    db: str | None
     db_format: str
     batch: CaseBatch | None
     equip: str
@@ -87,20 +100,22 @@ def _whole_database(path: str, fmt: str, stamp: float) -> Database:
 def load_chunk(task: RunTask) -> CaseBatch:
     """The chunk's cases as a batch, in the task's order.
 
-    Parquet databases are read case-selectively (duckdb on the files, only
-    the chunk's rows); CSV and PCM folders are loaded whole once per process.
+    Parquet databases are read case-selectively (duckdb on the files, or
+    pyarrow with a ``case_id`` filter for a URL: only the chunk's rows); CSV
+    and PCM folders are loaded whole once per process.
     """
     if task.batch is not None:
         return task.batch
-    if task.db_path is None:
-        raise ParameterError("a chunk task needs a database path or a batch")
+    if task.db is None:
+        raise ParameterError("a chunk task needs a database reference or a batch")
+    location = database_location(task.db)  # this worker's own install for "default"
     ids = np.asarray(task.case_ids)
     if task.db_format == "parquet":
         where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
-        db = load_database(task.db_path, where=where, validate=False)
+        db = load_database(location, where=where, validate=False)
     else:
-        stamp = max(p.stat().st_mtime for p in Path(task.db_path).iterdir())
-        db = _whole_database(task.db_path, task.db_format, stamp)
+        stamp = max(p.stat().st_mtime for p in Path(location).iterdir())
+        db = _whole_database(location, task.db_format, stamp)
     return CaseBatch.from_database(db, ids, impact_parameters=task.impact_parameters)
 
 
@@ -125,19 +140,47 @@ def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
     return cols
 
 
-def _run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
-               params: SimulationParams, rng: np.random.Generator) -> pd.DataFrame:
-    """One vectorised run of ``batch`` (baseline when ``system`` is None) as a table."""
+def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+              params: SimulationParams, rng: np.random.Generator,
+              record: npt.ArrayLike | None = None
+              ) -> tuple[pd.DataFrame, CaseResults, dict[int, RunTrace]]:
+    """One vectorised run of ``batch`` (baseline when ``system`` is None).
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    system : AEB system or None
+    equipped : ndarray of bool (N, 2)
+        Vehicles carrying the system.
+    params : SimulationParams
+        Base parameters; the system replaces the pre-crash part.
+    rng : numpy.random.Generator
+    record : array_like of int, optional
+        Batch positions whose pre-crash traces are recorded
+        (:mod:`vfs.study.traces`; the results do not change).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        :func:`results_table` with the controller's events (``<key>1``, ``<key>2``).
+    results : CaseResults
+    traces : dict of int to RunTrace
+        By batch position (empty without ``record``).
+    """
     controller = None
     if system is not None:
         params = dataclasses.replace(params,
                                      precrash=system.precrash_params(params.precrash))
         controller = system.controller(batch, equipped)
-    res = simulate_cases(batch, controller=controller, params=params, rng=rng)
+    traces: dict[int, RunTrace] = {}
+    if record is None:
+        res = simulate_cases(batch, controller=controller, params=params, rng=rng)
+    else:
+        res, traces = simulate_with_traces(batch, controller, params, rng, record)
     table = results_table(batch, res)
     for name, values in _events_columns(controller, batch.size).items():
         table[name] = values
-    return table
+    return table, res, traces
 
 
 def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
@@ -155,7 +198,7 @@ def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
         sub = batch if whole else batch.take(np.arange(start, stop))
         rng = np.random.default_rng(key if whole else [*key, start, stop - start])
         try:
-            table = _run_batch(sub, system, equipped[start:stop], params, rng)
+            table = run_batch(sub, system, equipped[start:stop], params, rng)[0]
         except Exception as exc:  # recorded per case; the study goes on
             if stop - start == 1:
                 return [], {start: error_text(exc)}
@@ -242,4 +285,5 @@ def normalise_runs(df: pd.DataFrame, cases: pd.DataFrame | None = None) -> pd.Da
 
 
 
-__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_task"]
+__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_batch",
+           "run_task"]

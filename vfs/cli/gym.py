@@ -28,7 +28,12 @@ def cmd_evaluate_policy(args: argparse.Namespace) -> int:
         return 130
     print(result.summary())
     if result.complete:
-        print(f"report -> {result.path / 'report' / 'report.md'} "
+        from vfs.gym.evaluate import LEADERBOARD_FILE
+
+        board = result.path / f"{LEADERBOARD_FILE}.md"
+        if board.is_file():
+            print(board.read_text(encoding="utf-8"), end="")
+        print(f"report -> {result.path / 'report' / 'report.md'}, leaderboard -> {board} "
               f"({time.perf_counter() - started:.1f} s)")
     return 0
 
@@ -61,9 +66,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "effectiveness report)",
         description="Run POLICY on the ego vehicle of every case of the split, with the "
         "observation and brake actuator of the vfs/AEB-v0 environment, against the recorded "
-        "baseline; writes a study folder and its effectiveness report with every POLICY side "
-        "by side. POLICY: never-brake, always-brake, aeb:NAME (a generic AEB system), "
-        "sb3:PATH (a saved stable-baselines3 model; its training settings from PATH.vfs.json "
+        "baseline; writes a study folder, its effectiveness report with every POLICY side "
+        "by side, and OUT/leaderboard.md|csv (crashes avoided, MAIS3+ risk and delta-v "
+        "reduction with intervals, new crashes, braking in near misses). POLICY: "
+        "never-brake, always-brake, aeb:NAME (a generic AEB system), sb3:PATH (a saved "
+        "stable-baselines3 model; its training settings from PATH.vfs.json "
         "and observation normalisation from PATH.vecnormalize.pkl when present) or "
         "MODULE:ATTRIBUTE. The policy is asked every action_repeat simulation steps, as in "
         "training. See docs/gym.md.")

@@ -28,6 +28,9 @@ from vfs.gym.observation import (
     PRIVILEGED_HIGH,
     PRIVILEGED_LOW,
     PRIVILEGED_NAMES,
+    THREAT_HIGH,
+    THREAT_LOW,
+    THREAT_NAMES,
 )
 from vfs.physics.precrash import BrakeActuatorParams
 from vfs.simulation import SimulationParams
@@ -48,12 +51,16 @@ class RewardParams:
       unnecessary), [1 / (g s)];
     - ``comfort_weight`` x |change of the ego deceleration| / g per step
       (total variation of the brake, [1 / g]);
+    - ``false_activation_weight`` once, at the first step with any ego
+      deceleration in a near miss (an unnecessary activation, counted as the
+      evaluation counts braking in near misses), [-];
 
     and at a collision (the terminal step) minus ``injury_weight`` x the
     injury risk of the impact's delta-v by the curve ``risk_curve`` (default:
     the default curve of ``injury_level``, as in ``vfs report
     effectiveness``), summed over both drivers (``risk_of="both"``, the
-    expected number of injured drivers) or the ego driver only.
+    expected number of injured drivers) or the ego driver only, and minus
+    ``collision_weight`` (a cost of any collision, whatever its severity).
 
     Attributes
     ----------
@@ -71,6 +78,10 @@ class RewardParams:
     comfort_weight : float
         Default 0.01 per g of brake change: applying and releasing a full
         brake costs 0.02.
+    false_activation_weight : float
+        Cost of braking at all in a near miss, default 0 (none).
+    collision_weight : float
+        Cost of a collision besides its injury risk [-], default 0 (none).
     """
 
     injury_weight: float = 1.0
@@ -79,11 +90,14 @@ class RewardParams:
     risk_of: str = "both"
     unnecessary_brake_weight: float = 0.05
     comfort_weight: float = 0.01
+    false_activation_weight: float = 0.0
+    collision_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if self.risk_of not in ("both", "ego"):
             raise ParameterError(f"risk_of={self.risk_of!r}; use 'both' or 'ego'")
-        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight"):
+        for name in ("injury_weight", "unnecessary_brake_weight", "comfort_weight",
+                     "false_activation_weight", "collision_weight"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ParameterError(f"reward {name}={value} must be finite and >= 0")
@@ -132,6 +146,16 @@ class EnvConfig:
     privileged : bool
         Observe the full state (:data:`PRIVILEGED_NAMES`) instead of the
         sensor (:data:`OBSERVATION_NAMES`); default False.
+    threat_features : bool
+        Append the threat entries (:data:`THREAT_NAMES`: yaw rates, the
+        constant-velocity miss distance and time of closest approach, the
+        constant-turn-rate TTC of the outlines) to the observation; default
+        False (the observation of earlier versions).
+    near_miss_weight : float
+        Sampling weight of the near-miss cases (recorded paths do not collide)
+        relative to the crashes when episodes draw their case; default 1
+        (uniform).  A weight above 1 shows a policy the cases where braking is
+        unnecessary more often (training); evaluations play every case once.
     brake : BrakeActuatorParams
         Actuator between the demand and the delivered deceleration; default
         :data:`DEFAULT_BRAKE` (the generic AEB's).
@@ -157,6 +181,8 @@ class EnvConfig:
     sensor: SensorParams = DEFAULT_SENSOR
     observe_friction: bool = True
     privileged: bool = False
+    threat_features: bool = False
+    near_miss_weight: float = 1.0
     brake: BrakeActuatorParams = DEFAULT_BRAKE
     action_repeat: int = 1
     reward: RewardParams = field(default_factory=RewardParams)
@@ -173,6 +199,9 @@ class EnvConfig:
             raise ParameterError(f"ego={self.ego!r}; use 1 or 2")
         if int(self.action_repeat) != self.action_repeat or not 1 <= self.action_repeat <= 100:
             raise ParameterError(f"action_repeat={self.action_repeat} outside 1..100")
+        if not (math.isfinite(self.near_miss_weight) and self.near_miss_weight > 0.0):
+            raise ParameterError(f"near_miss_weight={self.near_miss_weight} must be finite "
+                                 "and > 0")
         if self.impact_parameters not in ("reconstruction", "default"):
             raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use "
                                  "'reconstruction' or 'default'")
@@ -182,13 +211,21 @@ class EnvConfig:
     @property
     def observation_dim(self) -> int:
         """Length of the observation vector."""
-        return len(PRIVILEGED_NAMES if self.privileged else OBSERVATION_NAMES)
+        return len(self.observation_names)
+
+    @property
+    def observation_names(self) -> tuple[str, ...]:
+        """Names of the observation's entries, in order."""
+        base = PRIVILEGED_NAMES if self.privileged else OBSERVATION_NAMES
+        return base + (THREAT_NAMES if self.threat_features else ())
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) of the observation Box (float32)."""
-        if self.privileged:
-            return PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32)
-        return OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32)
+        low, high = (PRIVILEGED_LOW, PRIVILEGED_HIGH) if self.privileged else \
+            (OBSERVATION_LOW, OBSERVATION_HIGH)
+        if self.threat_features:
+            low, high = np.concatenate([low, THREAT_LOW]), np.concatenate([high, THREAT_HIGH])
+        return low.astype(np.float32), high.astype(np.float32)
 
 
 def params_from_dict(cls: type[T], value: Any, where: str = "") -> T:

@@ -135,7 +135,9 @@ class EpisodeBatch:
     Rows are case instances: the split's cases, tiled when there are more
     slots than cases so that every slot can always draw a case that no other
     slot is running.  A slot draws its next case uniformly among the idle
-    instances (with one slot: uniformly among the split's cases).
+    instances (with one slot: uniformly among the split's cases), or in
+    proportion to the case weights (``near_miss_weight`` for the near misses,
+    1 for the crashes) when they differ.
 
     Parameters
     ----------
@@ -158,11 +160,7 @@ class EpisodeBatch:
         for hook in hooks(self.params.effects, "vehicles"):
             batch = hook(batch)
         n_cases = batch.size
-        copies = 1 if self.num_slots == 1 else max(1, math.ceil(2 * self.num_slots / n_cases))
         self.batch = batch
-        self.case_index = np.tile(np.arange(n_cases), copies)  # instance -> case of the split
-        ci = self.case_index
-        self.dims = Dimensions.of(batch, cfg.ego).take(ci)
         self.eps, self.mu = impact_parameters(batch, self.params.impact)
         penetration = penetration_rule(batch, effects)
         # recorded outcome of every case: a near miss makes any braking unnecessary
@@ -170,7 +168,18 @@ class EpisodeBatch:
                              params=self.params.precrash, penetration=penetration)
         while not replay.done:
             replay.advance(None)
-        self.recorded_collision = replay.result().collided[ci]
+        recorded = replay.result().collided
+        # sampling weight per case; enough copies that the heaviest case is idle about half
+        # the time (uniform weights: twice as many instances as slots)
+        weight = np.where(recorded, 1.0, cfg.near_miss_weight)
+        share = float(weight.max() / weight.sum())
+        copies = 1 if self.num_slots == 1 else max(1, math.ceil(2 * self.num_slots * share))
+        self.case_index = np.tile(np.arange(n_cases), copies)  # instance -> case of the split
+        ci = self.case_index
+        self.weight = weight[ci]
+        self.uniform = bool(np.all(weight == weight[0]))
+        self.dims = Dimensions.of(batch, cfg.ego).take(ci)
+        self.recorded_collision = recorded[ci]
         self.other_rest_from = _rest_from(batch, 2 - cfg.ego)[ci]
         self.curve = cfg.reward.curve()
         self.run = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths,
@@ -182,6 +191,7 @@ class EpisodeBatch:
         self.row_slot = np.full(n, -1, dtype=np.int64)
         self.busy = np.zeros(n, dtype=bool)
         self.prev_decel = np.zeros(n)  # ego deceleration after the last step
+        self.braked = np.zeros(n, dtype=bool)  # the ego has braked in this episode
 
     # ---------------------------------------------------------------- episodes
 
@@ -219,6 +229,11 @@ class EpisodeBatch:
                 free[cand[0]] = False
             return out
         idle = np.flatnonzero(free)
+        if not self.uniform and idle.size:  # near_miss_weight: cases in proportion to weight
+            cases = self.case_index[idle]
+            w = self.weight[idle] / np.bincount(cases)[cases]  # shared by a case's idle copies
+            return idle[rng.choice(idle.size, size=m, replace=self.num_slots == 1,
+                                   p=w / w.sum())]
         if self.num_slots == 1:
             return idle[rng.integers(idle.size, size=m)] if idle.size else idle
         pick = rng.choice(idle.size, size=m, replace=False)
@@ -239,6 +254,7 @@ class EpisodeBatch:
         self.row_slot[rows] = slots
         self.busy[rows] = True
         self.prev_decel[rows] = 0.0
+        self.braked[rows] = False
 
     def start_now(self, rows: np.ndarray) -> None:
         """Start ``rows`` (assigned) now, at their time 0; the running rows do not move."""
@@ -282,6 +298,10 @@ class EpisodeBatch:
             cost = rw.comfort_weight * np.abs(decel - self.prev_decel[rows]) / G
             near_miss = ~self.recorded_collision[rows]
             cost = cost + np.where(near_miss, rw.unnecessary_brake_weight * decel / G * dt, 0.0)
+            if rw.false_activation_weight:  # the first braking step of a near miss
+                onset = near_miss & (decel > 0.0) & ~self.braked[rows]
+                cost = cost + np.where(onset, rw.false_activation_weight, 0.0)
+            self.braked[rows] |= decel > 0.0
             self.prev_decel[rows] = decel
             reward[self.row_slot[rows]] -= cost
             fin = run.finished
@@ -309,7 +329,7 @@ class EpisodeBatch:
         if collided.size:
             imp = self.impacts(collided)
             risk = self.risk(imp)
-            reward[self.row_slot[collided]] -= rw.injury_weight * risk
+            reward[self.row_slot[collided]] -= rw.injury_weight * risk + rw.collision_weight
             out["impact_rows"], out["impact"], out["risk"] = collided, imp, risk
         return out
 

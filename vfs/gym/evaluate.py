@@ -7,6 +7,8 @@ import pickle
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from vfs.adas.systems import AEBSystem
 from vfs.database import Database, open_database
 from vfs.errors import ParameterError
@@ -15,6 +17,10 @@ from vfs.gym.env import split_case_ids
 from vfs.gym.policies import PolicySystem, load_policy
 from vfs.report.effectiveness import write_effectiveness_report
 from vfs.study import StudyResult, run_study
+from vfs.units import KMH_PER_MS
+
+#: File of the leaderboard table in an evaluation folder (``.csv`` and ``.md``).
+LEADERBOARD_FILE = "leaderboard"
 
 
 def _picklable(obj: Any) -> bool:
@@ -84,7 +90,85 @@ def evaluate_policy(policy: str | Any | Sequence[str | Any],
     if report and result.complete:
         # no case pages: the policies are not registered systems a replay could look up
         write_effectiveness_report(out, n_boot=n_boot, seed=seed, case_pages=False)
+        write_leaderboard(out, ego)
     return result
 
 
-__all__ = ["evaluate_policy"]
+def leaderboard(out: str | os.PathLike[str], ego: int = 1) -> Any:
+    """The leaderboard of an evaluation folder (docs/gym.md), one row per policy.
+
+    Columns: crashes avoided (share of the baseline crashes), MAIS3+ risk reduction
+    (relative reduction of the expected MAIS3+ injured drivers) and delta-v reduction
+    per baseline crash [km/h], each with its interval from the effectiveness report
+    (``OUT/report/metrics.csv``: Wilson for the share, bootstrap for the others); new
+    crashes; and ``near_miss_brakes``: in how many of the near misses (cases without a
+    crash in the baseline) the ego brakes at all (any delivered deceleration, the
+    recorded driver's included), of ``near_misses``.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    from pathlib import Path
+
+    import pandas as pd
+
+    from vfs.study import BASELINE, load_study
+
+    runs = load_study(out).table
+    metrics_file = Path(out) / "report" / "metrics.csv"
+    if runs is None or not metrics_file.is_file():
+        raise ParameterError(f"{out}: no complete evaluation with its report")
+    metrics = pd.read_csv(metrics_file)
+    metrics = metrics[metrics["group"] == "all"].set_index(["system", "metric"])
+    base = runs[runs["system"] == BASELINE].set_index("case_id")
+    near = base.index[~base["collided"].astype("boolean").fillna(True).to_numpy(bool)]
+    rows = []
+    for name in [s for s in runs["system"].unique() if s != BASELINE]:
+        sys_runs = runs[runs["system"] == name].set_index("case_id")
+        row: dict[str, Any] = {"policy": name}
+        for key, metric, scale in (("avoided", "avoided_share", 100.0),
+                                   ("mais3_reduction", "risk_MAIS3+_reduction", 100.0),
+                                   ("delta_v_reduction_kmh", "dv_reduction_all", KMH_PER_MS)):
+            m = metrics.loc[(name, metric)]
+            row[key] = float(m["estimate"]) * scale
+            row[f"{key}_low"] = float(m["low"]) * scale
+            row[f"{key}_high"] = float(m["high"]) * scale
+        row["new_crashes"] = int(round(float(metrics.loc[(name, "crashes_new"), "estimate"])))
+        start = sys_runs.reindex(near)[f"brake_start{ego}"].to_numpy(float)
+        row["near_miss_brakes"] = int(np.isfinite(start).sum())
+        row["near_misses"] = int(near.size)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def leaderboard_markdown(table: Any) -> str:
+    """The leaderboard as a Markdown table (percentages and km/h with their intervals)."""
+    def cell(row: Any, key: str, fmt: str) -> str:
+        return (f"{row[key]:{fmt}} [{row[key + '_low']:{fmt}}, {row[key + '_high']:{fmt}}]")
+
+    lines = ["| policy | crashes avoided [%] | MAIS3+ risk reduction [%] | "
+             "delta-v reduction [km/h] | new crashes | brakes in near misses |",
+             "|---|---|---|---|---|---|"]
+    for _, row in table.iterrows():
+        lines.append(f"| {row['policy']} | {cell(row, 'avoided', '.1f')} | "
+                     f"{cell(row, 'mais3_reduction', '.1f')} | "
+                     f"{cell(row, 'delta_v_reduction_kmh', '.1f')} | {row['new_crashes']} | "
+                     f"{row['near_miss_brakes']} / {row['near_misses']} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_leaderboard(out: str | os.PathLike[str], ego: int = 1) -> Any:
+    """Write ``OUT/leaderboard.csv`` and ``OUT/leaderboard.md`` (:func:`leaderboard`)."""
+    from pathlib import Path
+
+    from vfs.atomic import write_text
+
+    table = leaderboard(out, ego)
+    write_text(Path(out) / f"{LEADERBOARD_FILE}.csv", table.to_csv(index=False))
+    write_text(Path(out) / f"{LEADERBOARD_FILE}.md", leaderboard_markdown(table))
+    return table
+
+
+__all__ = ["LEADERBOARD_FILE", "evaluate_policy", "leaderboard", "leaderboard_markdown",
+           "write_leaderboard"]

@@ -13,6 +13,7 @@ import numpy as np
 
 from vfs.adas.params import SensorParams
 from vfs.adas.sensor import outline_visible
+from vfs.adas.threat import Motion, time_to_collision
 from vfs.physics.geometry import rectangle_distance
 from vfs.physics.precrash import PrecrashObservation
 
@@ -45,10 +46,22 @@ PRIVILEGED_HIGH = np.array([120.0, 2.0, 80.0, 20.0, 10.0, 20.0, 1000.0, 1000.0, 
                             100.0, 100.0, 10.0, 80.0, 20.0, 25.0, 5.0, 25.0, 25.0, 5.0, 25.0,
                             2000.0])
 
+#: Names of the threat entries appended with ``EnvConfig.threat_features`` (docs/gym.md,
+#: "Observation"): both yaw rates, the miss distance and time of closest approach under
+#: constant velocity, and the time to collision of the outlines under constant turn rate.
+THREAT_NAMES: tuple[str, ...] = ("ego_yaw_rate", "obj_yaw_rate", "miss_cv", "t_closest",
+                                 "ttc_ctrv")
+#: Units of :data:`THREAT_NAMES`.
+THREAT_UNITS: tuple[str, ...] = ("rad/s", "rad/s", "m", "s", "s")
+THREAT_LOW = np.array([-5.0, -5.0, -20.0, -10.0, 0.0])
+THREAT_HIGH = np.array([5.0, 5.0, 50.0, 10.0, 10.0])
+
 _OBS_BOUNDS = (OBSERVATION_LOW.astype(np.float32), OBSERVATION_HIGH.astype(np.float32))
 _PRIV_BOUNDS = (PRIVILEGED_LOW.astype(np.float32), PRIVILEGED_HIGH.astype(np.float32))
+_THREAT_BOUNDS = (THREAT_LOW.astype(np.float32), THREAT_HIGH.astype(np.float32))
 
-#: TTC reported when no contact is approaching [s] (the top of its range).
+#: TTC reported when no contact is approaching [s] (the top of its range); also the
+#: horizon of the constant-turn-rate TTC of the threat entries.
 TTC_NONE = 10.0
 
 
@@ -99,6 +112,74 @@ def _visible(sx: np.ndarray, sy: np.ndarray, bx: np.ndarray, by: np.ndarray,
     return seen
 
 
+def miss_distance_cv(rx: np.ndarray, ry: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                     yaw_a: np.ndarray, hl_a: np.ndarray, hw_a: np.ndarray,
+                     yaw_b: np.ndarray, hl_b: np.ndarray, hw_b: np.ndarray,
+                     gap: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed miss distance [m] and time of closest approach [s] under constant velocity.
+
+    Rectangle B (centre (rx, ry) [m] from A's centre) moves relative to A with the
+    constant velocity (vx, vy) [m/s]; both keep their orientations.  Its path meets A
+    where the Minkowski sum of the two rectangles (a convex set symmetric about B's
+    centre, whose half-width across the motion is the sum of the two support
+    functions h(n) = hl |n . u| + hw |n . w| along the unit normal n of the motion)
+    crosses the line of motion, so the distance between the outlines at their closest
+    approach is exactly ``|n . r| - h_A(n) - h_B(n)`` when positive; a negative value is
+    how far B's path reaches into A (the lateral displacement that would just make it
+    graze).  The time of closest approach of the centres is ``-(r . v) / |v|^2``;
+    where it is not in the future (receding, or no relative motion) the miss
+    distance is the present ``gap`` [m].
+
+    Returns
+    -------
+    miss, t_closest : ndarray
+        Signed miss distance [m] and time of closest approach [s] (0 without relative
+        motion).
+    """
+    v2 = vx * vx + vy * vy
+    moving = v2 > 1e-12
+    speed = np.sqrt(np.where(moving, v2, 1.0))
+    nx, ny = -vy / speed, vx / speed
+    ca, sa, cb, sb = np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)
+    reach = (hl_a * np.abs(nx * ca + ny * sa) + hw_a * np.abs(ny * ca - nx * sa)
+             + hl_b * np.abs(nx * cb + ny * sb) + hw_b * np.abs(ny * cb - nx * sb))
+    t_closest = np.where(moving, -(rx * vx + ry * vy) / np.where(moving, v2, 1.0), 0.0)
+    miss = np.where(t_closest > 0.0, np.abs(nx * rx + ny * ry) - reach, gap)
+    return miss, t_closest
+
+
+def threat_entries(p: PrecrashObservation, dims: Dimensions, ego: int, gap: np.ndarray,
+                   horizon: float = TTC_NONE) -> np.ndarray:
+    """The threat entries (:data:`THREAT_NAMES`) of the cases ``p.rows``, (n, 5) float64.
+
+    Ego and object yaw rates [rad/s]; :func:`miss_distance_cv` of the outlines [m] and
+    the time of closest approach [s]; the time to collision of the outlines under the
+    constant turn rate and velocity prediction of the AEB systems
+    (:func:`vfs.adas.threat.time_to_collision`, model "ctrv") within ``horizon`` [s]
+    (``horizon`` where there is no contact).  ``gap`` is the present distance of the
+    outlines [m].
+    """
+    e, o = ego - 1, 2 - ego
+    ef, er, ew, of, orr, ow = (np.asarray(a, float) for a in dims.take(p.rows))
+    heading = np.where(p.speed > 0.0, p.heading, p.yaw)  # the yaw at standstill
+    vx = p.vx if p.vx is not None else p.speed * np.cos(p.heading)
+    vy = p.vy if p.vy is not None else p.speed * np.sin(p.heading)
+    motions = []
+    for k, (front, rear, width) in ((e, (ef, er, ew)), (o, (of, orr, ow))):
+        motions.append(Motion(p.x[:, k], p.y[:, k], p.yaw[:, k], heading[:, k], p.speed[:, k],
+                              p.accel[:, k], p.yaw_rate[:, k], 0.5 * (front + rear),
+                              0.5 * width, 0.5 * (front - rear)))
+    a, b = motions
+    ca, sa, cb, sb = np.cos(a.yaw), np.sin(a.yaw), np.cos(b.yaw), np.sin(b.yaw)
+    rx = b.x + b.centre_offset * cb - a.x - a.centre_offset * ca
+    ry = b.y + b.centre_offset * sb - a.y - a.centre_offset * sa
+    miss, t_closest = miss_distance_cv(rx, ry, vx[:, o] - vx[:, e], vy[:, o] - vy[:, e],
+                                       a.yaw, a.half_length, a.half_width, b.yaw,
+                                       b.half_length, b.half_width, np.asarray(gap, float))
+    ttc = np.minimum(time_to_collision(a, b, horizon, "ctrv"), horizon)
+    return np.stack([p.yaw_rate[:, e], p.yaw_rate[:, o], miss, t_closest, ttc], axis=1)
+
+
 def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndarray:
     """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
 
@@ -112,8 +193,11 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndar
     which the centres approach; :data:`TTC_NONE` when not approaching);
     zeros (TTC :data:`TTC_NONE`) when unseen; the road friction coefficient
     (0 unless ``observe_friction``).  The privileged observation
-    (:data:`PRIVILEGED_NAMES`) is the full state in the ego frame.  Values
-    are clipped to the Box bounds.
+    (:data:`PRIVILEGED_NAMES`) is the full state in the ego frame.  With
+    ``cfg.threat_features`` the entries :data:`THREAT_NAMES`
+    (:func:`threat_entries`) follow; in the sensor view those of the object are
+    0 (its TTC :data:`TTC_NONE`) when it is unseen.  Values are clipped to the
+    Box bounds.
     """
     rows = p.rows
     e, o = cfg.ego - 1, 2 - cfg.ego
@@ -168,6 +252,15 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndar
         cols = [ev, accel, seen, gap * seen, rel_x * seen, rel_y * seen, rel_vx * seen,
                 rel_vy * seen, np.where(seen, ttc, f32(TTC_NONE)), friction]
         low, high = _OBS_BOUNDS
+    if cfg.threat_features:
+        threat = threat_entries(p, dims, cfg.ego, gap).astype(np.float32)
+        if not cfg.privileged:  # what the sensor does not see: 0, TTC_NONE
+            hidden = ~seen.astype(bool)
+            threat[hidden, 1:4] = 0.0
+            threat[hidden, 4] = TTC_NONE
+        cols += list(threat.T)
+        low, high = np.concatenate([low, _THREAT_BOUNDS[0]]), \
+            np.concatenate([high, _THREAT_BOUNDS[1]])
     out = np.stack(cols, axis=1, dtype=np.float32)
     np.clip(out, low, high, out=out)
     if not np.isfinite(out).all():
@@ -177,6 +270,7 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndar
 
 __all__ = [
     "OBSERVATION_HIGH", "OBSERVATION_LOW", "OBSERVATION_NAMES", "OBSERVATION_UNITS",
-    "PRIVILEGED_HIGH", "PRIVILEGED_LOW", "PRIVILEGED_NAMES", "TTC_NONE", "Dimensions",
-    "observe",
+    "PRIVILEGED_HIGH", "PRIVILEGED_LOW", "PRIVILEGED_NAMES", "THREAT_HIGH", "THREAT_LOW",
+    "THREAT_NAMES", "THREAT_UNITS", "TTC_NONE", "Dimensions", "miss_distance_cv", "observe",
+    "threat_entries",
 ]

@@ -76,7 +76,7 @@ def test_pair_of_laws_both_claimed_nothing_else():
 
 @pytest.mark.slow
 def test_noise_only_claims_no_law():
-    db, _ = generate_database("default", n_cases=_n_cases(), seed=22, hidden=())
+    db, _ = generate_database("default", n_cases=_n_cases() * 2 // 3, seed=22, hidden=())
     diag = _diagnose(db)
     assert not [f.text() for f in diag.laws if f.significant]
     assert not any("Beyond the library" in v for v in diag.verdict)

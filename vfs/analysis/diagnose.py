@@ -833,8 +833,10 @@ def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray
             say(f"round {rnd}, with the law(s) of {', '.join(on_top)} applied: {r.text()}")
             prev = latest[r.channel]
             if not r.significant or r.law is None:
-                prev.on_top_of = on_top
-                prev.note = "no structure in its identification with them applied"
+                if not prev.round:
+                    prev.on_top_of = on_top
+                prev.note = ("no structure in its identification with the law(s) of "
+                             f"{', '.join(on_top)} applied")
                 continue
             err_g = _outcome_law(sim_c, table_c, r, held, say)
             _, err_a = cross_validate_law(sim, table_c, r.law, held)
@@ -861,9 +863,10 @@ def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray
             _, err_r = cross_validate_laws(sim, [*refit_model, (table_c, law_f)], held)
             f.refit = ci(err_r, model_err)
             f.kept = ci(err_r, f.errors)
-            say(f"round {rnd}: {f.text()}")
-            if stepwise_helps(f.given_claimed, f.refit, min_reduction, also=(f.kept,)):
-                f.significant = True
+            f.significant = stepwise_helps(f.given_claimed, f.refit, min_reduction,
+                                           also=(f.kept,))
+            say(f"round {rnd}: {f.text()}{' (claimed)' if f.significant else ''}")
+            if f.significant:
                 new = f
                 model = [(t, _refit_all(t, law)) for t, law in refit_model] + [(table_c, law_f)]
                 model_err = err_r

@@ -781,8 +781,6 @@ def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray
 
     def ident(s: VariantSimulator, names: Sequence[str]) -> pd.DataFrame:
         t = identify(data, names, grid_points=grid, sim=s)
-        if s is not sim:
-            _absorb(sim, s)
         return t.merge(feats, on="case_id", how="left")
 
     def learned(table: pd.DataFrame) -> list[Any]:
@@ -858,8 +856,9 @@ def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray
             refit_model = []
             for k, (_, law) in enumerate(model):
                 others = [m for j, (_, m) in enumerate(model) if j != k] + [law_f]
-                refit_model.append((ident(_with_effects(sim, _law_effects(others)),
-                                          [law["channel"]]), law))
+                sim_r = _with_effects(sim, _law_effects(others))
+                refit_model.append((ident(sim_r, [law["channel"]]), law))
+                _absorb(sim, sim_r)
             _, err_r = cross_validate_laws(sim, [*refit_model, (table_c, law_f)], held)
             f.refit = ci(err_r, model_err)
             f.kept = ci(err_r, f.errors)

@@ -20,11 +20,14 @@ from vfs.scenarios.generator import generate_database
 #: Channels learned in the slow tests: the two of the pair and two that showed structure
 #: leaked from a missing law on another channel (contact-plane turn, penetration time).
 CHANNELS = "restitution,contact_friction,cp_angle,penetration_time"
+#: The same for the pair penetration time + POI shift: without the stepwise claims, the
+#: contact-plane turn and the contact friction ~ impact angle were claimed too.
+CHANNELS_POI = "poi_along,penetration_time,cp_angle,contact_friction"
 
 
-def _diagnose(db):
+def _diagnose(db, channels=CHANNELS):
     return diagnose(db, effects="restitution_speed", folds=3, grid_points=3, zoom_rounds=1,
-                    n_boot=400, worst=0, laws=CHANNELS, law_grid=11)
+                    n_boot=400, worst=0, laws=channels, law_grid=11)
 
 
 def _n_cases() -> int:
@@ -57,11 +60,15 @@ def test_law_finding_says_what_it_is_not_confirmed_on():
 
 
 @pytest.mark.slow
-def test_pair_of_laws_both_claimed_nothing_else():
-    keys = ("step_restitution", "friction_mass")
+@pytest.mark.parametrize("keys, channels", [
+    (("step_restitution", "friction_mass"), CHANNELS),
+    pytest.param(("penetration_overlap", "poi_speed"), CHANNELS_POI, marks=pytest.mark.skipif(
+        slow_scale() < 0.5, reason="second pair only at VFS_SLOW_SCALE >= 0.5 (~2 min)")),
+])
+def test_pair_of_laws_both_claimed_nothing_else(keys, channels):
     db, _ = generate_database("default", n_cases=_n_cases(), seed=21,
                               hidden=tuple(LAWS[k][0]() for k in keys))
-    diag = _diagnose(db)
+    diag = _diagnose(db, channels)
     claimed = {f.channel: f.learned.law["feature"] for f in diag.laws if f.significant}
     expected = {LAWS[k][1]: LAWS[k][2] for k in keys}
     assert claimed == expected, [f.text() for f in diag.laws]

@@ -31,6 +31,19 @@ database (never with a ground-truth file):
    (:meth:`vfs.analysis.calibrate.FitSpace.alternatives`).  Residual structure left
    after the best effect (significant associations of its held-out
    residuals) is reported with the strata it points to.
+3. **Beyond the library** (``laws``).  Each channel is identified per case
+   (:mod:`vfs.analysis.identify`) and its law learned
+   (:mod:`vfs.analysis.learn`); every law with structure is
+   cross-validated as an effect in outcome space.  The best is claimed if
+   it helps; then, forward stepwise (at most ``law_rounds`` rounds), the
+   other channels with structure are re-identified with the claimed laws
+   applied (a law missing on one channel leaks into the identification of
+   the others), their laws learned anew, and the best of them on top of the
+   claimed laws is claimed if :func:`stepwise_helps` (the same rule as for
+   the effects: on top of the claimed laws, and with them refitted on their
+   channels re-identified with it applied; and the claimed laws still help
+   with it).  The others are reported as not confirmed on top of the
+   claimed laws.
 
 :func:`vfs.report.diagnose.write_diagnosis_report` writes the ranked table (CSV), a
 JSON summary, and Markdown and HTML reports with figures.  Reports show km/h and degrees
@@ -85,6 +98,9 @@ NUMERIC_FEATURES: Mapping[str, Quantity] = MappingProxyType({
 MIN_CASES = 30
 #: Fewest held-out cases per fold for which the diagnosis claims anything.
 MIN_FOLD_CASES = 5
+
+#: Most stepwise rounds of the law claims of :func:`diagnose` (after the first law).
+LAW_ROUNDS = 3
 
 #: Categorical case features.
 CATEGORICAL_FEATURES: tuple[str, ...] = ("impact_type", "accident_type", "road_surface")
@@ -322,7 +338,29 @@ class LawFinding:
     errors : ndarray (n, n_groups)
         Its held-out per-case errors.
     significant : bool
-        :func:`helps` of ``outcome`` (and the sample is large enough).
+        The law is claimed: the first claimed law by :func:`helps` of
+        ``outcome``, a further one by :func:`stepwise_helps` of ``given_claimed``,
+        ``refit`` and ``kept`` (and the sample is large enough).
+    given_claimed : Reduction or None
+        Stepwise (round >= 1): reduction when the law, learned from the
+        identification with the laws of ``on_top_of`` applied, is added to
+        them (fitted on all cases), against them.
+    refit : Reduction or None
+        Stepwise: reduction of the claimed laws refitted together with it
+        (their channels re-identified with it applied; all refitted per fold)
+        against the claimed laws alone.
+    kept : Reduction or None
+        Stepwise: reduction of the same refitted model against the law alone
+        (the claimed laws still help with it present).
+    on_top_of : tuple of str
+        Channels of the laws claimed before it was tested (empty: round 0).
+    round : int
+        Stepwise round that learned it (0: identification with the other
+        channels at the model's values).
+    table : pandas.DataFrame or None
+        The identification it was learned from.
+    note : str
+        Why it is not claimed, when that is not a failed reduction.
     """
 
     channel: str
@@ -330,14 +368,43 @@ class LawFinding:
     outcome: Reduction
     errors: np.ndarray
     significant: bool = False
+    given_claimed: Reduction | None = None
+    refit: Reduction | None = None
+    kept: Reduction | None = None
+    on_top_of: tuple[str, ...] = ()
+    round: int = 0
+    table: pd.DataFrame | None = field(default=None, repr=False)
+    note: str = ""
+
+    @property
+    def status(self) -> str:
+        """"claimed", "not confirmed on top of <claimed channels>" or "not significant"."""
+        if self.significant:
+            return "claimed"
+        if self.on_top_of:
+            return f"not confirmed on top of {', '.join(self.on_top_of)}"
+        return "not significant"
 
     def text(self) -> str:
         """One line for reports."""
         law = self.learned.law
-        o = self.outcome
-        return (f"the identified {self.channel} follows f({law['feature']}): "
-                f"{law['formula']}; outcome CV RMSE reduction {100 * o.estimate:.1f} % "
-                f"[{100 * o.low:.1f}, {100 * o.high:.1f}]")
+        out = f"the identified {self.channel} "
+        if self.round:
+            out += f"(re-identified with the law(s) of {', '.join(self.on_top_of)} applied) "
+        out += (f"follows f({law['feature']}): {law['formula']}; outcome CV RMSE reduction "
+                f"{_red(self.outcome)}")
+        if self.given_claimed is not None:
+            out += f", on top of {', '.join(self.on_top_of)} {_red(self.given_claimed)}"
+        if self.refit is not None and self.kept is not None:
+            out += (f", with {', '.join(self.on_top_of)} refitted together {_red(self.refit)}"
+                    f" (they keep {_red(self.kept)} with it)")
+        if not self.significant and self.on_top_of:
+            out += f" ({self.status}{'; ' + self.note if self.note else ''})"
+        return out
+
+
+def _red(r: Reduction) -> str:
+    return f"{100 * r.estimate:.1f} % [{100 * r.low:.1f}, {100 * r.high:.1f}]"
 
 
 @dataclass
@@ -403,6 +470,17 @@ def helps(r: Reduction | None, min_reduction: float) -> bool:
                 and r.estimate >= min_reduction)
 
 
+def stepwise_helps(given: Reduction | None, refit: Reduction | None, min_reduction: float,
+                   also: Iterable[Reduction | None] = ()) -> bool:
+    """The stepwise rule of a further effect or law (ranks 2...): :func:`helps` for its
+    reduction on top of what is claimed before it, fitted on all cases (``given``), and
+    for its reduction when that is refitted together with it, against it alone
+    (``refit``); and for each reduction of ``also`` (an effect: its reduction alone; a
+    law: the claimed laws' reduction with it present).
+    """
+    return all(helps(r, min_reduction) for r in (given, refit, *also))
+
+
 def _format_params(effects: list[dict[str, Any]]) -> str:
     if not effects:
         return "off (default model)"
@@ -430,6 +508,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
              params: SimulationParams | None = None, database: str = "",
              stepwise: bool = True, min_cases: int = MIN_CASES,
              laws: str | Iterable[str] | None = None, law_grid: int = 13,
+             law_rounds: int = LAW_ROUNDS,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose the default model against the reconstructions of ``db``.
 
@@ -480,9 +559,20 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
         (:mod:`vfs.analysis.identify`, :mod:`vfs.analysis.learn`; "all" for
         every channel; default None: skipped).  Each law whose identified
         values show structure is cross-validated as an effect (refitted on
-        the training folds) and compared with the library ranking.
+        the training folds) and compared with the library ranking.  The
+        best law is claimed if it helps (:func:`helps`); then, forward
+        stepwise, the other channels with structure are re-identified with
+        the claimed laws applied and their laws learned anew; the law that
+        lowers the error most on top of the claimed ones is claimed if it
+        passes :func:`stepwise_helps` (on top of the claimed laws; with them
+        refitted on their channels re-identified with it applied, against
+        them alone; and they still help with it present); the others are
+        "not confirmed on top of" the claimed laws.
     law_grid : int
         Grid values per channel of the identification.
+    law_rounds : int
+        Most stepwise rounds after the first claimed law (each one more
+        identification of the candidate channels).
     min_cases : int
         Fewest cases (and :data:`MIN_FOLD_CASES` held-out cases per fold)
         for which anything is claimed; below, the verdict says the result is
@@ -540,10 +630,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     best_model = best.cv.fitted_model() if best is not None else ()
     if stepwise and best is not None and best_model and len(cands) > 1:
         rest = cands[1:]
-        p0 = params or SimulationParams()
-        sim2 = VariantSimulator(data, SimulationParams(
-            precrash=p0.precrash, impact=p0.impact, runout=p0.runout,
-            effects=tuple(p0.effects) + tuple(best_model)))
+        sim2 = _with_effects(sim, best_model)
         base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
         cvs2 = cross_validate_many(
             sim2, [FitSpace.alternatives([get_effect(c.name)], parameters) for c in rest], held,
@@ -563,24 +650,23 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
             c.refit = Reduction(*reduction_ci(cv3.errors, best.cv.errors, rng,
                                               confidence=level, n_boot=n_boot))
         for c in rest:
-            c.significant = reliable and all(
-                helps(r, min_reduction) for r in (c.overall, c.given_best, c.refit))
+            c.significant = reliable and stepwise_helps(c.given_best, c.refit, min_reduction,
+                                                        also=(c.overall,))
         rest.sort(key=lambda c: (-np.nan_to_num(c.given_best.estimate, nan=-np.inf)
                                  if c.given_best else np.inf, c.name))
         cands = [cands[0], *rest]
         say(f"stepwise: {len(rest)} candidates added to {best.name} "
             f"({sim2.n_variants} variants, {sim2.seconds:.1f} s)")
-        sim.n_variants += sim2.n_variants
-        sim.n_case_runs += sim2.n_case_runs
-        sim.n_calls += sim2.n_calls
-        sim.seconds += sim2.seconds
+        _absorb(sim, sim2)
     for i, c in enumerate(cands, 1):
         c.rank = i
     findings: list[LawFinding] = []
     ident = None
+    law_stats: dict[str, Any] = {}
     if laws is not None:
-        findings, ident = _learn_laws(sim, base, held, laws, law_grid, folds, seed, level,
-                                      n_boot, min_reduction, reliable, rng, say)
+        findings, ident, law_stats = _learn_laws(sim, base, held, laws, law_grid, seed, level,
+                                                 n_boot, min_reduction, reliable, rng, say,
+                                                 law_rounds)
     after = best.cv if best is not None else base
     remaining = residual_associations(residual_variables(data, after.residuals), features,
                                       correction, alpha)
@@ -591,6 +677,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                 "simultaneous_confidence": level, "n_boot": n_boot,
                 "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
                 "candidates": names, "min_cases": min_cases, "reliable": reliable,
+                "law_rounds": law_rounds,
                 "fixed_parameters": ("neutral or nominal, per fold the better on the "
                                      "training cases" if parameters == "primary" else
                                      "none (all fitted)"),
@@ -601,7 +688,7 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
                      reliable=reliable, laws=findings, identification=ident)
     diag.verdict = _verdict(diag)
     diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
-                  "n_cases": data.n}
+                  "n_cases": data.n, **law_stats}
     return diag
 
 
@@ -624,39 +711,179 @@ def _closed_alternative(r: Any) -> dict[str, Any] | None:
     return alt
 
 
+def _with_effects(sim: VariantSimulator, effects: Iterable[Any]) -> VariantSimulator:
+    """A simulator of the same cases whose base model has ``effects`` added."""
+    p0 = sim.params
+    return VariantSimulator(sim.data, SimulationParams(
+        precrash=p0.precrash, impact=p0.impact, runout=p0.runout,
+        effects=tuple(p0.effects) + tuple(effects)))
+
+
+def _absorb(sim: VariantSimulator, other: VariantSimulator) -> None:
+    """Add the simulation counters of ``other`` to those of ``sim``."""
+    sim.n_variants += other.n_variants
+    sim.n_case_runs += other.n_case_runs
+    sim.n_calls += other.n_calls
+    sim.seconds += other.seconds
+
+
+def _law_effects(laws: Iterable[Mapping[str, Any]]) -> tuple[Any, ...]:
+    from vfs.effects.learned import law_effect_class
+
+    return tuple(law_effect_class(law)() for law in laws)
+
+
+def _outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
+                 held: Sequence[np.ndarray], say: Callable[[str], None]) -> np.ndarray:
+    """Held-out errors of the law of ``r`` (a table, or its best formula if that does
+    better on the outcomes: then ``r.law`` becomes the formula).
+    """
+    from vfs.analysis.learn import cross_validate_law
+
+    _, err = cross_validate_law(sim, table, r.law, held)
+    alt = _closed_alternative(r)
+    if alt is not None:  # a table won on the identified values: try the best formula
+        _, err2 = cross_validate_law(sim, table, alt, held)
+        if np.nanmean(err2) < np.nanmean(err):
+            r.law, err = alt, err2
+            say(f"  the formula does better on the outcomes: {alt['formula']}")
+    return err
+
+
+def _refit_all(table: pd.DataFrame, law: Mapping[str, Any]) -> dict[str, Any]:
+    """The law's form and feature refitted to all identifiable cases of ``table``."""
+    from vfs.analysis.learn import law_rows, refit_law
+
+    t, y, w = law_rows(table, law["channel"])
+    out = refit_law(law, t[law["feature"]].to_numpy(float), y, w)
+    from vfs.effects.learned import law_text
+
+    out["formula"] = law_text(out)
+    return out
+
+
 def _learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
-                channels: str | Iterable[str], grid: int, folds: int, seed: int,
+                channels: str | Iterable[str], grid: int, seed: int,
                 level: float, n_boot: int, min_reduction: float, reliable: bool,
-                rng: np.random.Generator, say: Callable[[str], None]
-                ) -> tuple[list[LawFinding], pd.DataFrame]:
-    """Identify, learn and cross-validate the laws (see :func:`diagnose`)."""
-    from vfs.analysis.identify import identification_features, identify
-    from vfs.analysis.learn import cross_validate_law, learn
+                rng: np.random.Generator, say: Callable[[str], None], rounds: int
+                ) -> tuple[list[LawFinding], pd.DataFrame, dict[str, float]]:
+    """Identify, learn, cross-validate and claim the laws stepwise (see :func:`diagnose`).
+
+    Returns the findings (claimed first, in the order claimed), the first
+    identification table and timings [s].
+    """
+    from vfs.analysis.identify import identification_features, identify, parse_channels
+    from vfs.analysis.learn import cross_validate_law, cross_validate_laws, learn
 
     t0 = time.perf_counter()
     data = sim.data
-    table = identify(data, channels, grid_points=grid, sim=sim)
-    table = table.merge(identification_features(data), on="case_id", how="left")
+    feats = identification_features(data)
+
+    def ident(s: VariantSimulator, names: Sequence[str]) -> pd.DataFrame:
+        t = identify(data, names, grid_points=grid, sim=s)
+        return t.merge(feats, on="case_id", how="left")
+
+    def learned(table: pd.DataFrame) -> list[Any]:
+        return learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000),
+                     band_boot=50)
+
+    def ci(err: np.ndarray, ref: np.ndarray) -> Reduction:
+        return Reduction(*reduction_ci(err, ref, rng, confidence=level, n_boot=n_boot))
+
+    order = parse_channels(channels)
+    table = ident(sim, order)
     say(f"identified {table['channel'].nunique()} channels per case in "
         f"{time.perf_counter() - t0:.1f} s")
     out = []
-    for r in learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000),
-                   band_boot=50):
+    for r in learned(table):
         say(r.text())
         if not r.significant or r.law is None:
             continue
-        _, err = cross_validate_law(sim, table, r.law, held)
-        alt = _closed_alternative(r)
-        if alt is not None:  # a table won on the identified values: try the best formula
-            _, err2 = cross_validate_law(sim, table, alt, held)
-            if np.nanmean(err2) < np.nanmean(err):
-                r.law, err = alt, err2
-                say(f"  the formula does better on the outcomes: {alt['formula']}")
-        red = Reduction(*reduction_ci(err, base.errors, rng, confidence=level, n_boot=n_boot))
+        err = _outcome_law(sim, table, r, held, say)
+        red = ci(err, base.errors)
         out.append(LawFinding(r.channel, r, red, err,
-                              significant=reliable and helps(red, min_reduction)))
+                              significant=reliable and helps(red, min_reduction), table=table))
     out.sort(key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
-    return out, table
+    stats = {"law_seconds": round(time.perf_counter() - t0, 2), "law_stepwise_seconds": 0.0}
+    first = next((f for f in out if f.significant), None)
+    for f in out:
+        f.significant = f is first
+    if first is None:
+        return out, table, stats
+    # forward stepwise: the other channels with structure, re-identified with the claimed
+    # laws applied (a missing law on one channel leaks into the identification of others)
+    t1 = time.perf_counter()
+    claimed = [first]
+    model: list[tuple[pd.DataFrame, dict[str, Any]]] = [(table, dict(first.learned.law))]
+    model_err = first.errors
+    latest = {f.channel: f for f in out if f is not first}
+    pending = [c for c in order if c in latest]
+    for rnd in range(1, rounds + 1):
+        if not pending:
+            break
+        on_top = tuple(f.channel for f in claimed)
+        sim_c = _with_effects(sim, _law_effects(law for _, law in model))
+        base_c = cross_validate(sim_c, FitSpace((), ()), held, "+".join(on_top),
+                                fit_all=False)
+        table_c = ident(sim_c, pending)
+        cands: list[LawFinding] = []
+        for r in learned(table_c):
+            say(f"round {rnd}, with the law(s) of {', '.join(on_top)} applied: {r.text()}")
+            prev = latest[r.channel]
+            if not r.significant or r.law is None:
+                if not prev.round:
+                    prev.on_top_of = on_top
+                prev.note = ("no structure in its identification with the law(s) of "
+                             f"{', '.join(on_top)} applied")
+                continue
+            err_g = _outcome_law(sim_c, table_c, r, held, say)
+            _, err_a = cross_validate_law(sim, table_c, r.law, held)
+            f = LawFinding(r.channel, r, ci(err_a, base.errors), err_a,
+                           given_claimed=ci(err_g, base_c.errors), on_top_of=on_top,
+                           round=rnd, table=table_c)
+            latest[r.channel] = f
+            cands.append(f)
+        _absorb(sim, sim_c)
+        cands.sort(key=lambda f: -np.nan_to_num(
+            f.given_claimed.estimate if f.given_claimed else math.nan, nan=-np.inf))
+        new = None
+        for f in cands:
+            if not helps(f.given_claimed, min_reduction):
+                continue
+            # the claimed laws refitted with it present: their channels re-identified with
+            # it (and the other claimed laws) applied, all laws refitted per fold together
+            law_f = f.learned.law
+            refit_model = []
+            for k, (_, law) in enumerate(model):
+                others = [m for j, (_, m) in enumerate(model) if j != k] + [law_f]
+                sim_r = _with_effects(sim, _law_effects(others))
+                refit_model.append((ident(sim_r, [law["channel"]]), law))
+                _absorb(sim, sim_r)
+            _, err_r = cross_validate_laws(sim, [*refit_model, (table_c, law_f)], held)
+            f.refit = ci(err_r, model_err)
+            f.kept = ci(err_r, f.errors)
+            f.significant = stepwise_helps(f.given_claimed, f.refit, min_reduction,
+                                           also=(f.kept,))
+            say(f"round {rnd}: {f.text()}{' (claimed)' if f.significant else ''}")
+            if f.significant:
+                new = f
+                model = [(t, _refit_all(t, law)) for t, law in refit_model] + [(table_c, law_f)]
+                model_err = err_r
+                break
+        if new is None:
+            break
+        claimed.append(new)
+        pending = [c for c in pending if c != new.channel and latest[c].round == rnd]
+        if rnd == rounds:
+            for c in pending:
+                latest[c].note = f"stepwise rounds capped at {rounds}"
+    stats["law_stepwise_seconds"] = round(time.perf_counter() - t1, 2)
+    stats["law_seconds"] = round(time.perf_counter() - t0, 2)
+    say(f"stepwise law claims: {', '.join(f.channel for f in claimed)} "
+        f"({stats['law_stepwise_seconds']:.1f} s)")
+    rest = sorted((f for f in latest.values() if not f.significant),
+                  key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
+    return claimed + rest, table, stats
 
 
 def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.ndarray
@@ -745,9 +972,21 @@ def _verdict(diag: Diagnosis) -> list[str]:
                    "vfs learn --out law.json and --plugin law.json (or --export-plugin "
                    "law.py to edit it).")
         if len(law_sig) > 1:
-            out.append("Other identified channels with structure (partly the same missing "
-                       "physics seen through another channel): "
-                       + "; ".join(x.text() for x in law_sig[1:4]) + ".")
+            out.append("Claimed stepwise on top of it (each channel re-identified with the "
+                       "laws claimed before applied; the law helps on top of them and with them "
+                       "refitted together, and they still help with it; add them together): "
+                       + "; ".join(x.text() for x in law_sig[1:]) + ".")
+        rest = [x for x in diag.laws if not x.significant]
+        if rest:
+            out.append(
+                "Not claimed (structure in the identified values that the claimed laws "
+                "explain or that does not lower the outcome error on top of them): "
+                + "; ".join(f"{x.channel} ~ {x.learned.law['feature']} (alone "
+                            f"{_red(x.outcome)}"
+                            + (f", on top {_red(x.given_claimed)}" if x.given_claimed else "")
+                            + (f", refitted together {_red(x.refit)}" if x.refit else "")
+                            + f"; {x.status}{'; ' + x.note if x.note else ''})"
+                            for x in rest[:6]) + ".")
     elif diag.identification is not None:
         out.append("The per-case identification shows no channel law that lowers the "
                    "cross-validated error significantly.")
@@ -820,9 +1059,15 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
             .to_dict(orient="records") if len(diag.remaining) else [],
         },
         "worst_cases": diag.worst.to_dict(orient="records"),
-        "laws": [{"channel": f.channel, "significant": f.significant,
+        "claimed_laws": [f.channel for f in diag.laws if f.significant],
+        "laws": [{"channel": f.channel, "significant": f.significant, "status": f.status,
+                  "round": f.round, "on_top_of": list(f.on_top_of), "note": f.note,
                   "law": f.learned.law, "text": f.text(),
                   "outcome_reduction": f.outcome.as_dict(),
+                  "reduction_given_claimed": f.given_claimed.as_dict()
+                  if f.given_claimed else None,
+                  "reduction_refit": f.refit.as_dict() if f.refit else None,
+                  "reduction_claimed_kept": f.kept.as_dict() if f.kept else None,
                   "identified_reduction": {"estimate": f.learned.reduction,
                                            "low": f.learned.low, "high": f.learned.high,
                                            "null": f.learned.null}}
@@ -838,9 +1083,9 @@ def output_names() -> list[str]:
 
 __all__ = [
     "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
-    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "LawFinding", "Reduction", "case_features",
-    "diagnose", "helps",
+    "LAW_ROUNDS", "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "LawFinding", "Reduction",
+    "case_features", "diagnose", "helps",
     "output_names",
     "residual_associations", "residual_variables", "resolve_candidates",
-    "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases",
+    "rmse_reduction", "stepwise_helps", "stratified_residuals", "summary_dict", "worst_cases",
 ]

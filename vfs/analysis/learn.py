@@ -45,6 +45,14 @@ CV reduction (1 - sqrt of the ratio of mean losses) against the null model
 the EES stiffness ratio m1 / m2 of the default model) lies above zero and
 the reduction reaches ``min_reduction``; otherwise the channel is reported
 as "no structure".
+
+"Significant" here is structure in the identified values only, and each
+channel was identified with all other channels at the model's values: a
+law missing on one channel leaks into the identification of others, which
+then show structure too.  There is no outcome cross-validation here;
+``vfs diagnose --laws`` decides which laws are claimed (outcome CV, the
+further laws stepwise on channels re-identified with the claimed laws
+applied; :func:`vfs.analysis.diagnose.diagnose`).
 """
 
 from __future__ import annotations
@@ -313,7 +321,8 @@ class ChannelLaw:
         return (f"{self.channel} follows f({self.law['feature']}): {law_text(self.law)}; "
                 f"CV reduction vs {'the model' if self.null == 'model' else 'a constant'} "
                 f"{100 * self.reduction:.1f} % "
-                f"[{100 * self.low:.1f}, {100 * self.high:.1f}] ({self.n} cases)")
+                f"[{100 * self.low:.1f}, {100 * self.high:.1f}] ({self.n} cases; structure in "
+                "the identified values)")
 
 
 def _cv_predictions(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
@@ -415,13 +424,9 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
     from vfs.effects.learned import law_effect_class
 
     data = sim.data
-    t, y, w = law_rows(table, law["channel"])
-    pos = pd.Index(data.case_ids).get_indexer(t["case_id"])
-    x = t[law["feature"]].to_numpy(float)
     models = []
     for k, h in enumerate(held):
-        tr = ~np.isin(pos, h)
-        lk = refit_law(law, x[tr], y[tr], w[tr], name=f"{law['name']}_cv{k}")
+        lk = _fold_law(data, table, law, h, k)
         if polish and lk["form"] != "table":
             from vfs.analysis.calibrate import FitSpace, fit_folds
 
@@ -436,11 +441,64 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
             models.append(space.model(fit.x[0]))
         else:
             models.append((law_effect_class(lk)(),))
+    return _held_out(sim, models, held)
+
+
+def _fold_law(data: Any, table: pd.DataFrame, law: Mapping[str, Any], h: np.ndarray,
+              k: int) -> dict[str, Any]:
+    """The law refitted to the identified values of the cases outside fold ``h``."""
+    t, y, w = law_rows(table, law["channel"])
+    pos = pd.Index(data.case_ids).get_indexer(t["case_id"])
+    x = t[law["feature"]].to_numpy(float)
+    tr = ~np.isin(pos, h)
+    out = refit_law(law, x[tr], y[tr], w[tr], name=f"{law['name']}_cv{k}")
+    if out["form"] == "table":  # the simulator's cache knows a table law by name only
+        import hashlib
+
+        digest = hashlib.sha1(np.asarray(out["table"]["y"], float).tobytes()).hexdigest()
+        out["name"] = f"{out['name']}_{digest[:10]}"
+    return out
+
+
+def _held_out(sim: Any, models: Sequence[Any], held: Sequence[np.ndarray]
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Held-out residuals and per-case errors of one model per fold (one stacked call)."""
+    data = sim.data
     res = sim.residuals(models)
     residuals = np.full_like(data.observed, np.nan)
     for h, r in zip(held, res, strict=True):
         residuals[h] = r[h]
     return residuals, data.case_errors(residuals)
+
+
+def cross_validate_laws(sim: Any, laws: Sequence[tuple[pd.DataFrame, Mapping[str, Any]]],
+                        held: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Cross-validated outcome errors of several laws used together as effects.
+
+    As :func:`cross_validate_law`, each law refitted per fold to the
+    training cases' identified values of its own identification table (the
+    laws of a stepwise model come from identifications conditional on each
+    other, :func:`vfs.analysis.diagnose.diagnose`); all laws of a fold are
+    applied together.
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    laws : sequence of (table, law)
+        Identification table (joined with the features) and law mapping.
+    held : sequence of int arrays
+        Held-out rows (positions in ``sim.data``).
+
+    Returns
+    -------
+    (residuals, errors)
+        Held-out residuals (n, n_columns) and per-case errors (n, n_groups).
+    """
+    from vfs.effects.learned import law_effect_class
+
+    models = [tuple(law_effect_class(_fold_law(sim.data, t, law, h, k))() for t, law in laws)
+              for k, h in enumerate(held)]
+    return _held_out(sim, models, held)
 
 
 def learn_channel(table: pd.DataFrame, channel: str,
@@ -590,10 +648,18 @@ def learn(table: pd.DataFrame, channels: Iterable[str] | None = None,
     return [learn_channel(table, c, **options) for c in names]
 
 
+#: What "significant" means in ``vfs learn`` (its output and ``law.json``).
+LEARN_SCOPE = ("significant = structure in the identified values, each channel identified "
+               "with the other channels at the model's values (a law missing on one channel "
+               "leaks into the others); not cross-validated on the outcomes: vfs diagnose "
+               "--laws decides which laws are claimed")
+
+
 def laws_document(results: Sequence[ChannelLaw]) -> dict[str, Any]:
     """JSON-ready ``law.json``: the significant laws and the channels without structure."""
     return {
         "format": "vfs-law/1",
+        "note": LEARN_SCOPE,
         "laws": [r.law for r in results if r.significant and r.law is not None],
         "results": [{"channel": r.channel, "significant": r.significant, "cases": r.n,
                      "text": r.text(), "reduction": r.reduction, "ci_low": r.low,
@@ -701,8 +767,9 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES",
+__all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES", "LEARN_SCOPE",
            "MIN_LAW_CASES", "ROBUST_ITERATIONS", "SPLINE_ROBUST_ITERATIONS", "ChannelLaw",
-           "cross_validate_law", "fit_form", "law_rows", "laws_document", "learn",
+           "cross_validate_law", "cross_validate_laws", "fit_form", "law_rows",
+           "laws_document", "learn",
            "learn_channel", "plugin_source", "predict_spline", "read_laws", "refit_law",
            "robust_loss", "robust_scale"]

@@ -48,7 +48,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
                     zoom_rounds=s["zoom"], n_boot=s["n_boot"], correction=args.correction,
                     alpha=args.alpha, min_reduction=args.min_reduction, worst=args.worst,
                     database=str(path), progress=say,
-                    laws=None if args.laws in ("", "none") else args.laws)
+                    laws=None if args.laws in ("", "none") else args.laws,
+                    **({} if args.law_rounds is None else {"law_rounds": args.law_rounds}))
     paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
     print(diag.ranked_table()[["rank", "effect", "significant", "reduction", "ci_low",
@@ -214,7 +215,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="worst cases listed and sketched (default 6)")
     p.add_argument("--laws", default="all",
                    help="channels identified per case and learned (vfs identify / learn) "
-                   "after the ranking: 'all' (default), a list, or 'none'")
+                   "after the ranking: 'all' (default), a list, or 'none'; the best law "
+                   "is claimed if it helps, further laws stepwise on channels re-identified "
+                   "with the claimed laws applied")
+    p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
+                   help="most stepwise rounds of the law claims after the first (default "
+                   "vfs.analysis.diagnose.LAW_ROUNDS)")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

@@ -51,7 +51,7 @@ def _read_identified(folder: str) -> object:
 
 def cmd_learn(args: argparse.Namespace) -> int:
     """Learn the laws of the identified channels; write law.json and/or a plugin."""
-    from vfs.analysis.learn import laws_document, learn, plugin_source, read_laws
+    from vfs.analysis.learn import LEARN_SCOPE, laws_document, learn, plugin_source, read_laws
     from vfs.atomic import write_json, write_text
 
     laws = None
@@ -61,6 +61,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
         results = learn(table, channels, folds=args.folds, seed=args.seed)
         for r in results:
             say(r.text())
+        say(f"Note: {LEARN_SCOPE}.")
         doc = laws_document(results)
         if args.out:
             write_json(args.out, doc, strict=False)
@@ -110,7 +111,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Regress each identified channel on the case features with k-fold CV (closed "
             "forms and a smoothing spline), write the significant laws (law.json, usable "
-            "with --plugin law.json) and optionally an editable Python plugin."))
+            "with --plugin law.json) and optionally an editable Python plugin. Significant "
+            "means structure in the identified values (each channel identified with the "
+            "others at the model's values, so a law missing on one channel leaks into "
+            "others); vfs diagnose --laws decides which laws are claimed (outcome CV, "
+            "stepwise)."))
     q.add_argument("--identified", default=None, help="folder written by vfs identify")
     q.add_argument("--law", default=None, help="existing law.json (to export a plugin)")
     q.add_argument("--channels", default=None, help="channels to learn (default all)")

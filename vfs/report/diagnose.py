@@ -184,8 +184,9 @@ def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
     from vfs.effects.learned import evaluate_law
 
     law = finding.learned.law
-    t, y, _ = law_rows(diag.identification, finding.channel) \
-        if diag.identification is not None else (pd.DataFrame(), np.array([]), None)
+    table = finding.table if finding.table is not None else diag.identification
+    t, y, _ = law_rows(table, finding.channel) \
+        if table is not None else (pd.DataFrame(), np.array([]), None)
     fig = new_figure((6, 4))
     ax = fig.subplots()
     if len(t):
@@ -201,7 +202,9 @@ def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
     ax.set_xlabel(f"{law['feature']} [{law['feature_unit']}]")
     ax.set_ylabel(f"{law['channel']} [{law['channel_unit']}]")
     ax.legend(fontsize=7)
-    ax.set_title(f"Learned law of {law['channel']}", fontsize=10)
+    ax.set_title(f"Learned law of {law['channel']} ({finding.status})"
+                 + (f"\nidentified with the law(s) of {', '.join(finding.on_top_of)} applied"
+                    if finding.round else ""), fontsize=10)
     save_figure(fig, path, dpi=110, tight=True)
     return path
 
@@ -251,6 +254,17 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
         items.append(f"Beyond the library: the identified {f.channel} follows "
                      f"{f.learned.law['formula']}, lowering the outcome error by "
                      f"{red(f.outcome)}.")
+        if len(laws) > 1:
+            items.append("Claimed stepwise on top of it (re-identified with the laws claimed "
+                         "before applied): " + ", ".join(
+                             f"`{x.channel}` ~ {x.learned.law['feature']} "
+                             f"{red(x.given_claimed)}" for x in laws[1:]
+                             if x.given_claimed is not None) + ".")
+        others = [x for x in diag.laws if not x.significant]
+        if others:
+            items.append("Not claimed: " + ", ".join(
+                f"`{x.channel}` ~ {x.learned.law['feature']} ({x.status})"
+                for x in others[:4]) + ".")
     d = diag.data
     rmse = np.asarray(diag.default.rmse(), float)
     if rmse.size and np.isfinite(rmse).any():
@@ -348,7 +362,21 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                 "outcome CV reduction [%]": [
                     f"{_pct(f.outcome.estimate)} ({_pct(f.outcome.low)} .. "
                     f"{_pct(f.outcome.high)})" for f in diag.laws],
-                "helps": [f.significant for f in diag.laws]})))
+                "on top of the claimed laws [%]": [
+                    f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})" if r else ""
+                    for r in (f.given_claimed for f in diag.laws)],
+                "claimed laws refitted with it [%]": [
+                    f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})" if r else ""
+                    for r in (f.refit for f in diag.laws)],
+                "status": [f.status for f in diag.laws]})))
+            doc.append(Paragraph(
+                "The best law is claimed if its outcome CV reduction helps; the other "
+                "channels are then re-identified with the claimed laws applied (a missing "
+                "law on one channel leaks into the identification of the others), their "
+                "laws learned anew, and a law is claimed on top only if it helps on top of "
+                "the claimed laws and with them refitted together, and they still help with "
+                "it (at most "
+                f"{diag.settings.get('law_rounds', '?')} stepwise rounds)."))
         else:
             doc.append(Paragraph("No identified channel shows a law."))
         for k, f in enumerate(diag.laws[:3]):

@@ -7,9 +7,12 @@ The recipe of docs/gym.md, "Training" (stable-baselines3, ``pip install "vfs[rl]
 - the sensor view with the threat entries (``threat_features``: yaw rates, the
   constant-velocity miss distance, the constant-turn-rate TTC of the outlines), normalised
   by ``VecNormalize`` (rewards left as they are: they are already risks of order 1),
-- near misses drawn more often (``near_miss_weight``) and unnecessary braking priced
-  higher (``reward.unnecessary_brake_weight``), so that the policy learns where braking
-  is not needed,
+- near misses drawn more often (``near_miss_weight``), unnecessary braking priced
+  higher (``reward.unnecessary_brake_weight``) and braking at all in a near miss priced
+  once (``reward.false_activation_weight``), so that the policy learns where braking is
+  not needed; a small cost of any collision (``reward.collision_weight``).  These
+  settings were chosen on a validation share of the train split (docs/gym.md,
+  "Training"),
 - PPO with discount 0.99 per decision (a horizon of about 10 s), short rollouts over many
   sub-environments, a budget of CPU time on one core (``torch.set_num_threads(1)``),
 - the model, its normalisation statistics and its environment settings saved together, so
@@ -52,7 +55,8 @@ ENV_KWARGS: dict[str, Any] = {
     "action_repeat": 10,
     "threat_features": True,
     "near_miss_weight": 4.0,
-    "reward": {"unnecessary_brake_weight": 0.5},
+    "reward": {"unnecessary_brake_weight": 0.5, "false_activation_weight": 2.0,
+               "collision_weight": 0.3},
 }
 #: PPO settings of the recipe.
 PPO_KWARGS: dict[str, Any] = {

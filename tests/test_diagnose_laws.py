@@ -14,7 +14,8 @@ import pytest
 from conftest import slow_scale
 from test_learn import LAWS
 
-from vfs.analysis.diagnose import LawFinding, Reduction, diagnose, helps, stepwise_helps
+from vfs.analysis.claims import LawFinding, Reduction, helps, stepwise_helps
+from vfs.analysis.diagnose import diagnose
 from vfs.scenarios.generator import generate_database
 
 #: Channels learned in the slow tests: the two of the pair and two that showed structure

@@ -14,7 +14,8 @@ from vfs.analysis.calibrate import (
     cross_validate_many,
     kfold_indices,
 )
-from vfs.analysis.diagnose import MIN_CASES, Reduction, diagnose, helps
+from vfs.analysis.claims import Reduction, helps
+from vfs.analysis.diagnose import MIN_CASES, diagnose
 from vfs.effects import get_effect
 from vfs.scenarios.generator import generate_database
 

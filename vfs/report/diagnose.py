@@ -18,7 +18,8 @@ import numpy as np
 import pandas as pd
 
 from vfs.accident_types import accident_type_label
-from vfs.analysis.diagnose import Diagnosis, LawFinding, summary_dict
+from vfs.analysis.claims import LawFinding
+from vfs.analysis.diagnose import Diagnosis, summary_dict
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import (
     new_figure,

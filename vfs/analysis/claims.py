@@ -12,6 +12,7 @@ learned from the identification with the claimed laws applied (docs/diagnosis.md
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -28,7 +29,6 @@ from vfs.analysis.calibrate import (
     cross_validate,
     reduction_ci,
 )
-from vfs.simulation import SimulationParams
 
 #: Most stepwise rounds of the law claims of :func:`learn_laws` (after the first law).
 LAW_ROUNDS = 3
@@ -152,7 +152,6 @@ def format_reduction(r: Reduction) -> str:
     return f"{100 * r.estimate:.1f} % [{100 * r.low:.1f}, {100 * r.high:.1f}]"
 
 
-
 def closed_alternative(r: Any) -> dict[str, Any] | None:
     """The best closed form over the law's feature when the law is a table."""
     from vfs.effects.learned import law_text
@@ -174,10 +173,8 @@ def closed_alternative(r: Any) -> dict[str, Any] | None:
 
 def with_effects(sim: VariantSimulator, effects: Iterable[Any]) -> VariantSimulator:
     """A simulator of the same cases whose base model has ``effects`` added."""
-    p0 = sim.params
-    return VariantSimulator(sim.data, SimulationParams(
-        precrash=p0.precrash, impact=p0.impact, runout=p0.runout,
-        effects=tuple(p0.effects) + tuple(effects)))
+    return VariantSimulator(sim.data, dataclasses.replace(
+        sim.params, effects=tuple(sim.params.effects) + tuple(effects)))
 
 
 def absorb_counters(sim: VariantSimulator, other: VariantSimulator) -> None:
@@ -196,7 +193,7 @@ def law_effects(laws: Iterable[Mapping[str, Any]]) -> tuple[Any, ...]:
 
 
 def outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
-                 held: Sequence[np.ndarray], say: Callable[[str], None]) -> np.ndarray:
+                held: Sequence[np.ndarray], say: Callable[[str], None]) -> np.ndarray:
     """Held-out errors of the law of ``r`` (a table, or its best formula if that does
     better on the outcomes: then ``r.law`` becomes the formula).
     """
@@ -229,7 +226,9 @@ def learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
                 level: float, n_boot: int, min_reduction: float, reliable: bool,
                 rng: np.random.Generator, say: Callable[[str], None], rounds: int
                 ) -> tuple[list[LawFinding], pd.DataFrame, dict[str, float]]:
-    """Identify, learn, cross-validate and claim the laws stepwise (see :func:`diagnose`).
+    """Identify, learn, cross-validate and claim the laws stepwise.
+
+    See :func:`vfs.analysis.diagnose.diagnose` (``laws``, ``law_rounds``).
 
     Returns the findings (claimed first, in the order claimed), the first
     identification table and timings [s].

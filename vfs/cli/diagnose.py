@@ -220,7 +220,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "with the claimed laws applied")
     p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
                    help="most stepwise rounds of the law claims after the first (default "
-                   "vfs.analysis.diagnose.LAW_ROUNDS)")
+                   "vfs.analysis.claims.LAW_ROUNDS)")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

@@ -78,11 +78,12 @@ PROTOCOL = (
     "rule; n = vehicles of the cases with the same impact type in "
     "reconstruction and VFS; paired t-test. The paper's numbers come from 36 real fatal "
     "head-on accidents reconstructed with PC-Crash; ours from the database compared, so "
-    "they agree only as far as the reconstructed populations agree (columns "
-    "'reconstruction ours / paper').")
+    "they agree only as far as the reconstructed populations agree (columns 'rec.' "
+    "and 'paper rec.').")
 
 
-def _labels(outcome: str, group: str) -> str:
+def table1_label(outcome: str, group: str) -> str:
+    """The Table 1 row label of an outcome and group, as ``Comparison.table1`` names it."""
     names = {"delta_v": "Delta-v", "ees": "EES",
              "velocity_angle_change": "Change of velocity angle"}
     unit = "deg" if outcome == "velocity_angle_change" else "km/h"
@@ -121,7 +122,7 @@ def side_by_side_table1(comparison: Any) -> pd.DataFrame:
         p = float(o["p_value"]) if o is not None else np.nan
         d_paper = r.mean_vfs - r.mean_reconstruction
         rows.append({
-            "parameter": _labels(r.outcome, r.group), "paper_n": r.n,
+            "parameter": table1_label(r.outcome, r.group), "paper_n": r.n,
             "paper_reconstruction": r.mean_reconstruction, "paper_vfs": r.mean_vfs,
             "paper_difference": d_paper, "paper_p": r.p_value,
             "n": n, "reconstruction": rec, "vfs": vfs, "difference": vfs - rec, "p_value": p,
@@ -187,4 +188,4 @@ def population_notes(table: pd.DataFrame) -> list[str]:
 __all__ = ["PAPER_CHI2_P_AT_MOST", "PAPER_MEAN_RESOLUTION", "PAPER_POI_DISTANCES",
            "PAPER_P_RESOLUTION", "PAPER_TABLE1", "PAPER_TYPE_COUNTS", "POPULATION_FACTOR",
            "PROTOCOL", "PaperTable1Row", "chi2_sentence", "population_notes",
-           "side_by_side_table1", "side_by_side_types"]
+           "side_by_side_table1", "side_by_side_types", "table1_label"]

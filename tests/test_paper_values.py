@@ -219,3 +219,25 @@ def test_study36_seed0_side_by_side_values(setting):
     assert float(row.group(5)) == pytest.approx(c.contingency.chi2_pvalue, abs=0.00005)
     poi = c.poi_distances.set_index("group").loc["all", "mean"]
     assert float(row.group(6)) == pytest.approx(poi, abs=0.0005)
+    # the report's side-by-side section: the paper's numbers beside exactly these, and the
+    # sliding velocity-angle row named as a different population (compare.md: 43-78 deg
+    # against the paper's 12.8 deg)
+    from vfs.analysis.paper_reference import (
+        PAPER_TABLE1,
+        population_notes,
+        side_by_side_table1,
+        side_by_side_types,
+    )
+
+    side = side_by_side_table1(c)
+    assert side["paper_reconstruction"].tolist() == [r.mean_reconstruction for r in PAPER_TABLE1]
+    np.testing.assert_array_equal(side["vfs"] - side["reconstruction"],
+                                  c.table1["mean_vfs"] - c.table1["mean_reconstruction"])
+    notes = population_notes(side)
+    assert any(n.startswith("Change of velocity angle, sliding") for n in notes)
+    sliding = side.set_index("parameter").loc["Change of velocity angle, sliding impacts [deg]"]
+    assert 43 <= sliding["reconstruction"] <= 78
+    types = side_by_side_types(c).set_index("group")
+    assert types.loc["type changed", "cases"] == t.loc["full", "sliding"] + t.loc[
+        "sliding", "full"]
+    assert types.loc["all", "cases"] == 36 and types.loc["all", "paper_cases"] == 36

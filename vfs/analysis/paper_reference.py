@@ -114,8 +114,8 @@ def side_by_side_table1(comparison: Any) -> pd.DataFrame:
     ours = comparison.table1.set_index(["outcome", "group"]) if len(comparison.table1) else None
     rows = []
     for r in PAPER_TABLE1:
-        have = ours is not None and (r.outcome, r.group) in ours.index
-        o = ours.loc[(r.outcome, r.group)] if have else None
+        o = (ours.loc[(r.outcome, r.group)]
+             if ours is not None and (r.outcome, r.group) in ours.index else None)
         n = int(o["n"]) if o is not None else 0
         rec = float(o["mean_reconstruction"]) if o is not None else np.nan
         vfs = float(o["mean_vfs"]) if o is not None else np.nan

@@ -17,8 +17,9 @@ Regenerate with ``python -m vfs.scenarios.crash_tests vfs/data/crash-tests``.
 
 Measured outcomes go into the reconstruction table with ``outcome_source =
 'measurement'``; outcomes the papers' text does not give are NaN (not
-measured); values a paper computed (the Opel's CRASH3 EES) are ``paper_*`` columns.  Measured quantities without a schema column are extra columns
-``measured_*`` (SI), the papers' identified model parameters ``paper_*``.
+measured).  Measured quantities without a schema column are extra columns
+``measured_*`` (SI); the papers' identified model parameters and computed values (the
+Opel's CRASH3 EES) are ``paper_*`` columns, never outcomes.
 """
 
 from __future__ import annotations

@@ -45,7 +45,7 @@ from vfs.analysis.stats import (
     holm_bonferroni,
     paired_comparison,
 )
-from vfs.database.schema import RECONSTRUCTION
+from vfs.database.schema import OUTCOME_MEASUREMENT, RECONSTRUCTION
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import Outcome, from_reconstruction, from_results, get_outcome, unit_factors
 from vfs.physics.geometry import to_vehicle_frame
@@ -64,8 +64,11 @@ GROUP_FULL = "both full"
 GROUP_SLIDING = "both sliding"
 #: Impact type differs between reconstruction and VFS (either direction).
 GROUP_CHANGED = "type changed"
+#: The reconstruction gives no impact type (an instrumented test that does not measure one,
+#: ``impact_type = ''``): neither agreement nor a change.  Listed only when present.
+GROUP_UNKNOWN = "type unknown"
 #: The groups of every grouped table, in table order (the Momentum Based Impact Model paper,
-# section 6).
+# section 6); :data:`GROUP_UNKNOWN` follows when a case has it.
 GROUPS: tuple[str, ...] = (GROUP_ALL, GROUP_FULL, GROUP_SLIDING, GROUP_CHANGED)
 
 #: Case compared (the VFS found an impact).
@@ -401,8 +404,12 @@ class Comparison:
             f"Bowker {_fmt_p(c.bowker_pvalue)}; kappa = {_fmt(c.kappa)}",
         ]
         poi = self.poi_distances.set_index("group")
-        lines.append("POI distance [m] mean (n): " + ", ".join(
-            f"{g} {_fmt(poi.loc[g, 'mean'])} ({int(poi.loc[g, 'n'])})" for g in GROUPS))
+        if int(poi.loc[GROUP_ALL, "n"]) == 0:
+            lines.append("POI distance: none (no reconstructed POI; a crash test's POI is "
+                         "the assumed set-up)")
+        else:
+            lines.append("POI distance [m] mean (n): " + ", ".join(
+                f"{g} {_fmt(poi.loc[g, 'mean'])} ({int(poi.loc[g, 'n'])})" for g in GROUPS))
         for _, row in self.table1.iterrows():
             lines.append(f"{row['parameter']}: n = {row['n']}, reconstruction "
                          f"{_fmt(row['mean_reconstruction'], 2)}, VFS {_fmt(row['mean_vfs'], 2)},"
@@ -654,9 +661,10 @@ def _case_status(rec: pd.DataFrame, vfs: pd.DataFrame) -> pd.DataFrame:
                          np.where(labelled, NO_IMPACT_CATEGORY, None)).astype(object)
     ok = status == STATUS_OK
     group = np.select(
-        [~ok, (ref_type == "full") & (vfs_label == "full"),
+        [~ok, ~np.isin(ref_type, list(IMPACT_CATEGORIES)),
+         (ref_type == "full") & (vfs_label == "full"),
          (ref_type == "sliding") & (vfs_label == "sliding")],
-        [np.full(len(ok), None), GROUP_FULL, GROUP_SLIDING], GROUP_CHANGED,
+        [np.full(len(ok), None), GROUP_UNKNOWN, GROUP_FULL, GROUP_SLIDING], GROUP_CHANGED,
     ).astype(object)
     group = np.where(ok, group, None)
     return pd.DataFrame({
@@ -722,9 +730,12 @@ def _distance_stats(distance: np.ndarray, group_case: np.ndarray,
 
 
 def _group_masks(groups: np.ndarray) -> dict[str, np.ndarray]:
-    """Boolean masks of :data:`GROUPS` over an array of group labels (None = not compared)."""
+    """Boolean masks of :data:`GROUPS` (and :data:`GROUP_UNKNOWN` where a case has it) over
+    an array of group labels (None = not compared).
+    """
     compared = np.array([g is not None for g in groups], dtype=bool)
-    return {g: compared if g == GROUP_ALL else (groups == g) for g in GROUPS}
+    names = (*GROUPS, GROUP_UNKNOWN) if np.any(groups == GROUP_UNKNOWN) else GROUPS
+    return {g: compared if g == GROUP_ALL else (groups == g) for g in names}
 
 
 def compare_tables(
@@ -812,7 +823,11 @@ def compare_tables(
     vx, vy = _poi_local(vfs_n)
     pairs["reference_poi_x"], pairs["reference_poi_y"] = rx.ravel(), ry.ravel()
     pairs["vfs_poi_x"], pairs["vfs_poi_y"] = vx.ravel(), vy.ravel()
-    poi_distance = np.hypot(vx - rx, vy - ry).ravel()
+    poi_distance = np.hypot(vx - rx, vy - ry)
+    # An instrumented test's POI is the assumed set-up (vfs/data/crash-tests/README.md,
+    # "Assumptions"), not an observation: no distance to report.
+    poi_distance[_assumed_poi(rec_n)] = np.nan
+    poi_distance = poi_distance.ravel()
     pairs["poi_distance"] = poi_distance
     rest_distance = np.full(2 * n_cases, np.nan)
     if "rest_x" in values and "rest_y" in values:
@@ -853,6 +868,19 @@ def compare_tables(
         rest_distances=rest_stats, paired=paired, table1=table1, case_errors=errors,
         params=params,
     )
+
+
+def _assumed_poi(rec: pd.DataFrame) -> np.ndarray:
+    """Cases whose POI is assumed, not reconstructed: measurement rows (crash tests).
+
+    A reconstruction row's POI is the expert's result; an instrumented test measures
+    outcomes, while its POI and contact plane are the configuration the database author
+    assumed to replay it (``outcome_source = 'measurement'``, schema of
+    docs/data-format.md).
+    """
+    if "outcome_source" not in rec.columns:
+        return np.zeros(len(rec), bool)
+    return (rec["outcome_source"].astype(object) == OUTCOME_MEASUREMENT).to_numpy(bool)
 
 
 def _vehicle_dimensions(participants: pd.DataFrame | None,
@@ -1042,6 +1070,7 @@ __all__ = [
     "GROUPS",
     "GROUP_ALL",
     "GROUP_CHANGED",
+    "GROUP_UNKNOWN",
     "GROUP_FULL",
     "GROUP_SLIDING",
     "OUTCOMES",

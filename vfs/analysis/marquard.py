@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.physics.marquard import post_impact_speed, rotation_factor
+from vfs.physics.marquard import post_impact_speed, rotation_factor, within_fitted_range
 
 
 def braking_friction(road_friction: np.ndarray, wheel_brake: np.ndarray,
@@ -57,9 +57,10 @@ def marquard_check(batch: Any, results: Any, params: Any = None) -> pd.DataFrame
         ``case_id``, ``vehicle``, ``distance`` [m] (straight line from separation to
         rest), ``rotation`` [rad], ``rotation_factor`` k [-], ``friction`` [-] (used by
         the braking), ``speed_model`` and ``speed_marquard`` [m/s], ``ratio``
-        (Marquard / model), ``secondary_collision`` and ``at_rest``.  Rows whose
-        run-out did not reach rest, or whose k lies outside the empirical fit (k_s <=
-        0), have NaN ``speed_marquard``.
+        (Marquard / model), ``secondary_collision``, ``at_rest`` and
+        ``within_fitted_range`` (k <= :data:`vfs.physics.marquard.ROTATION_FACTOR_MAX`).
+        Rows whose run-out did not reach rest, or whose k lies outside the range the
+        cubic can describe, have NaN ``speed_marquard``.
     """
     from vfs.physics.runout import RunoutParams
 
@@ -87,6 +88,7 @@ def marquard_check(batch: Any, results: Any, params: Any = None) -> pd.DataFrame
                 "case_id": np.asarray(batch.case_id)[hit], "vehicle": i + 1,
                 "distance": dist, "rotation": rot,
                 "rotation_factor": rotation_factor(rot, length, dist), "friction": mu,
+                "within_fitted_range": within_fitted_range(rotation_factor(rot, length, dist)),
                 "speed_model": speed, "speed_marquard": v_m, "ratio": v_m / speed,
                 "secondary_collision": np.asarray(run.secondary_collision, bool)[hit],
                 "at_rest": at_rest,

@@ -238,7 +238,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
     s = subparsers.add_parser(
         "sensitivity", help="Sobol indices of the outcomes on the uncertain inputs, full vs "
-        "sliding impacts (the Momentum Based Impact Model paper's ANOVA)",
+        "sliding impacts (the variance-based analysis the Momentum Based Impact Model paper's "
+        "outlook proposes as an ANOVA; the paper itself ran none)",
         description="Saltelli sampling and the Saltelli (2010) / Jansen (1999) estimators of "
         "first-order and total Sobol indices per case, averaged over the cases whose nominal "
         "impact is full and those whose nominal impact is sliding, with bootstrap intervals, "

@@ -19,9 +19,9 @@ In both, eps multiplies both components (PC-Crash convention,
 docs/references.md), so in a sliding impact T/N = mu holds for the total
 impulse too.  Momentum balance (the Collision Calculation Uncertainty paper, eqs. 6-9) and angular
 momentum
-balance about each CG (the Collision Calculation Uncertainty paper, eqs. 10-11, whose levers point
-from the POI
-to the CG) close the system.
+balance about each CG (the Collision Calculation Uncertainty paper, eqs. 10-11, whose levers
+n_ic, t_ic are the coordinates of the contact point relative to each centre of gravity)
+close the system.
 
 Conventions (docs/physics.md has the figure):
 

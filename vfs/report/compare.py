@@ -589,6 +589,13 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", tables[name])
     files["contingency"] = write_atomic(folder / "contingency.csv",
                                         comparison.contingency.table.to_csv)
+    if comparison.measured is None or not len(comparison.measured):
+        from vfs.analysis.paper_reference import side_by_side_table1, side_by_side_types
+
+        files["paper_table1"] = write_table(folder / "paper_table1.csv",
+                                            side_by_side_table1(comparison))
+        files["paper_types"] = write_table(folder / "paper_types.csv",
+                                           side_by_side_types(comparison))
 
     figure_jobs = {
         "fig_impact_types": ("fig4_impact_types.png", plot_impact_types),
@@ -708,6 +715,46 @@ def impact_parameter_sentence(c: Comparison) -> str:
             "--impact-parameters`).")
 
 
+def paper_blocks(c: Comparison) -> list[Block]:
+    """The Momentum Based Impact Model paper's Table 1, impact types and POI distances
+    beside ours, with its protocol (left out for crash tests: nothing to set beside).
+    """
+    from vfs.analysis.paper_reference import (
+        PROTOCOL,
+        chi2_sentence,
+        population_notes,
+        side_by_side_table1,
+        side_by_side_types,
+    )
+
+    if c.measured is not None and len(c.measured):
+        return []
+    t1 = side_by_side_table1(c)
+    rows = [(r.parameter, f"{r.paper_n}", f"{r.paper_reconstruction:.2f}",
+             f"{r.paper_vfs:.2f}", f"{r.paper_difference:+.2f}", f"{r.paper_p:.3f}",
+             f"{r.n}", _num(r.reconstruction), _num(r.vfs),
+             "" if not np.isfinite(r.difference) else f"{r.difference:+.2f}", _p(r.p_value),
+             "yes" if r.same_direction else "no")
+            for r in t1.itertuples(index=False)]
+    types = side_by_side_types(c)
+    trows = [(r.group, f"{r.paper_cases}", f"{r.cases}", f"{r.paper_poi_distance:.3f}",
+              _num(r.poi_distance, 3), f"{r.paper_poi_n}", f"{r.poi_n}")
+             for r in types.itertuples(index=False)]
+    notes = population_notes(t1)
+    return [
+        Heading("The Momentum Based Impact Model paper side by side", 2),
+        Paragraph(PROTOCOL + " " + impact_parameter_sentence(c)),
+        Table(("Table 1 row", "paper n", "paper rec.", "paper VFS", "paper VFS - rec.",
+               "paper p", "n", "rec.", "VFS", "VFS - rec.", "p", "same direction"),
+              tuple(rows)),
+        Table(("group", "paper cases", "cases", "paper POI distance [m]",
+               "POI distance [m]", "paper n (vehicles)", "n (vehicles)"), tuple(trows)),
+        Paragraph(chi2_sentence(c)),
+        *([BulletList(tuple(notes))] if notes else []),
+        Paragraph("Files: `paper_table1.csv`, `paper_types.csv`."),
+    ]
+
+
 def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str]],
                    folder: Path, pages: dict[Any, str] | None = None) -> list[Block]:
     c = comparison
@@ -765,6 +812,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   "equivalence test with its margin. A p-value above 0.05 is no evidence of "
                   "agreement: only the TOST (equivalent = yes) is."),
         _table(_table1_extra_display(c.table1)),
+        *paper_blocks(c),
         Heading("4 Boxplots per impact type (the Momentum Based Impact Model paper, Figure 6)", 2),
         Figure("figures/fig6_boxplots.png",
                "Figure 6: (a) both full, (b) both sliding; reconstruction blue, VFS red; "

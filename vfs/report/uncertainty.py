@@ -118,8 +118,9 @@ def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     ax.set_yticks(np.arange(len(outcomes)), [OUTCOMES_BY_NAME[o].label for o in outcomes])
     ax.invert_yaxis()
     ax.set_xlabel("relative half-width (p95 - p5) / (2 median) [%]")
-    ax.axvline(13, color="grey", ls=":", lw=1, label="13 %: documented crash test")
-    ax.axvline(28, color="grey", ls="--", lw=1, label="28 %: unknown road friction")
+    ax.axvline(13, color="grey", ls=":", lw=1,
+               label="13 %: max. spread of back-calculated\nimpact speeds between methods")
+    ax.axvline(28, color="grey", ls="--", lw=1, label="28 %: the same, road friction unknown")
     ax.legend(loc="lower right", fontsize=8)
     ax.set_title("Monte-Carlo uncertainty per case (whiskers 1.5 IQR)", fontsize=10)
     return _save(fig, path)
@@ -248,12 +249,13 @@ def summary_blocks(result: UncertaintyResult, confidence: float = 0.95,
         Paragraph(f"+-: half the 5-95 % band relative to its median, {n_cases} cases x "
                   f"{result.n_samples} samples. Brackets: {pct} % confidence intervals "
                   "(bootstrap over cases for the half-widths, Wilson for shares). For "
-                  "comparison, "
-                  + cite("collision-uncertainty") + " finds +-13 % for a documented crash "
-                  "test and up to +-28 % with unknown road friction. A band that holds the "
-                  "reconstruction for about 90 % of the vehicles fits inputs whose spread "
-                  "describes the real uncertainty; far fewer means the bands are too narrow, "
-                  "nearly all that they may be wider than it."),
+                  "orientation only (not the same quantity), "
+                  + cite("collision-uncertainty") + " finds that impact speeds "
+                  "back-calculated by different methods for a documented crash test deviate "
+                  "by at most +-13 %, up to +-28 % with unknown road friction. A band "
+                  "that holds the reconstruction for about 90 % of the vehicles fits inputs "
+                  "whose spread describes the real uncertainty; far fewer means the bands are "
+                  "too narrow, nearly all that they may be wider than it."),
     ]
     if n_cases < 10:
         blocks.insert(1, Note(f"Only {n_cases} case(s): the intervals are wide and the "
@@ -320,9 +322,9 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
                   "Nominal impact types: "
                   + ", ".join(f"{k} {v}" for k, v in types.items())
                   + f". Configuration: {result.config.source}. Method and definitions: "
-                  "docs/uncertainty.md (" + cite("collision-uncertainty") + ": +-13 % for a "
-                  "documented crash test, up to "
-                  "+-28 % with unknown road friction)."),
+                  "docs/uncertainty.md (" + cite("collision-uncertainty") + ": back-calculated "
+                  "impact speeds of a documented crash test within +-13 % between methods, "
+                  "up to +-28 % with unknown road friction)."),
         Heading("Input distributions", 2),
         Table.from_frame(inputs, empty="(no rows)"),
         Heading("Band widths over the cases", 2),
@@ -337,8 +339,10 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
         blocks += [
             Figure("figures/relative_half_width.png",
                    "Relative half-width per case and outcome; dotted and dashed: the "
-                   "Collision Calculation Uncertainty paper's 13 % (a documented crash test) "
-                   "and 28 % (unknown road friction)."),
+                   "Collision Calculation Uncertainty paper's largest deviation of "
+                   "back-calculated impact speeds between methods, 13 % (a documented crash "
+                   "test) and 28 % (unknown road friction), for orientation: not the same "
+                   "quantity as these forward bands."),
             Figure("figures/bands_delta_v1.png",
                    "Delta-v 1: 5-95 % band, median and reconstruction of the first "
                    "cases."),

@@ -2,10 +2,11 @@
 
 The Collision Calculation Uncertainty paper (Krzemien et al., uncertainty of vehicle collision
 calculations) shows
-that impact speeds computed from a Kudlich-Slibar impact and a post-impact
-motion carry +-13 % uncertainty even for a documented crash test and up to
-+-28 % when the road friction is sampled; it samples the unknowns uniformly by
-Monte-Carlo and keeps the combinations consistent with the rest positions.
+that impact speeds back-calculated from a Kudlich-Slibar impact and a
+post-impact motion by different methods deviate by up to +-13 % even for a
+documented crash test and up to +-28 % when the road friction is sampled; it
+samples the unknowns uniformly by Monte-Carlo and keeps the combinations
+consistent with the rest positions.
 :func:`run_uncertainty` propagates the uncertain inputs
 (:mod:`vfs.uncertainty.config`, :mod:`vfs.uncertainty.sampling`) through the
 model (:mod:`vfs.uncertainty.model`) and reports, per case and outcome, the

@@ -20,9 +20,9 @@ from vfs.analysis.euro_ncap import (
     band_colours,
     mitigation_or_avoidance_colours,
     points_of,
+    run_measures,
     scenario_scores,
     speed_row,
-    run_measures,
 )
 from vfs.database import open_database
 from vfs.physics.geometry import outline_corners, outline_distance
@@ -30,9 +30,9 @@ from vfs.scenarios.euro_ncap import (
     build_euro_ncap_database,
     ccrb_impact_after_braking,
     lateral_offset,
-    read_protocol,
     ncap_test_matrix,
     ncap_test_motions,
+    read_protocol,
     turn_sync_angle,
     vehicles,
 )

@@ -258,15 +258,19 @@ def test_bundled_database_is_the_build_of_the_protocol_file() -> None:
     assert bundled.meta["equip"] == "1" and bundled.meta["has_reconstruction"] is False
 
 
-def test_study_on_part_of_the_matrix_scores(tmp_path) -> None:
-    from vfs.report.euro_ncap import study_tables
-    from vfs.study import run_study
+def test_study_report_and_side_by_side_on_part_of_the_matrix(tmp_path, capsys) -> None:
+    from vfs.cli import main as vfs_main
+    from vfs.report.euro_ncap import SCORES_FILE, TESTS_FILE, study_tables
+    from vfs.study import load_study
 
     ccrs = _tests("CCRs")
     ids = ccrs[ccrs["ncap_overlap"] == 1.0]["case_id"].head(3).tolist()
-    run_study("euro-ncap-c2c", ["ideal"], tmp_path / "s", engine="serial", equip="1",
-              where=f"case_id IN ({', '.join(map(str, ids))})")
-    tests, scores = study_tables(tmp_path / "s")
+    study = tmp_path / "s"
+    assert vfs_main(["study", "--db", "euro-ncap-c2c", "--systems", "ideal", "--out",
+                     str(study), "--engine", "serial",
+                     "--where", f"case_id IN ({', '.join(map(str, ids))})"]) == 0
+    assert load_study(study).manifest["equip"] == "1"  # the database's meta: the VUT only
+    tests, scores = study_tables(study)
     base = tests[tests["system"] == "baseline"]
     # undisturbed: every test collides at its test speed (red)
     np.testing.assert_allclose(base["vut_impact_speed_kmh"], base["vut_speed_kmh"], atol=0.1)
@@ -274,3 +278,18 @@ def test_study_on_part_of_the_matrix_scores(tmp_path) -> None:
     ideal = tests[tests["system"] == "ideal"]
     assert (~ideal["collided"]).all() and (ideal["colour"] == "green").all()
     assert scores.set_index(["system", "scenario"]).loc[("ideal", "CCRs"), "score_pct"] == 100
+
+    assert vfs_main(["report", "effectiveness", str(study), "--no-case-pages",
+                     "--bootstrap", "50"]) == 0
+    report = (study / "report" / "report.md").read_text(encoding="utf-8")
+    assert "## Euro NCAP AEB Car-to-Car" in report
+    assert (study / "report" / TESTS_FILE).is_file() and (study / "report" / SCORES_FILE).is_file()
+
+    out = tmp_path / "sbs"
+    assert vfs_main(["report", "side-by-side", "--ncap", str(study), "--accidents", str(study),
+                     "--out", str(out), "--bootstrap", "50"]) == 0
+    table = pd.read_csv(out / "side_by_side.csv").set_index("system")
+    assert table.loc["ideal", "ncap_CCRs_pct"] == 100
+    assert table.loc["ideal", "acc_avoided_share"] == pytest.approx(1.0)
+    assert (out / "side_by_side.md").is_file() and (out / "side_by_side.html").is_file()
+    capsys.readouterr()

@@ -228,6 +228,8 @@ def scenario_scores(tests: pd.DataFrame, protocol: dict[str, Any] | None = None
 def speed_grid(tests: pd.DataFrame, system: str, scenario: str) -> pd.DataFrame:
     """One scenario's colours as a VUT speed x (overlap, GVT speed) grid of one system."""
     sub = tests[(tests["system"] == system) & (tests["scenario"] == scenario)]
+    if sub.empty:
+        return pd.DataFrame()
     label = sub["gvt_speed_kmh"].map(lambda g: f"GVT {g:g}") + " / " + sub["overlap_pct"].map(
         lambda o: f"{o:+g} %")
     cell = sub["colour"] + " " + sub["measure_kmh"].map(lambda v: f"{v:.1f}")

@@ -119,7 +119,7 @@ def vehicles(protocol: dict[str, Any]) -> tuple[Car, Car]:
 
 
 def lateral_offset(overlap: float, vut_width: float, gvt_width: float,
-                   negative_side: str = "left") -> float:
+                   negative_side: str) -> float:
     """Lateral position of the GVT's centreline relative to the VUT's [m], ISO 8855 (+y left).
 
     Parameters

@@ -98,6 +98,21 @@ def test_ccrs_record_puts_negative_overlap_on_the_protocol_side() -> None:
     np.testing.assert_allclose(m2f.y, -m2.y)
 
 
+def test_sign_convention_of_the_sources() -> None:
+    """v3.0.2 as implemented by BeamNG: a negative overlap offsets the VUT to the GVT's left,
+    so the GVT lies to the VUT's right (ISO 8855 -y); head-on impact locations on the VUT's
+    left, where the oncoming lane is in right-hand traffic."""
+    assert PROTOCOL["overlap"]["negative_side"] == "right"
+    for name in ("CCRs", "CCRm", "CCFhos"):
+        for _, test in _tests(name).iterrows():
+            if abs(test["ncap_overlap"]) >= 1.0:
+                continue
+            _, _, _, m2 = ncap_test_motions(test, VUT, GVT, PROTOCOL)
+            # negative: GVT to the right (y < 0); positive: to the left (y > 0)
+            assert np.sign(m2.y[0]) == np.sign(test["ncap_overlap"]), (name, test["ncap_overlap"])
+    assert (_tests("CCFhos")["ncap_overlap"] > 0).all()  # the VUT's left
+
+
 @pytest.mark.parametrize("name", ["CCRs", "CCRm", "CCFhos", "CCCscp"])
 def test_outlines_touch_exactly_at_the_impact_time(name: str) -> None:
     for _, test in _tests(name).iterrows():

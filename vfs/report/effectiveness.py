@@ -519,7 +519,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
         pages, problem = write_effectiveness_case_pages(folder, result, linked, say=say)
     cases = notable_blocks(eff, notable, pages, problem) if list_cases > 0 else []
     blocks = _report_blocks(eff, manifest, figures, cases, pages)
-    ncap = study_tables(result.path)  # a study on the Euro NCAP matrix: the protocol's view
+    ncap = study_tables(result)  # a study on the Euro NCAP matrix: the protocol's view
     if ncap is not None:
         blocks += euro_ncap_blocks(*ncap)
         write_euro_ncap_tables(folder, *ncap)

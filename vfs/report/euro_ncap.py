@@ -35,6 +35,7 @@ from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
 from vfs.report.render import Block, BulletList, Heading, Paragraph, Report, Table, write_report
 from vfs.scenarios.euro_ncap import read_protocol
+from vfs.study.manifest import StudyResult
 
 #: Files written next to report.md for a study on the matrix.
 TESTS_FILE = "euro_ncap_tests.csv"
@@ -49,8 +50,14 @@ def _table(frame: pd.DataFrame) -> Table:
                        for row in frame.itertuples(index=False)))
 
 
-def study_tables(study: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFrame] | None:
+def study_tables(study: str | os.PathLike[str] | StudyResult
+                 ) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     """Test assessments and scenario scores of a finished study; None if not the NCAP matrix.
+
+    Parameters
+    ----------
+    study : path or StudyResult
+        Study folder, or the study already loaded (its runs are not read again).
 
     Raises
     ------
@@ -59,14 +66,14 @@ def study_tables(study: str | os.PathLike[str]) -> tuple[pd.DataFrame, pd.DataFr
     """
     from vfs.study import CASES_FILE, load_study
 
-    result = load_study(study)
-    if result.table is None:
-        raise DataError(DataProblem("study", "", None, None,
-                                    f"{study}: the study is not complete"))
+    result = study if isinstance(study, StudyResult) else load_study(study)
     cases_file = result.path / CASES_FILE
     cases = pd.read_parquet(cases_file) if cases_file.exists() else pd.DataFrame()
     if not is_euro_ncap_cases(cases):
         return None
+    if result.table is None:
+        raise DataError(DataProblem("study", "", None, None,
+                                    f"{result.path}: the study is not complete"))
     protocol = read_protocol()
     tests = assess_tests(result.table, cases, protocol)
     return tests, scenario_scores(tests, protocol)

@@ -25,6 +25,7 @@ from vfs.analysis.euro_ncap import (
     speed_row,
 )
 from vfs.database import open_database
+from vfs.database.plausibility import check_plausibility
 from vfs.physics.geometry import outline_corners, outline_distance
 from vfs.scenarios.euro_ncap import (
     build_euro_ncap_database,
@@ -271,6 +272,9 @@ def test_bundled_database_is_the_build_of_the_protocol_file() -> None:
         pd.testing.assert_frame_equal(getattr(bundled, name)[table.columns], table,
                                       check_dtype=False)
     assert bundled.meta["equip"] == "1" and bundled.meta["has_reconstruction"] is False
+    # speeds agree with the positions, yaw with the direction of travel, road-vehicle limits
+    found = check_plausibility(fresh)
+    assert not found.errors and not found.warnings
 
 
 def test_study_report_and_side_by_side_on_part_of_the_matrix(tmp_path, capsys) -> None:

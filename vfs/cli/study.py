@@ -13,7 +13,7 @@ import sys
 import time
 
 from vfs.cli.common import DB_HELP, WHERE_HELP
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, VfsError
 
 
 def _positive_int(text: str) -> int:
@@ -24,6 +24,19 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
     return value
+
+
+def _default_equip(db: str) -> str:
+    """``meta["equip"]`` of the database (the Euro NCAP matrix equips the VUT: "1"), else "both"."""
+    from vfs.database import database_location
+    from vfs.database.io import read_meta
+
+    try:
+        meta, _ = read_meta(database_location(db))
+    except (OSError, VfsError):  # unreadable here: run_study reports it properly
+        return "both"
+    equip = str(meta.get("equip", "both"))
+    return equip if equip in ("1", "2", "both") else "both"
 
 
 def cmd_study(args: argparse.Namespace) -> int:
@@ -37,7 +50,8 @@ def cmd_study(args: argparse.Namespace) -> int:
         result = run_study(
             args.db, systems, args.out, engine=args.engine, workers=args.workers,
             scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
-            where=args.where, equip=args.equip, resume=args.resume, overwrite=args.overwrite,
+            where=args.where, equip=args.equip or _default_equip(args.db), resume=args.resume,
+            overwrite=args.overwrite,
             impact_parameters=args.impact_parameters, dashboard=args.dashboard,
         )
     except KeyboardInterrupt:
@@ -107,8 +121,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    f"{', '.join(SYSTEMS)} (docs/aeb.md)")
     p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
-    p.add_argument("--equip", choices=("1", "2", "both"), default="both",
-                   help="vehicles carrying the system in the treatment runs (default both)")
+    p.add_argument("--equip", choices=("1", "2", "both"), default=None,
+                   help="vehicles carrying the system in the treatment runs (default the "
+                   "database's meta 'equip', else both; euro-ncap-c2c: 1, the VUT)")
     p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
                    help="executor: serial, local processes (default), dask, or one registered "
                    "with vfs.study.register_executor or by an installed package (entry-point "
@@ -162,3 +177,34 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "speed and brake traces with the AEB events, impact table) by "
                    "re-simulating only those cases (default: on)")
     r.set_defaults(func=cmd_report_effectiveness)
+
+    s = report.add_parser(
+        "side-by-side", help="each system's Euro NCAP result beside its accident-based effect",
+        description="For each system found in both studies: its Euro NCAP AEB Car-to-Car "
+        "score (study on --db euro-ncap-c2c) beside its share of crashes avoided, net crash "
+        "reduction and injury-risk reduction on an accident database (e.g. --db default); "
+        "writes OUT/side_by_side.csv, .md and .html. See docs/euro-ncap.md.",
+    )
+    s.add_argument("--ncap", required=True, metavar="STUDY",
+                   help="finished study on --db euro-ncap-c2c")
+    s.add_argument("--accidents", required=True, metavar="STUDY",
+                   help="finished study on an accident database")
+    s.add_argument("--out", required=True, help="output folder, e.g. results/side-by-side")
+    s.add_argument("--bootstrap", type=_positive_int, default=2000,
+                   help="bootstrap resamples of the accident-based intervals (default 2000)")
+    s.add_argument("--confidence", type=float, default=0.95,
+                   help="confidence level (default 0.95)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default 0)")
+    s.set_defaults(func=cmd_report_side_by_side)
+
+
+def cmd_report_side_by_side(args: argparse.Namespace) -> int:
+    """``vfs report side-by-side``: Euro NCAP result and accident-based effect per system."""
+    from vfs.report.euro_ncap import write_side_by_side
+
+    started = time.perf_counter()
+    path = write_side_by_side(args.ncap, args.accidents, args.out, n_boot=args.bootstrap,
+                              seed=args.seed, confidence=args.confidence)
+    print(path.read_text(encoding="utf-8"))
+    print(f"side-by-side -> {path} ({time.perf_counter() - started:.1f} s)")
+    return 0

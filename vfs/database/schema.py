@@ -481,6 +481,9 @@ META_KEYS: dict[str, str] = {
         "(e.g. PCM imports): the collision/reconstruction consistency check is skipped"
     ),
     "pcm_import": "optional; written by import_pcm: the defaults it used and skipped cases",
+    "equip": ('optional: "1", "2" or "both", the vehicles a study equips unless --equip says '
+              'otherwise (the Euro NCAP matrix: "1", the VUT)'),
+    "test_protocol": "optional; the test protocol a test-matrix database implements",
 }
 
 

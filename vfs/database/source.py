@@ -40,6 +40,7 @@ from vfs.errors import DataError, DataProblem, ParameterError
 BUNDLED_DATABASES: dict[str, str] = {
     "default": "default",
     "crash-tests": "crash-tests",  # vfs/data/crash-tests/README.md
+    "euro-ncap-c2c": "euro-ncap-c2c",  # built by vfs.scenarios.euro_ncap
 }
 
 #: Folder formats :func:`load_any` reads.

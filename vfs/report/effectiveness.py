@@ -4,7 +4,9 @@
 :func:`vfs.analysis.effectiveness.effectiveness` and writes ``report.md``,
 ``report.html`` (:mod:`vfs.report.render`), ``metrics.csv``,
 ``crosstabs.csv`` and PNG figures (:func:`write_figures`) into
-``STUDY/report/``, every file atomically.  Speeds are shown in km/h.
+``STUDY/report/``, every file atomically.  Speeds are shown in km/h.  A study on the
+Euro NCAP matrix (``--db euro-ncap-c2c``) also gets the protocol's view
+(:mod:`vfs.report.euro_ncap`: section, ``euro_ncap_tests.csv``, ``euro_ncap_scores.csv``).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectivene
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
 from vfs.report.case_pages import case_link, write_effectiveness_case_pages
+from vfs.report.euro_ncap import euro_ncap_blocks, study_tables, write_euro_ncap_tables
 from vfs.report.figures import RUN_COLORS, new_figure, save_figure
 from vfs.report.render import (
     Block,
@@ -516,6 +519,10 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
         pages, problem = write_effectiveness_case_pages(folder, result, linked, say=say)
     cases = notable_blocks(eff, notable, pages, problem) if list_cases > 0 else []
     blocks = _report_blocks(eff, manifest, figures, cases, pages)
+    ncap = study_tables(result)  # a study on the Euro NCAP matrix: the protocol's view
+    if ncap is not None:
+        blocks += euro_ncap_blocks(*ncap)
+        write_euro_ncap_tables(folder, *ncap)
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))
     write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
     cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()

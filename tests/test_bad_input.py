@@ -324,3 +324,83 @@ def test_impact_values_that_cannot_be_true_warn(tmp_path, capsys, change, column
     assert "warning:" in text
     code, text = _impact(capsys, tmp_path, [_impact_row(**change)], "--strict")
     assert code == 2 and f"column '{column}'" in text
+
+
+# ----------------------------------------------------------------------------
+# Faults of vfs study: exit codes, manifest status, files named
+# ----------------------------------------------------------------------------
+
+
+def _manifest(out: Path) -> dict:
+    import json
+
+    return json.loads((out / "study.json").read_text())
+
+
+def test_a_case_that_fails_inside_the_simulation_makes_the_exit_code_non_zero(
+        tmp_path, capsys, monkeypatch):
+    import vfs.study
+    from tests.test_study import FakeSystem
+
+    real = vfs.study.run_study
+    broken = FakeSystem("late", 1.0, fail_case=3)
+    monkeypatch.setattr(vfs.study, "run_study",
+                        lambda db, systems, out, **kw: real(db, [broken], out, **kw))
+    argv = ["study", "--db", "default", "--where", "case_id <= 6", "--systems", "late",
+            "--engine", "serial"]
+    code, text = _cli(capsys, *argv, "--out", str(tmp_path / "a"))
+    assert code == 4 and "1 run(s) failed" in text and "--allow-failed" in text
+    assert _manifest(tmp_path / "a")["status"] == "complete"  # the rows hold the error
+    code, text = _cli(capsys, *argv, "--out", str(tmp_path / "b"), "--allow-failed")
+    assert code == 0 and "1 failed" in text
+
+
+def test_sigterm_stops_the_study_as_interrupted_and_releases_the_lock(tmp_path, capsys,
+                                                                      monkeypatch):
+    import os
+    import signal
+
+    import vfs.study.run as study_run
+
+    real = study_run.write_table
+
+    def terminate_on_first_chunk(path, *args, **kwargs):
+        result = real(path, *args, **kwargs)
+        if "chunk_" in str(path):
+            os.kill(os.getpid(), signal.SIGTERM)  # as `kill PID` from outside
+        return result
+
+    monkeypatch.setattr(study_run, "write_table", terminate_on_first_chunk)
+    out = tmp_path / "s"
+    code, text = _cli(capsys, "study", "--db", "default", "--where", "case_id <= 6",
+                      "--systems", "three-stage", "--engine", "serial", "--chunk-size", "3",
+                      "--out", str(out))
+    assert code == 143 and "terminated (SIGTERM)" in text and "--resume" in text
+    assert _manifest(out)["status"] == "interrupted"
+    assert not study_run.lock_path(out).exists()
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handler restored
+
+
+def test_a_full_disk_names_the_file_and_the_manifest_says_failed(tmp_path, capsys,
+                                                                 monkeypatch):
+    import pyarrow.parquet
+
+    import vfs.study.faults as faults
+
+    def arrow_full(table, where, *args, **kwargs):  # pyarrow's message: no file name in it
+        raise OSError("Error writing bytes to file. Detail: [errno 28] No space left on device")
+
+    def no_new_file(path, data, **kwargs):  # the disk cannot take a new manifest either
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(pyarrow.parquet, "write_table", arrow_full)
+    monkeypatch.setattr(faults, "write_json", no_new_file)
+    out = tmp_path / "s"
+    code, text = _cli(capsys, "study", "--db", "default", "--where", "case_id <= 6",
+                      "--systems", "three-stage", "--engine", "serial", "--out", str(out))
+    assert code == 1
+    assert "error: No space left on device (" in text and ".parquet)" in text
+    named = text.split("(", 1)[1].rsplit(")", 1)[0]
+    assert Path(named).parent.exists() and Path(named).suffix == ".parquet"
+    manifest = _manifest(out)  # rewritten in place: still JSON
+    assert manifest["status"] == "failed" and "No space left" in manifest["error"]

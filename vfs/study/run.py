@@ -56,6 +56,7 @@ from vfs.study.layout import (
     chunk_path,
     equipped_flags,
 )
+from vfs.study.faults import record_fault
 from vfs.study.manifest import (
     StudyResult,
     case_ids_hash,
@@ -349,10 +350,7 @@ def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_s
         if manifest.get("status") == "running":
             manifest.update(status="interrupted" if isinstance(exc, KeyboardInterrupt)
                             else "failed", updated=now(), error=error_text(exc))
-            try:
-                write_json(out_dir / MANIFEST_FILE, manifest)
-            except OSError:
-                pass  # the disk refuses even the manifest: the old one says "running"
+            record_fault(out_dir / MANIFEST_FILE, manifest)  # in place on a full disk
         raise
 
 

@@ -42,6 +42,7 @@ from vfs.database.metadata import field_metadata
 from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch, SimulationParams
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
+from vfs.study.faults import record_fault
 from vfs.study.inputs import StudyInput, study_input
 from vfs.study.layout import (
     BASELINE,
@@ -56,7 +57,6 @@ from vfs.study.layout import (
     chunk_path,
     equipped_flags,
 )
-from vfs.study.faults import record_fault
 from vfs.study.manifest import (
     StudyResult,
     case_ids_hash,

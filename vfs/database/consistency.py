@@ -293,16 +293,20 @@ def _acceleration(traj: pd.DataFrame, accel_error: float, lim: ConsistencyLimits
         return
     dvdt = (v[i] - v[i - 1]) / dt
     a_mid = 0.5 * (a[i] + a[i - 1])
-    off = np.abs(a_mid - dvdt) > np.maximum(lim.accel_mismatch, 0.5 * np.abs(dvdt))
-    frame = pd.DataFrame({"off": off, "diff": np.abs(a_mid - dvdt)}).groupby(
-        [case[i], part[i]], sort=False).agg(share=("off", "mean"), med=("diff", "median"),
-                                            n=("off", "size"))
-    frame = frame[(frame["share"] > lim.accel_share) & (frame["n"] >= 3)]
-    _add(warn, "trajectories", "accel", frame.index.get_level_values(0).to_numpy(),
+    diff = np.abs(a_mid - dvdt)
+    off = diff > np.maximum(lim.accel_mismatch, 0.5 * np.abs(dvdt))
+    # per participant (rows are grouped by case and participant): bincount, not groupby
+    group = np.cumsum(~same)[i] - 1
+    n = np.bincount(group)
+    share = np.bincount(group, off) / np.maximum(n, 1)
+    mean = np.bincount(group, diff) / np.maximum(n, 1)
+    flagged = np.flatnonzero((share > lim.accel_share) & (n >= 3))
+    first = np.flatnonzero(~same)[flagged]  # a row of each flagged participant
+    _add(warn, "trajectories", "accel", case[first],
          [f"participant {p}: recorded acceleration differs from d speed / dt by more than "
-          f"{lim.accel_mismatch:g} m/s^2 in {s:.0%} of the steps (median {m:.3g} m/s^2); the "
-          "AEB sees the recorded value" for (_, p), s, m in
-          zip(frame.index, frame["share"], frame["med"], strict=True)],
+          f"{lim.accel_mismatch:g} m/s^2 in {sh:.0%} of the steps (mean {m:.3g} m/s^2); the "
+          "AEB sees the recorded value" for p, sh, m in
+          zip(part[first], share[flagged], mean[flagged], strict=True)],
          "acceleration vs the speed's derivative")
 
 
@@ -317,10 +321,11 @@ def _geometry(parts: pd.DataFrame) -> pd.DataFrame:
 
 def _start_overlap(parts: pd.DataFrame, traj: pd.DataFrame, warn: list[DataProblem]) -> None:
     """Outlines of participants 1 and 2 overlapping at the first sample of participant 2."""
-    first = traj.groupby(["case_id", "participant"], sort=False)[["t", "x", "y", "yaw"]].first()
-    if first.empty:
-        return
-    first = first.reset_index()
+    case, part = traj["case_id"].to_numpy(), traj["participant"].to_numpy()
+    start = np.ones(len(traj), bool)  # first sample of each participant (rows grouped)
+    start[1:] = (case[1:] != case[:-1]) | (part[1:] != part[:-1])
+    first = traj.loc[start, ["case_id", "participant", "t", "x", "y", "yaw"]]
+    first = first.drop_duplicates(["case_id", "participant"])
     first["participant"] = pd.to_numeric(first["participant"], errors="coerce")
     geo = _geometry(parts).reset_index()
     geo.columns = ["case_id", "participant", "front", "rear", "width"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import uuid
 from collections.abc import Callable, Iterable, Mapping
@@ -76,10 +77,28 @@ def write_atomic(path: PathLike, write: Callable[[Path], object]) -> Path:
     try:
         write(Path(tmp))
         os.replace(tmp, target)
+    except OSError as exc:  # pyarrow's "Error writing bytes to file ... [errno 28]": name it
+        if exc.filename is None:
+            raise _naming(exc, target) from exc
+        raise
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
     return target
+
+
+def _naming(exc: OSError, target: Path) -> OSError:
+    """``exc`` with the target file as its filename (and the errno pyarrow puts in the text)."""
+    code = exc.errno
+    if code is None:
+        found = re.search(r"errno (\d+)", str(exc), re.IGNORECASE)
+        code = int(found.group(1)) if found else None
+    text = os.strerror(code) if code else str(exc).splitlines()[0]
+    if code:
+        return OSError(code, text, str(target))
+    named = OSError(f"{text} (writing {target})")
+    named.filename = str(target)
+    return named
 
 
 def write_text(path: PathLike, text: str) -> Path:

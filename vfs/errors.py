@@ -102,6 +102,24 @@ class DataError(VfsError, ValueError):
         super().__init__("\n".join(lines))
 
 
+class DataWarning(UserWarning):
+    """A plausibility warning about input data (:mod:`vfs.database.checks`).
+
+    A real database can contain what it reports; ``--strict`` (or
+    :func:`vfs.database.checks.strict_input`) turns it into a :class:`DataError`.
+    The command line prints each as one ``warning:`` line.
+
+    Attributes
+    ----------
+    problem : DataProblem
+        Table, column, case and message.
+    """
+
+    def __init__(self, problem: DataProblem) -> None:
+        self.problem = problem
+        super().__init__(str(problem))
+
+
 class SimulationError(VfsError, RuntimeError):
     """A simulation could not be completed for a case (recorded per case in batch runs)."""
 

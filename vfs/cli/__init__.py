@@ -58,7 +58,23 @@ def build_parser() -> argparse.ArgumentParser:
         add(subparsers)
     for sub in _drawing_parsers(subparsers):
         _add_figure_options(sub)
+    from vfs.cli.common import add_strict_option
+
+    for sub in _input_parsers(subparsers):  # every reader of a database or table: --strict
+        add_strict_option(sub)
     return parser
+
+
+def _input_parsers(action: argparse._SubParsersAction) -> list[argparse.ArgumentParser]:
+    """The (sub-)commands that read a database (``--db``) or an impact table (``--input``)."""
+    out = []
+    for sub in action.choices.values():
+        if any({"--db", "--input"} & set(a.option_strings) for a in sub._actions):
+            out.append(sub)
+        for child in sub._actions:
+            if isinstance(child, argparse._SubParsersAction):
+                out.extend(_input_parsers(child))
+    return out
 
 
 #: Commands that draw figures (``--figure-format`` and ``--dpi``).
@@ -95,13 +111,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
-    try:
-        if hasattr(args, "figure_format"):
-            from vfs.report.figures import figure_options
+    from vfs.cli.common import input_messages
 
-            with figure_options(args.figure_format, args.dpi):
-                return int(args.func(args))
-        return int(args.func(args))
+    try:
+        with input_messages(args):  # input warnings as "warning:" lines; --strict
+            return _run(args)
     except VfsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -109,6 +123,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f" ({exc.filename})" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The command of ``args`` (with its figure options)."""
+    if hasattr(args, "figure_format"):
+        from vfs.report.figures import figure_options
+
+        with figure_options(args.figure_format, args.dpi):
+            return int(args.func(args))
+    return int(args.func(args))
 
 
 __all__ = ["COMMAND_GROUPS", "build_parser", "main"]

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import importlib.util
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -18,6 +20,9 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Help text of ``--db``.
 DB_HELP = ("database folder (Parquet, CSV or PCM), 'default' for the bundled one, or the "
            "fsspec URL of a Parquet database (file:///shared/db, s3://bucket/db)")
+#: Help text of ``--strict``.
+STRICT_HELP = ("treat the plausibility warnings of the input (docs/data-format.md, 'Checks') "
+               "as errors")
 #: Help text of ``--where``.
 WHERE_HELP = "SQL predicate on the cases table, e.g. \"accident_type IN (241, 242)\""
 
@@ -28,6 +33,39 @@ def add_db_options(p: argparse.ArgumentParser, *, required: bool = True,
     p.add_argument("--db", required=required, help=DB_HELP)
     if where:
         p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
+    add_strict_option(p)
+
+
+def add_strict_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--strict`` (plausibility warnings of the input are errors), once."""
+    if not any("--strict" in a.option_strings for a in p._actions):
+        p.add_argument("--strict", action="store_true", help=STRICT_HELP)
+
+
+@contextlib.contextmanager
+def input_messages(args: argparse.Namespace) -> Iterator[None]:
+    """Print input warnings as ``warning: ...`` lines on stderr; ``--strict`` makes them errors.
+
+    Every command runs inside this block (:func:`vfs.cli.main`), so the warnings of
+    :mod:`vfs.database.checks` look the same whichever command loads the data.
+    """
+    from vfs.database.checks import strict_input
+    from vfs.errors import DataWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", DataWarning)
+        shown = warnings.showwarning
+
+        def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                 file: object = None, line: str | None = None) -> None:
+            if issubclass(category, DataWarning):
+                print(f"warning: {message}", file=sys.stderr, flush=True)
+            else:
+                shown(message, category, filename, lineno, file, line)  # type: ignore[arg-type]
+
+        warnings.showwarning = show
+        with strict_input(bool(getattr(args, "strict", False))):
+            yield
 
 
 def open_db(args: argparse.Namespace) -> Database:

@@ -46,21 +46,37 @@ def cmd_study(args: argparse.Namespace) -> int:
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
+    from vfs.study.faults import (
+        EXIT_FAILED_CASES,
+        EXIT_TERMINATED,
+        Terminated,
+        failed_runs,
+        terminate_as_interrupt,
+    )
+
     try:
-        result = run_study(
-            args.db, systems, args.out, engine=args.engine, workers=args.workers,
-            scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
-            where=args.where, equip=args.equip or _default_equip(args.db), resume=args.resume,
-            overwrite=args.overwrite,
-            impact_parameters=args.impact_parameters, dashboard=args.dashboard,
-        )
-    except KeyboardInterrupt:
-        print(f"interrupted; finished chunks are kept in {args.out}; continue with the same "
-              "command and --resume", file=sys.stderr)
-        return 130
+        with terminate_as_interrupt():  # SIGTERM stops the study as Ctrl-C does
+            result = run_study(
+                args.db, systems, args.out, engine=args.engine, workers=args.workers,
+                scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
+                where=args.where, equip=args.equip or _default_equip(args.db), resume=args.resume,
+                overwrite=args.overwrite, impact_parameters=args.impact_parameters,
+                dashboard=args.dashboard,
+            )
+    except KeyboardInterrupt as exc:
+        what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+        print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
+              f"{args.out}; continue with the same command and --resume", file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(exc, Terminated) else 130
     print(result.summary())
     if result.complete:
         print(f"runs -> {result.path / 'runs.parquet'}")
+        failed = failed_runs(result.manifest)
+        if failed and not args.allow_failed:
+            print(f"error: {failed} run(s) failed inside the simulation (their rows in "
+                  f"runs.parquet hold the error and NaN outcomes); --allow-failed accepts them "
+                  f"(exit code {EXIT_FAILED_CASES})", file=sys.stderr)
+            return EXIT_FAILED_CASES
         return 0
     from vfs.study.run import EXIT_INCOMPLETE
 
@@ -143,6 +159,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    default="reconstruction",
                    help="restitution and contact friction: the reconstruction's where present "
                    "(default) or the model defaults")
+    p.add_argument("--allow-failed", action="store_true",
+                   help="exit 0 although runs failed inside the simulation (default: exit "
+                   "code 4 when any run failed; the rows hold the error either way)")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--resume", action="store_true",
                        help="continue an interrupted study in --out (same inputs)")

@@ -24,6 +24,7 @@ from vfs.physics.impact import (
     impact_type_names,
     solve_impact,
 )
+from vfs.units import wrap_angle
 
 #: Required input columns (SI): per vehicle i = 1, 2 and per impact.
 INPUT_COLUMNS: tuple[str, ...] = ("case_id", *ImpactConfig._fields)
@@ -70,6 +71,118 @@ def read_table(path: str | os.PathLike[str]) -> pd.DataFrame:
     return df
 
 
+#: Mass [kg] below which an impact-table vehicle warns (tonnes?): the lightest road
+#: vehicle of the database schema (:data:`vfs.physics.vehicle.PARAMETER_RANGES`).
+MIN_VEHICLE_MASS = 50.0
+#: Mass [kg] above which it warns (pounds?): the heaviest of the schema, 60 t.
+MAX_VEHICLE_MASS = 60000.0
+#: Band of the yaw radius of gyration sqrt(izz / m) [m]: 0.3 m (a motorcycle or bicycle
+#: with rider, about 60 kg m^2 for 250 kg: 0.49 m) to 8 m (a uniform rod of the longest
+#: combination on EU roads, 25.25 m (Directive (EU) 2015/719): 25.25 / sqrt(12) = 7.3 m).
+#: A car has 1.2-1.6 m (I = m L1 L2 of the front-to-side energy balance paper).
+GYRATION_RADIUS = (0.3, 8.0)
+#: CG distance [m] below which two vehicles "share a centre of gravity": 0.5 m (two cars
+#: side by side in full contact are at least a car width, about 1.7 m, apart).
+MIN_CG_DISTANCE = 0.5
+#: POI distance from the nearer CG [m] that warns: 15 m (half the 25.25 m combination
+#: plus its width; a POI farther away lies outside every road vehicle).
+MAX_POI_DISTANCE = 15.0
+#: Delta-v [m/s] that warns (speeds in km/h?): 30 m/s (108 km/h), where the NHTSA fatality
+#: risk curve of DOT HS 813 219 (2022) passes 90 %; real crash data end there.
+MAX_DELTA_V = 30.0
+#: Speed [m/s] that warns (km/h?): the database's warning limit for road vehicles.
+MAX_SPEED = 60.0
+
+
+def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
+                          ) -> list[DataProblem]:
+    """Values each in range but not from a real impact (units mixed up), per row.
+
+    Masses in tonnes or pounds, a yaw inertia whose radius of gyration no road
+    vehicle has, yaw angles in degrees, both centres of gravity at one point, a
+    POI far from both vehicles, speeds above any road vehicle's; the limits are
+    the constants above, with their sources.  Delta-v is checked after solving
+    (:func:`solve_impact_table`).
+
+    Returns
+    -------
+    list of DataProblem
+        One per row and finding (at most 20 per finding).
+    """
+    out: list[DataProblem] = []
+    ids = df["case_id"].to_numpy()
+
+    def add(column: str, mask: np.ndarray, texts: list[str]) -> None:
+        rows = np.flatnonzero(mask)
+        for row, text in list(zip(rows, texts, strict=True))[:20]:
+            out.append(DataProblem(table, column, int(row), ids[row], text))
+        if rows.size > 20:
+            out.append(DataProblem(table, column, None, None,
+                                   f"... and {rows.size - 20} more rows"))
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for i in (1, 2):
+            m, izz, yaw = (getattr(config, f"{f}{i}") for f in ("m", "izz", "yaw"))
+            vx, vy = getattr(config, f"vx{i}"), getattr(config, f"vy{i}")
+            free = np.isfinite(m)
+            light = free & (m < MIN_VEHICLE_MASS)
+            add(f"m{i}", light, [f"m{i}={v:g} kg is below the {MIN_VEHICLE_MASS:g} kg of the "
+                                 "lightest road vehicle: mass in tonnes? (kg required)"
+                                 for v in m[light]])
+            heavy = free & (m > MAX_VEHICLE_MASS)
+            add(f"m{i}", heavy, [f"m{i}={v:g} kg is above the {MAX_VEHICLE_MASS:g} kg of the "
+                                 "heaviest road vehicle: mass in pounds? (kg required)"
+                                 for v in m[heavy]])
+            radius = np.sqrt(izz / m)
+            odd = free & ~light & ((radius < GYRATION_RADIUS[0]) | (radius > GYRATION_RADIUS[1]))
+            add(f"izz{i}", odd, [f"izz{i}={j:g} kg m^2 for m{i}={v:g} kg is a radius of "
+                                 f"gyration of {r:.3g} m, outside the {GYRATION_RADIUS[0]:g}-"
+                                 f"{GYRATION_RADIUS[1]:g} m of road vehicles (a car: about "
+                                 "1.4 m)" for j, v, r in zip(izz[odd], m[odd], radius[odd],
+                                                            strict=True)])
+            speed = np.hypot(vx, vy)
+            heading = np.arctan2(vy, vx)
+            moving = speed > 2.0
+            rad_off = np.abs(wrap_angle(yaw - heading)) > np.radians(45.0)
+            deg_fits = np.abs(wrap_angle(np.radians(yaw) - heading)) < np.radians(15.0)
+            degrees = (np.abs(yaw) > 2.0 * np.pi) | (moving & rad_off & deg_fits & (yaw != 0))
+            add(f"yaw{i}", degrees, [f"yaw{i}={v:g} looks like degrees (rad required)"
+                                     + (": it follows the velocity only read as degrees"
+                                        if mv else "") for v, mv in
+                                     zip(yaw[degrees], (moving & deg_fits)[degrees],
+                                         strict=True)])
+            fast = speed > MAX_SPEED
+            add(f"vx{i}", fast, [f"speed {v:.4g} m/s of vehicle {i} is above the "
+                                 f"{MAX_SPEED:g} m/s of road vehicles in a crash: km/h? (m/s "
+                                 "required)" for v in speed[fast]])
+        gap = np.hypot(config.x1 - config.x2, config.y1 - config.y2)
+        close = gap < MIN_CG_DISTANCE
+        add("x2", close, [f"the centres of gravity of both vehicles are {g:.3g} m apart "
+                          f"(below {MIN_CG_DISTANCE:g} m): two vehicles cannot share one point"
+                          for g in gap[close]])
+        poi = np.minimum(np.hypot(config.poi_x - config.x1, config.poi_y - config.y1),
+                         np.hypot(config.poi_x - config.x2, config.poi_y - config.y2))
+        far = poi > MAX_POI_DISTANCE
+        add("poi_x", far, [f"the POI is {d:.4g} m from the nearer centre of gravity (above "
+                           f"{MAX_POI_DISTANCE:g} m): outside both vehicles" for d in poi[far]])
+    return out
+
+
+def _duplicated_columns(df: pd.DataFrame, table: str) -> list[DataProblem]:
+    """Columns that appear twice (pandas renames the second copy of ``m1`` to ``m1.1``)."""
+    out = []
+    names = [str(c) for c in df.columns]
+    for name in names:
+        base, dot, suffix = name.rpartition(".")
+        if dot and suffix.isdigit() and base in names:
+            out.append(DataProblem(table, base, None, None,
+                                   f"column '{base}' appears twice in the file (the second "
+                                   f"copy was read as '{name}'); keep one"))
+    for name in pd.Index(names)[pd.Index(names).duplicated()].unique():
+        out.append(DataProblem(table, name, None, None, f"column '{name}' appears twice"))
+    return out
+
+
 def _numeric_column(df: pd.DataFrame, name: str, table: str,
                     problems: list[DataProblem]) -> np.ndarray:
     values = pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
@@ -103,9 +216,11 @@ def solve_impact_table(
         The input columns followed by :data:`OUTPUT_COLUMNS`.
     """
     missing = [c for c in INPUT_COLUMNS if c not in df.columns]
-    if missing:
-        raise DataError([DataProblem(table, c, None, None, "required column is missing")
-                         for c in missing])
+    duplicated = _duplicated_columns(df, table)
+    if missing or duplicated:
+        raise DataError(duplicated + [DataProblem(table, c, None, None,
+                                                  "required column is missing")
+                                      for c in missing])
     df = df.reset_index(drop=True)
     problems: list[DataProblem] = []
     arrays = {f: _numeric_column(df, f, table, problems) for f in ImpactConfig._fields}
@@ -137,6 +252,9 @@ def solve_impact_table(
     if problems and on_error == "raise":
         raise DataError(problems, header=f"{len(problems)} problem(s) in impact table '{table}' "
                         "(use --on-error record to solve the valid rows):")
+    found = impact_table_warnings(df, config, table)
+    if bad_rows.any():
+        found = [p for p in found if p.row is None or not bad_rows[p.row]]
     # solve valid rows only; bad rows are filled with a harmless configuration
     safe = ImpactConfig(*(np.where(bad_rows, 0.0, a) for a in config))
     safe = safe._replace(x2=np.where(bad_rows, 1.0, safe.x2),  # at rest, apart: no impact
@@ -164,4 +282,16 @@ def solve_impact_table(
             values = np.where(bad_rows, np.nan, values.astype(float))
         out[col] = values
     out["error"] = messages.astype(str)
+    for i in (1, 2):
+        dv = out[f"delta_v{i}"].to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            big = dv > MAX_DELTA_V
+        for row in np.flatnonzero(big)[:20]:
+            found.append(DataProblem(
+                table, f"delta_v{i}", int(row), df["case_id"].iloc[row],
+                f"delta-v {dv[row]:.4g} m/s of vehicle {i} is above the {MAX_DELTA_V:g} m/s of "
+                "real crashes: speeds in km/h? (m/s required)"))
+    from vfs.database.checks import settle
+
+    settle([], found, header=f"impact table '{table}': plausibility warnings under --strict:")
     return out

@@ -215,6 +215,28 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
     return write_folder_atomically(path, write, [META_FILE, "cases.parquet"])
 
 
+def unreadable_parquet(table: str, file: object, exc: BaseException) -> DataProblem:
+    """The problem of a damaged table file: "file X is not a readable Parquet file".
+
+    Truncated, zero-byte, random-byte or CSV-text files all end here (pyarrow's
+    or duckdb's message follows, first line only).
+    """
+    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    return DataProblem(table, "", None, None,
+                       f"file {file} is not a readable Parquet file ({first})")
+
+
+def _readable_parquet(name: str, file: Any, problems: list[DataProblem],
+                      filesystem: Any = None, shown: object = None) -> bool:
+    """Read the footer of one table file (cheap); a damaged file becomes a problem."""
+    try:
+        pq.read_metadata(file, filesystem=filesystem)
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        problems.append(unreadable_parquet(name, shown or file, exc))
+        return False
+    return True
+
+
 def _read_parquet_tables(
     folder: Path, where: str | None, problems: list[DataProblem],
     names: Iterable[str] = TABLE_NAMES,
@@ -222,22 +244,22 @@ def _read_parquet_tables(
     files = {name: folder / f"{name}.parquet" for name in names}
     present = {}
     for name, file in files.items():
-        if file.is_file():
-            present[name] = file
-        else:
+        if not file.is_file():
             problems.append(DataProblem(name, "", None, None, f"file {file.name} missing "
                                                               f"in {folder}"))
+        elif _readable_parquet(name, file, problems):
+            present[name] = file
     if where is None:
         frames = {}
         for name, file in present.items():
             try:
                 frames[name] = pq.read_table(file).to_pandas()
-            except (OSError, pa.ArrowException) as exc:
-                problems.append(DataProblem(name, "", None, None, f"cannot read {file}: {exc}"))
+            except (OSError, ValueError, pa.ArrowException) as exc:
+                problems.append(unreadable_parquet(name, file, exc))
     elif "cases" not in present:
         frames = {}
     else:
-        frames = _select_parquet(present, where)
+        frames = _select_parquet(present, where, problems)
     return {name: frames.get(name, empty_table(name)) for name in TABLE_NAMES}
 
 
@@ -259,7 +281,8 @@ def _selection_sql(source: str, where: str) -> str:
     return sql
 
 
-def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFrame]:
+def _select_parquet(files: dict[str, Path], where: str,
+                    problems: list[DataProblem]) -> dict[str, pd.DataFrame]:
     """Read the tables restricted to the cases matching ``where`` (duckdb on Parquet)."""
     con = duckdb.connect(":memory:")
     try:
@@ -280,13 +303,17 @@ def _select_parquet(files: dict[str, Path], where: str) -> dict[str, pd.DataFram
             f"AND case_id BETWEEN {int(bounds['min'].as_py())} AND {int(bounds['max'].as_py())} "
         frames = {}
         for name, file in files.items():
-            table = con.sql(
-                "SELECT * EXCLUDE (file_row_number) "
-                "FROM read_parquet($file, file_row_number = true) "
-                f"WHERE case_id IN (SELECT case_id FROM selected_cases) {between}"
-                "ORDER BY file_row_number",
-                params={"file": str(file)},
-            ).to_arrow_table()
+            try:
+                table = con.sql(
+                    "SELECT * EXCLUDE (file_row_number) "
+                    "FROM read_parquet($file, file_row_number = true) "
+                    f"WHERE case_id IN (SELECT case_id FROM selected_cases) {between}"
+                    "ORDER BY file_row_number",
+                    params={"file": str(file)},
+                ).to_arrow_table()
+            except duckdb.Error as exc:  # a damaged data page behind a readable footer
+                problems.append(unreadable_parquet(name, file, exc))
+                continue
             frames[name] = table.to_pandas()
         return frames
     finally:
@@ -307,18 +334,17 @@ def _read_parquet_tables_url(
     present = {}
     for name in dict.fromkeys(["cases", *names]) if where else names:
         file = f"{root}/{name}.parquet"
-        if fs.isfile(file):
-            present[name] = file
-        else:
+        if not fs.isfile(file):
             problems.append(DataProblem(name, "", None, None,
                                         f"file {name}.parquet missing in {url}"))
+        elif _readable_parquet(name, file, problems, fs, f"{url.rstrip('/')}/{name}.parquet"):
+            present[name] = file
 
     def read(name: str, filters: Any = None) -> pa.Table | None:
         try:
             return pq.read_table(present[name], filesystem=fs, filters=filters)
-        except (OSError, pa.ArrowException) as exc:
-            problems.append(DataProblem(name, "", None, None,
-                                        f"cannot read {url.rstrip('/')}/{name}.parquet: {exc}"))
+        except (OSError, ValueError, pa.ArrowException) as exc:
+            problems.append(unreadable_parquet(name, f"{url.rstrip('/')}/{name}.parquet", exc))
             return None
 
     tables: dict[str, pa.Table | None] = {}
@@ -347,16 +373,19 @@ def _finish_loading(
     frames: dict[str, pd.DataFrame], meta: dict[str, object], problems: list[DataProblem],
     validate: bool,
 ) -> Database:
+    if any(p.table != "meta" for p in problems):  # a missing or damaged file: its
+        raise DataError(problems)  # consequences (orphans, cases without rows) are noise
     db = Database(**frames, meta=meta).normalised()
     db = Database(**{name: table_from_file_units(df, name) for name, df in db.tables().items()},
                   meta=db.meta)
     if validate:
-        found = validate_database(db)
+        from vfs.database.checks import check_database, settle
+
+        found = check_database(db)
+        errors = found.errors
         if any(p.table == "meta" for p in problems):  # supersedes "meta.json missing"
-            found = [p for p in found if p.table != "meta"]
-        problems = problems + found
-    if problems and (validate or any(p.table != "meta" for p in problems)):
-        raise DataError(problems)
+            errors = [p for p in errors if p.table != "meta"]
+        settle(problems + errors, found.warnings)
     return db
 
 
@@ -444,6 +473,55 @@ def load_cases(path: str | os.PathLike[str], where: str | None = None) -> pd.Dat
     return table_from_file_units(normalise_table(frames["cases"], "cases"), "cases")
 
 
+def orphan_problems(path: str | os.PathLike[str]) -> list[DataProblem]:
+    """Rows of participants, trajectories or reconstruction whose case is not in ``cases``.
+
+    What :func:`vfs.database.validate_database` reports as orphaned rows, for a
+    Parquet database read with a selection (which never loads such rows): duckdb
+    anti-joins the files without loading them.
+
+    Parameters
+    ----------
+    path : path or URL
+        Parquet database folder or its fsspec URL.
+
+    Returns
+    -------
+    list of DataProblem
+        One per orphaned case id and table (at most 20 per table), naming table,
+        column ``case_id`` and the case id.
+    """
+    problems: list[DataProblem] = []
+    con = duckdb.connect(":memory:")
+    try:
+        if is_url(path):
+            fs, root = url_filesystem(os.fspath(path))
+            for name in TABLE_NAMES:
+                con.register(name, pq.read_table(f"{root}/{name}.parquet", filesystem=fs,
+                                                  columns=["case_id"]))
+            source = {name: name for name in TABLE_NAMES}
+        else:
+            source = {name: f"read_parquet('{Path(path) / f'{name}.parquet'}')"
+                      for name in TABLE_NAMES}
+        for name in TABLE_NAMES[1:]:
+            found = con.sql(
+                f"SELECT case_id, count(*) AS n FROM {source[name]} WHERE case_id NOT IN "
+                f"(SELECT case_id FROM {source['cases']} WHERE case_id IS NOT NULL) "
+                "GROUP BY case_id ORDER BY case_id LIMIT 21").fetchall()
+            for case_id, n in found[:20]:
+                problems.append(DataProblem(name, "case_id", None, case_id,
+                                            f"orphaned rows ({n}): case_id is not in table "
+                                            "'cases'"))
+            if len(found) > 20:
+                problems.append(DataProblem(name, "case_id", None, None,
+                                            "... and more orphaned case ids"))
+    except (duckdb.Error, OSError, pa.ArrowException):  # a damaged file: loading names it
+        return []
+    finally:
+        con.close()
+    return problems
+
+
 def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | None = None,
                *, batch_rows: int = 65536) -> Iterator[pd.DataFrame]:
     """One table of a Parquet database in batches of rows, without holding it whole.
@@ -472,7 +550,13 @@ def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | 
         source: Any = fs.open(f"{root}/{table}.parquet", "rb")
     else:
         source = open(Path(path) / f"{table}.parquet", "rb")  # closed below
-    with source, pq.ParquetFile(source, pre_buffer=False) as file:  # memory: a batch at a time
+    shown = f"{os.fspath(path).rstrip('/')}/{table}.parquet"
+    try:
+        file = pq.ParquetFile(source, pre_buffer=False)
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        source.close()
+        raise DataError(unreadable_parquet(table, shown, exc)) from None
+    with source, file:  # memory: a batch at a time
         empty = True
         for batch in file.iter_batches(batch_size=batch_rows):
             if keep is not None:

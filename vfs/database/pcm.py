@@ -37,7 +37,7 @@ import pandas as pd
 from vfs.database.database import Database, default_meta, python_scalar
 from vfs.database.io import check_before_write, write_folder_atomically
 from vfs.database.schema import TABLE_NAMES, empty_table, normalise_table
-from vfs.database.validation import check_values, validate_database
+from vfs.database.validation import check_values
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.physics.vehicle import VehicleParams
 
@@ -497,9 +497,11 @@ def import_pcm(
                   "trajectories": trajectories, "reconstruction": empty_table("reconstruction")}
     db = Database(**{n: normalise_table(frames_out[n], n) for n in TABLE_NAMES}, meta=meta)
     if validate:
-        found = validate_database(db)
-        if found:
-            raise DataError(found, header=f"PCM import of {src}: {len(found)} problem(s):")
+        from vfs.database.checks import check_database, settle
+
+        checked = check_database(db)
+        settle(checked.errors, checked.warnings,
+               header=f"PCM import of {src}: {len(checked.errors)} problem(s):")
     return db
 
 

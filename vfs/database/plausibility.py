@@ -32,6 +32,11 @@ validation rejects the database):
 - reconstruction positions more than :attr:`PlausibilityLimits.impact_position`
   from the trajectories at the impact time.
 
+Then the cross-field checks of :mod:`vfs.database.consistency` (recorded
+acceleration vs the speed's derivative, mass vs footprint, wheelbase vs length,
+yaw inertia vs m L1 L2, masses in pounds, fixed objects that move, overlapping
+outlines at the start, the POI far from both vehicles, PDOF in radians).
+
 Each problem names table, column, case and the limit.  docs/data-format.md lists the
 limits and why.
 """
@@ -149,7 +154,10 @@ def check_plausibility(db: Any, limits: PlausibilityLimits | None = None, *,
     if len(traj) and needed <= set(traj.columns):
         _check_trajectories(traj, lim, err, warn)
         _check_reconstruction(db, traj, lim, err, warn)
-    return Plausibility(err, warn)
+    from vfs.database.consistency import check_consistency
+
+    more_err, more_warn = check_consistency(db, lim.accel_error)  # across columns and tables
+    return Plausibility(err + more_err, warn + more_warn)
 
 
 def _check_trajectories(traj: pd.DataFrame, lim: PlausibilityLimits,

@@ -119,9 +119,12 @@ def _check_numeric(report: _Report, table: str, df: pd.DataFrame, col: ColumnSpe
     series = df[col.name]
     values, non_numeric = _numeric_values(series)
     allowed = col.allowed_text()
+    what = ("is not a number: case ids are integers (number the cases; text belongs in "
+            "cases.description)" if col.name == "case_id" else f"is not a number (allowed "
+            f"{allowed})")
     report.rows(
         table, col.name, df, non_numeric,
-        [f"value {python_scalar(v)!r} is not a number (allowed {allowed})"
+        [f"value {python_scalar(v)!r} {what}"
          for v in series.to_numpy()[non_numeric][:MAX_REPORTED_ROWS]],
         f"not a number (allowed {allowed})",
     )
@@ -399,7 +402,7 @@ def validate_meta(meta: Mapping[str, object] | None) -> list[DataProblem]:
     return problems
 
 
-def validate_database(db: Database) -> list[DataProblem]:
+def validate_database(db: Database, *, plausibility: bool = True) -> list[DataProblem]:
     """Check a database against the schema; return every problem found.
 
     Checks: ``meta.json`` (schema version); per column (from
@@ -420,6 +423,10 @@ def validate_database(db: Database) -> list[DataProblem]:
     ----------
     db : Database
         The database (normalised or not).
+    plausibility : bool
+        Add the physical plausibility errors (default); False for the schema
+        alone (:func:`vfs.database.checks.check_database` adds errors and
+        warnings itself).
 
     Returns
     -------
@@ -439,7 +446,7 @@ def validate_database(db: Database) -> list[DataProblem]:
     _check_trajectories(report, db)
     _check_collision(report, db)
     _check_outcome_source(report, db.reconstruction)
-    if not report.problems:  # physics on schema-valid data only (types and keys known)
+    if plausibility and not report.problems:  # physics on schema-valid data only
         from vfs.database.plausibility import check_plausibility
 
         # a selection (--where) may match no case: emptiness is vfs db validate's check
@@ -462,6 +469,29 @@ def _check_outcome_source(report: _Report, rec: pd.DataFrame) -> None:
     if "impact_type" in rec.columns:
         empty = (rec["impact_type"].astype(object).fillna("").map(str) == "").to_numpy()
         report.rows("reconstruction", "impact_type", rec, given & empty, text, text)
+
+
+def validate_table(name: str, df: pd.DataFrame) -> list[DataProblem]:
+    """The column and key checks of one table alone (e.g. the cases a study selects).
+
+    Parameters
+    ----------
+    name : str
+        Table name (key of :data:`vfs.database.schema.TABLES`).
+    df : pandas.DataFrame
+        The table (SI units).
+
+    Returns
+    -------
+    list of DataProblem
+        Types, missing values, ranges and duplicate keys: what
+        :func:`validate_database` reports for this table.
+    """
+    spec = TABLES[name]
+    report = _Report()
+    _check_columns(report, spec, df)
+    _check_unique(report, name, df, spec.key if name != "trajectories" else ())
+    return report.problems
 
 
 def check_values(table: str, values: Mapping[str, object]) -> list[DataProblem]:

@@ -41,8 +41,9 @@ from vfs.database import (
     load_database,
     select_database,
 )
-from vfs.database.io import is_url, iter_table, load_cases, read_meta
+from vfs.database.io import is_url, iter_table, load_cases, orphan_problems, read_meta
 from vfs.database.schema import TABLE_NAMES
+from vfs.database.validation import validate_table
 from vfs.errors import DataError, DataProblem
 from vfs.study.manifest import data_hash
 
@@ -143,6 +144,11 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
                           selection.folder, selection.reference,
                           db if selection.folder is None else None)
     cases = load_cases(location, where)
+    # what validate checks beyond the blocks: the case ids themselves (text, NaN,
+    # duplicates) and rows of cases that are not in the cases table (a block never loads them)
+    problems = validate_table("cases", cases) or orphan_problems(location)
+    if problems:
+        raise DataError(problems)
     ids = cases["case_id"].to_numpy()
     if ids.size == 0:
         raise _nothing_selected(where)

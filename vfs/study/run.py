@@ -42,6 +42,7 @@ from vfs.database.metadata import field_metadata
 from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch, SimulationParams
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
+from vfs.study.faults import record_fault
 from vfs.study.inputs import StudyInput, study_input
 from vfs.study.layout import (
     BASELINE,
@@ -349,10 +350,7 @@ def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_s
         if manifest.get("status") == "running":
             manifest.update(status="interrupted" if isinstance(exc, KeyboardInterrupt)
                             else "failed", updated=now(), error=error_text(exc))
-            try:
-                write_json(out_dir / MANIFEST_FILE, manifest)
-            except OSError:
-                pass  # the disk refuses even the manifest: the old one says "running"
+            record_fault(out_dir / MANIFEST_FILE, manifest)  # in place on a full disk
         raise
 
 

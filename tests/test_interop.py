@@ -271,7 +271,7 @@ def test_crash_test_with_a_barrier_round_trips(tmp_path):
     from vfs.interop.openscenario import export_case
     from vfs.interop.schemas import schema_errors
 
-    tests = open_database(ROOT / "vfs" / "data" / "crash-tests")
+    tests = open_database(ROOT / "scenarios" / "databases" / "crash-tests")
     r = export_case(tests, 5, tmp_path)
     assert schema_errors(r.xosc) == []
     root = ET.parse(r.xosc).getroot()

@@ -12,8 +12,8 @@ Five instrumented tests nobody here made:
   parameters" (head-on identification paper); the barrier is a fixed object.
 
 Every number below names its source; every other number is an assumption,
-marked ``ASSUMPTION``.  ``vfs/data/crash-tests/README.md`` lists them all.
-Regenerate with ``python -m vfs.scenarios.crash_tests vfs/data/crash-tests``.
+marked ``ASSUMPTION``.  ``scenarios/databases/crash-tests/README.md`` lists them all.
+Regenerate with ``python -m vfs.scenarios.crash_tests scenarios/databases/crash-tests``.
 
 Measured outcomes go into the reconstruction table with ``outcome_source =
 'measurement'``; outcomes the papers' text does not give are NaN (not
@@ -280,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
     from vfs.database.io import save_database
 
     args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0] if args else os.path.join("vfs", "data", "crash-tests"))
+    folder = Path(args[0] if args else os.path.join("scenarios", "databases", "crash-tests"))
     save_database(build_crash_test_database(), folder)
     print(f"wrote {folder}")
     return 0

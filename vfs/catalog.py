@@ -166,6 +166,8 @@ QUANTITY_UNITS: dict[str, tuple[Unit, ...]] = {
     "speed": (Unit("kmh", "km/h", _kmh_to_ms, _ms_to_kmh), Unit("mps", "m/s")),
     "angle": (Unit("deg", "deg", math.radians, math.degrees), Unit("rad", "rad")),
     "acceleration": (Unit("mps2", "m/s^2"),),
+    "angular_rate": (Unit("radps", "rad/s"),),
+    "degrees": (Unit("deg", "deg"),),  # kept in degrees inside (e.g. noise of a PDOF)
     "jerk": (Unit("mps3", "m/s^3"),),
     "rate": (Unit("per_s", "1/s"),),
     "ratio": (Unit("", "-"),),
@@ -190,6 +192,8 @@ class Field:
         Allowed values of a text field.
     pair_of : str
         Quantity of the two numbers of a pair.
+    ordered : bool
+        A pair is a range (low <= high); False for two values, one per participant.
     """
 
     name: str
@@ -200,6 +204,7 @@ class Field:
     hi_open: bool = False
     choices: tuple[str, ...] = ()
     pair_of: str = ""
+    ordered: bool = True
 
     def units(self) -> tuple[Unit, ...]:
         """The units its key may name."""
@@ -223,7 +228,8 @@ class Field:
         if self.quantity == "int":
             text = "an integer in " + text
         elif self.quantity == "pair":
-            text = "[low, high], low <= high, each in " + text
+            text = ("[low, high], low <= high, each in " if self.ordered
+                    else "[participant 1, participant 2], each in ") + text
         return f"{text} {unit.label}" if unit.label not in ("", "-") else text
 
 
@@ -260,7 +266,7 @@ def _convert(f: Field, key: str, unit: Unit, value: Any, path: str, where: str) 
             raise DefinitionError(path, name, f"{value!r} is not a pair of numbers",
                                   f.allowed(unit))
         pair = (unit.to_si(float(value[0])), unit.to_si(float(value[1])))
-        if not (all(_in_range(f, v) for v in pair) and pair[0] <= pair[1]):
+        if not (all(_in_range(f, v) for v in pair) and (pair[0] <= pair[1] or not f.ordered)):
             raise DefinitionError(path, name, f"{value!r} is out of range", f.allowed(unit))
         return pair
     if f.quantity == "int":

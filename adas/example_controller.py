@@ -14,8 +14,7 @@ a deliberately simple example, not a recommendation.
 
 Run it::
 
-    vfs study --db default --plugin adas/example_controller.py \\
-        --systems gap-time,three-stage --out results/study-gap-time
+    vfs study --db default --plugin adas/example_controller.py --systems gap-time,three-stage
 """
 
 from __future__ import annotations

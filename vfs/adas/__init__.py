@@ -13,7 +13,8 @@ driver reaction, and a registry of named systems::
     events = controller.events()
 
 The built-in systems are the TOML files of ``adas/`` (:mod:`vfs.adas.definition`);
-``find_system("adas/my-aeb.toml")`` reads a user's file.  See docs/aeb.md for the models, formulas and sources.
+``find_system("adas/my-aeb.toml")`` reads a user's file.  See docs/aeb.md for the models,
+formulas and sources.
 """
 
 from vfs.adas.controller import EVENT_KEYS, STAGES, AEBController, actuator_delay

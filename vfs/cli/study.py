@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from vfs.cli.common import DB_HELP, WHERE_HELP
+from vfs.cli.common import DB_HELP, WHERE_HELP, out_option
 from vfs.errors import ParameterError
 
 
@@ -28,13 +28,14 @@ def _positive_int(text: str) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
-    from vfs.cli.common import load_plugins
+    from vfs.cli.common import load_plugins, out_folder, path_label
     from vfs.study import run_study
 
     load_plugins(args.plugin)
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
+    out_folder(args, "study", args.db, "+".join(path_label(s) for s in systems))
     try:
         result = run_study(
             args.db, systems, args.out, engine=args.engine, workers=args.workers,
@@ -112,7 +113,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
                    help="import a module or .py file first that registers systems with "
                    "vfs.adas.register_system (e.g. adas/example_controller.py); repeatable")
-    p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
+    out_option(p, "study folder", "study-<db>-<systems>")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
     p.add_argument("--equip", choices=("1", "2", "both"), default="both",
                    help="vehicles carrying the system in the treatment runs (default both)")

@@ -481,6 +481,11 @@ META_KEYS: dict[str, str] = {
         "(e.g. PCM imports): the collision/reconstruction consistency check is skipped"
     ),
     "pcm_import": "optional; written by import_pcm: the defaults it used and skipped cases",
+    "columns": (
+        "optional: unit and description of columns beyond the schema, "
+        '{"table": {"column": {"unit": "J", "description": "..."}}}; the Parquet writer '
+        "puts them into the field metadata"
+    ),
 }
 
 

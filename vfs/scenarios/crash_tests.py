@@ -172,6 +172,46 @@ def _reconstruction(case_id: int, p1: dict[str, float], p2: dict[str, float],
     return row
 
 
+#: Unit and description of the columns beyond the schema (``meta.json`` key ``columns``;
+#: the Parquet writer puts them into the field metadata).
+EXTRA_COLUMNS: dict[str, dict[str, str]] = {
+    "measured_kinetic_energy_contact": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_kAB(0), kinetic energy "
+        "of both cars at first contact (measured)"},
+    "measured_kinetic_energy_separation": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_kAB(t_k), kinetic "
+        "energy of both cars at separation (measured)"},
+    "measured_deformation_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_D, deformation work"},
+    "measured_body_friction_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_T, friction work between "
+        "the bodies"},
+    "measured_tyre_road_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_tAB, tyre-road friction "
+        "work during the contact"},
+    "measured_other_loss": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_p, other losses"},
+    "measured_separation_time": {
+        "unit": "s", "description": "energy-balance paper, section 4: separation time t_k "
+        "(F_xA reaches zero)"},
+    "paper_speed_a_eq29_all": {
+        "unit": "m/s", "description": "energy-balance paper, Table 3: V_A from its eq. (29) "
+        "with all energy terms"},
+    "paper_speed_a_eq29_deformation": {
+        "unit": "m/s", "description": "energy-balance paper, Table 3: V_A from its eq. (29) "
+        "with the deformation work only"},
+    "paper_speed2_alternative": {
+        "unit": "m/s", "description": "collision-uncertainty paper: the other speed of the "
+        "Vectra its text gives (30.0 km/h; Table 1's 38.0 km/h is used)"},
+    "paper_restitution": {
+        "unit": "-", "description": "head-on identification paper, Table 1: identified "
+        "restitution"},
+    "paper_front_wheel_lock_time": {
+        "unit": "s", "description": "head-on identification paper, Table 1: time at which "
+        "the front wheels block"},
+}
+
+
 def build_crash_test_database() -> Database:
     """The five crash tests as a database (SI units; see the module docstring).
 
@@ -272,6 +312,7 @@ def build_crash_test_database() -> Database:
         "AB1-AB3, collision-uncertainty paper Mondeo/Vectra, head-on identification paper "
         "C300 barrier); outcomes measured where the papers' text gives them; README.md "
         "lists every source and assumption")
+    meta["columns"] = {"reconstruction": EXTRA_COLUMNS}
     return Database(**tables, meta=meta)
 
 

@@ -255,3 +255,15 @@ def test_example_controller_registers_a_system_a_study_can_run(tmp_path: Path) -
     gap = runs[runs["system"] == "gap-time"].set_index("case_id")["collided"]
     # full braking 1.2 s before the centres meet avoids some of the recorded crashes
     assert gap.sum() < base.sum()
+
+
+def test_readme_explains_every_field_with_its_unit_and_range() -> None:
+    readme = (ROOT / "adas" / "README.md").read_text(encoding="utf-8")
+    for table, fields in SCHEMA.items():
+        for f in fields:
+            row = next((ln for ln in readme.splitlines() if ln.startswith(f"| `{f.keys()[0]}`")),
+                       None)
+            assert row is not None, (table, f.name)
+            for unit in f.units():
+                if f.quantity not in ("text", "bool"):
+                    assert f.allowed(unit) in row, (table, f.name, unit.label)

@@ -195,12 +195,11 @@ PRESET_FIELDS: tuple[Field, ...] = (
     Field("sample_interval", "time", lo=1e-4, hi=0.1),
 )
 #: The fields of a preset's ``[noise]`` table (:class:`NoiseModel`).
-NOISE_FIELDS: tuple[Field, ...] = (
-    Field("post_velocity", "ratio", lo=0.0), Field("yaw_rate", "angular_rate", lo=0.0),
-    Field("ees", "ratio", lo=0.0), Field("pdof", "degrees", lo=0.0),
-    Field("rest_position", "length", lo=0.0), Field("rest_yaw", "degrees", lo=0.0),
-    Field("scale", "ratio", lo=0.0),
-)
+NOISE_FIELDS: tuple[Field, ...] = tuple(
+    Field(name, quantity, lo=0.0, hi_open=True) for name, quantity in (
+        ("post_velocity", "ratio"), ("yaw_rate", "angular_rate"), ("ees", "ratio"),
+        ("pdof", "degrees"), ("rest_position", "length"), ("rest_yaw", "degrees"),
+        ("scale", "ratio")))
 #: The fields of a preset's ``[expert]`` table (:class:`ExpertChoice`).
 EXPERT_FIELDS: tuple[Field, ...] = (
     Field("restitution", "pair", lo=0.0, hi=1.0, pair_of="ratio"),

@@ -4,7 +4,7 @@ Runs the commands of the README's quick start (and the comparison) on the bundle
 with the current code, into a temporary folder, and keeps the small, text-form outputs in
 ``results/reference/<job>/`` (tables as CSV, the report's Markdown, the printed summary).
 Nothing there is edited by hand: run this after a change that moves the numbers and commit
-the difference with the change::
+the difference with the change (the figures are left out; their captions stay)::
 
     python benchmarks/update_reference.py            # all jobs (a few minutes on 2 cores)
     python benchmarks/update_reference.py study      # one job
@@ -13,6 +13,7 @@ the difference with the change::
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import subprocess
 import sys
@@ -29,7 +30,7 @@ JOBS: dict[str, tuple[list[list[str]], list[str]]] = {
         [["study", "--db", "default", "--systems", "three-stage,ideal", "--out", "{out}",
           "--overwrite"],
          ["report", "effectiveness", "{out}", "--no-case-pages"]],
-        ["report/report.md", "report/metrics.csv"],
+        ["report/report.md"],
     ),
     "compare-default": (
         [["compare", "--db", "default", "--out", "{out}", "--no-case-pages", "--sketches", "0"]],
@@ -51,7 +52,7 @@ def run_job(name: str, scratch: Path) -> list[Path]:
         if done.returncode != 0:
             raise SystemExit(f"vfs {' '.join(args)} failed:\n{done.stderr[-3000:]}")
         # the printed summary without the machine-dependent lines (times, paths)
-        printed += [f"$ vfs {' '.join(command)}"]
+        printed += [f"$ vfs {' '.join(command)}".replace("{out}", f"results/{name}")]
         printed += [ln for ln in done.stdout.splitlines()
                     if str(scratch) not in ln and " s (" not in ln and "->" not in ln]
     if target.exists():
@@ -61,6 +62,8 @@ def run_job(name: str, scratch: Path) -> list[Path]:
     for rel in keep:
         dest = target / Path(rel).name
         text = (out / rel).read_text(encoding="utf-8").replace(str(out), f"results/{name}")
+        if dest.suffix == ".md":  # the figures stay behind: keep their captions as text
+            text = re.sub(r"!\[([^\]]*)\]\([^)]*\)", r"(figure: \1)", text)
         dest.write_text(text, encoding="utf-8")
         written.append(dest)
     summary = target / "printed.txt"

@@ -188,4 +188,5 @@ def frictionless_schema() -> dict[str, Any]:
     return {"profile": "data-package", "name": "vfs-database", "resources": resources}
 
 
-__all__ = ["RUN_COLUMNS", "extra_column_metadata", "field_metadata", "frictionless_schema", "schema_json"]
+__all__ = ["RUN_COLUMNS", "extra_column_metadata", "field_metadata", "frictionless_schema",
+           "schema_json"]

@@ -266,10 +266,7 @@ def scenario_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str],
     """
     values = read_fields(data, SPEC_FIELDS, path=path)
     code = values.pop("code", None)
-    if base is not None:
-        built = replace
-        target: Any = base
-    else:
+    if base is None:
         if code is None:
             raise DefinitionError(str(path), "code", "missing", "an integer in [100, 799]")
         if "name" not in values:
@@ -280,10 +277,8 @@ def scenario_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str],
         for key in ("kind", "description"):
             if key not in values:
                 raise DefinitionError(str(path), key, "missing", "text")
-        built = ScenarioSpec  # type: ignore[assignment]
-        target = None
     try:
-        spec = built(target, **values) if target is not None else built(**values)
+        spec = replace(base, **values) if base is not None else ScenarioSpec(**values)
     except (ParameterError, TypeError) as exc:
         raise DefinitionError(str(path), "", str(exc)) from None
     return code, spec

@@ -34,7 +34,8 @@ class BuildPyWithCatalog(build_py):
             source = root / folder
             if not source.is_dir():
                 raise FileNotFoundError(f"{source} missing: the catalogue is part of vfs")
-            shutil.copytree(source, target / folder, dirs_exist_ok=True,
+            shutil.rmtree(target / folder, ignore_errors=True)  # no stale files of a former build
+            shutil.copytree(source, target / folder,
                             ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
 
 

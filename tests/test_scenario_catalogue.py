@@ -109,3 +109,18 @@ def test_definition_errors_in_the_catalogue_are_reported_at_import(tmp_path: Pat
     (tmp_path / "x.toml").write_text("name = 'x'\ncases = 3\n")
     with pytest.raises(DefinitionError, match=r"x\.toml: description: missing"):
         load_presets(tmp_path)
+
+
+def test_presets_by_name_or_file_project_folder_first(tmp_path: Path) -> None:
+    from vfs.scenarios.generator import get_preset
+
+    assert get_preset("clean", cwd=tmp_path) is PRESETS["clean"]
+    own = tmp_path / "scenarios" / "presets"
+    own.mkdir(parents=True)
+    text = (ROOT / "scenarios" / "presets" / "clean.toml").read_text(encoding="utf-8")
+    (own / "clean.toml").write_text(text.replace("cases = 200", "cases = 7"), encoding="utf-8")
+    assert get_preset("clean", cwd=tmp_path).cases == 7
+    assert get_preset("scenarios/presets/clean.toml", cwd=tmp_path).cases == 7
+    assert get_preset("default", cwd=tmp_path) is PRESETS["default"]
+    with pytest.raises(DefinitionError, match="no such file"):
+        get_preset("nowhere.toml", cwd=tmp_path)

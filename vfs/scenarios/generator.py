@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.catalog import Field, catalog_path, read_fields, read_toml
+from vfs.catalog import Field, catalog_path, project_path, read_fields, read_toml
 from vfs.database import Database, default_meta, save_csv_folder, save_database
 from vfs.database.schema import empty_table, normalise_table, table_as_stored
 from vfs.effects import Effect, check_effects, parse_effect
@@ -338,8 +338,31 @@ class GroundTruth:
         }
 
 
-def get_preset(name: str) -> Preset:
-    """The preset called ``name`` (raises ParameterError naming the known ones)."""
+def get_preset(name: str, *, cwd: str | os.PathLike[str] | None = None) -> Preset:
+    """A preset by name or file, as ``vfs generate --preset`` takes it.
+
+    Parameters
+    ----------
+    name : str
+        The path of a preset file (ends in ``.toml`` or holds a ``/``; relative to ``cwd``),
+        or a name: looked up in the project's ``<cwd>/scenarios/presets/<name>.toml`` first,
+        then among :data:`PRESETS`.
+    cwd : path, optional
+        The project folder; default the current working directory.
+
+    Raises
+    ------
+    DefinitionError
+        For a preset file that is missing or wrong.
+    ParameterError
+        For an unknown name (naming the known ones).
+    """
+    if name.endswith(".toml") or "/" in name:
+        path = Path(name) if cwd is None or Path(name).is_absolute() else Path(cwd) / name
+        return preset_from_dict(read_toml(path), path)
+    own = project_path("scenarios", "presets", f"{name}.toml", cwd=cwd)
+    if own is not None and own.is_file():
+        return preset_from_dict(read_toml(own), own)
     if name not in PRESETS:
         raise ParameterError(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}")
     return PRESETS[name]

@@ -62,6 +62,8 @@ def run_job(name: str, scratch: Path) -> list[Path]:
     for rel in keep:
         dest = target / Path(rel).name
         text = (out / rel).read_text(encoding="utf-8").replace(str(out), f"results/{name}")
+        # paths of this checkout become repository-relative (links from the kept file)
+        text = text.replace(f"file://{ROOT}/", "../../../").replace(f"{ROOT}/", "")
         if dest.suffix == ".md":  # the figures stay behind: keep their captions as text
             text = re.sub(r"!\[([^\]]*)\]\([^)]*\)", r"(figure: \1)", text)
         dest.write_text(text, encoding="utf-8")

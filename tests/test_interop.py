@@ -157,7 +157,7 @@ def test_case_roads_straight_bend_and_crossing(db):
 def test_straight_road_follows_the_scene_not_a_lane_change(db):
     import pandas as pd
 
-    truth = pd.read_parquet(ROOT / "vfs" / "data" / "default" / "ground_truth_cases.parquet")
+    truth = pd.read_parquet(ROOT / "scenarios" / "databases" / "default" / "ground_truth_cases.parquet")
     truth = truth.set_index("case_id")
     cases = db.cases[(db.cases.road_curvature == 0) & (db.cases.accident_type != 321)]
     worst = 0.0
@@ -271,7 +271,7 @@ def test_crash_test_with_a_barrier_round_trips(tmp_path):
     from vfs.interop.openscenario import export_case
     from vfs.interop.schemas import schema_errors
 
-    tests = open_database(ROOT / "vfs" / "data" / "crash-tests")
+    tests = open_database(ROOT / "scenarios" / "databases" / "crash-tests")
     r = export_case(tests, 5, tmp_path)
     assert schema_errors(r.xosc) == []
     root = ET.parse(r.xosc).getroot()

@@ -34,7 +34,7 @@ def crash_tests():
     from vfs.database import open_database
     from vfs.simulation import CaseBatch, simulate_cases
 
-    db = open_database(ROOT / "vfs" / "data" / "crash-tests")
+    db = open_database(ROOT / "scenarios" / "databases" / "crash-tests")
     batch = CaseBatch.from_database(db)
     return db, batch, simulate_cases(batch)
 

@@ -276,7 +276,7 @@ def test_system_lookup_and_arguments(tmp_path) -> None:
 def test_cli_study_writes_the_study(tmp_path, monkeypatch, capsys) -> None:
     import vfs.adas
 
-    monkeypatch.setattr(vfs.adas, "get_system", REGISTRY.__getitem__, raising=False)
+    monkeypatch.setattr(vfs.adas, "find_system", REGISTRY.__getitem__, raising=False)
     out = tmp_path / "cli"
     code = main(["study", "--db", "default", "--systems", "early", "--out", str(out),
                  "--where", "case_id <= 6", "--engine", "serial", "--chunk-size", "5",

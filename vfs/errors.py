@@ -41,6 +41,34 @@ class ParameterError(VfsError, ValueError):
     """A parameter (vehicle, impact, controller, ...) is outside its allowed range."""
 
 
+class DefinitionError(ParameterError):
+    """A definition file (``adas/*.toml``, ``scenarios/**/*.toml``) is malformed or a field is
+    out of range; the message names the file, the field and its allowed range.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    field : str
+        The field as written in the file (``aeb.sensor.range_m``); empty for a file that
+        cannot be parsed at all.
+    allowed : str
+        What the field allows (``(0, inf] m``); empty where it does not apply.
+    """
+
+    def __init__(self, path: str, field: str, problem: str, allowed: str = "") -> None:
+        self.path = str(path)
+        self.field = field
+        self.allowed = allowed
+        self.problem = problem
+        where = f"{self.path}: {field}" if field else self.path
+        tail = f" (allowed: {allowed})" if allowed else ""
+        super().__init__(f"{where}: {problem}{tail}")
+
+    def __reduce__(self) -> tuple[type, tuple[str, str, str, str]]:
+        return (type(self), (self.path, self.field, self.problem, self.allowed))
+
+
 class GeometryError(VfsError, ValueError):
     """A geometric configuration cannot be evaluated (e.g. degenerate outline)."""
 

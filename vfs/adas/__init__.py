@@ -12,15 +12,19 @@ driver reaction, and a registry of named systems::
     results = simulate_cases(batch, controller, params, rng=np.random.default_rng(1))
     events = controller.events()
 
-See docs/aeb.md for the models, formulas and sources.
+The built-in systems are the TOML files of ``adas/`` (:mod:`vfs.adas.definition`);
+``find_system("adas/my-aeb.toml")`` reads a user's file.  See docs/aeb.md for the models,
+formulas and sources.
 """
 
 from vfs.adas.controller import EVENT_KEYS, STAGES, AEBController, actuator_delay
+from vfs.adas.definition import load_system
 from vfs.adas.params import AEBParams, DriverParams, SensorParams
 from vfs.adas.systems import (
     SYSTEM_NAMES,
     SYSTEMS,
     AEBSystem,
+    find_system,
     get_system,
     register_system,
     system_names,
@@ -37,7 +41,9 @@ __all__ = [
     "DriverParams",
     "SensorParams",
     "actuator_delay",
+    "find_system",
     "get_system",
+    "load_system",
     "register_system",
     "system_names",
 ]

@@ -2,8 +2,10 @@
 
 An :class:`AEBSystem` bundles the AEB logic and sensor (:class:`AEBParams`),
 the reaction of the equipped vehicle's driver (:class:`DriverParams`) and the
-brake actuator (:class:`vfs.physics.precrash.BrakeActuatorParams`).  Built-in
-presets (:data:`SYSTEM_NAMES`; sources in docs/aeb.md and docs/references.md):
+brake actuator (:class:`vfs.physics.precrash.BrakeActuatorParams`).  The built-in
+presets (:data:`SYSTEM_NAMES`; sources in docs/aeb.md and docs/references.md) are the
+definition files ``adas/<name>.toml`` (:mod:`vfs.adas.definition`, read through
+:mod:`vfs.catalog`; the numbers live there only):
 
 ``none``
     No AEB; the record is replayed.
@@ -27,153 +29,53 @@ Also registered (not in :data:`SYSTEM_NAMES`): ``ideal-ctra``, the ideal
 system with the CTRA prediction (path curvature and acceleration kept),
 which also handles braking leads and turning objects.
 
-:func:`register_system` adds user systems; :func:`get_system` looks one up.
+:func:`register_system` adds user systems; :func:`get_system` looks one up by name;
+:func:`find_system` takes what ``vfs study --systems`` takes: a definition file, a name in
+the project's ``adas/`` folder, or a registered name.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+import os
+from pathlib import Path
 
-import numpy.typing as npt
-
-from vfs.adas.controller import AEBController
-from vfs.adas.params import AEBParams, DriverParams, SensorParams
+from vfs.adas.definition import AEBSystem, is_definition_path, load_system
+from vfs.catalog import catalog_path, project_path
 from vfs.errors import ParameterError
-from vfs.physics.precrash import BrakeActuatorParams, PrecrashParams
 from vfs.registry import Registry
 
-if TYPE_CHECKING:
-    from vfs.simulation import CaseBatch
-
-#: Build-up and release rate [m/s^3] standing for a step: 1000 m/s^2 per 10 ms step,
-#: 10 m/s^2 per step even at the smallest step of 0.1 ms.
-STEP_JERK = 1.0e5
-
-
-@dataclass(frozen=True)
-class AEBSystem:
-    """A named AEB system: logic, sensor, driver reaction and brake actuator.
-
-    Attributes
-    ----------
-    name : str
-        Registry key.
-    description : str
-        One line for reports.
-    aeb : AEBParams or None
-        The AEB; None = no AEB.
-    driver : DriverParams or None
-        How the equipped vehicle's driver reacts to the first alert; None =
-        no reaction.
-    brake : BrakeActuatorParams
-        The brake actuator of the equipped vehicles (the simulation uses one
-        actuator for both participants; see :meth:`precrash_params`).
-    """
-
-    name: str
-    description: str
-    aeb: AEBParams | None
-    driver: DriverParams | None
-    brake: BrakeActuatorParams = dataclasses.field(default_factory=BrakeActuatorParams)
-
-    def __post_init__(self) -> None:
-        if not self.name or not isinstance(self.name, str):
-            raise ParameterError("an AEB system needs a non-empty name")
-
-    def controller(self, batch: CaseBatch, equipped: npt.ArrayLike) -> AEBController | None:
-        """A fresh controller for ``batch``; None for a system without AEB.
-
-        Parameters
-        ----------
-        batch : CaseBatch
-        equipped : array_like of bool, broadcastable to (N, 2)
-            Which participant of each case carries the system.
-        """
-        if self.aeb is None:
-            return None
-        return AEBController(batch, equipped, self.aeb, self.driver, self.brake)
-
-    def precrash_params(self, base: PrecrashParams) -> PrecrashParams:
-        """``base`` with this system's brake actuator."""
-        return dataclasses.replace(base, brake=self.brake)
-
-
 # ----------------------------------------------------------------------------
-# Presets
+# Presets: the files adas/<name>.toml (one source; vfs.catalog finds them)
 # ----------------------------------------------------------------------------
 
-_STEP_BRAKE = BrakeActuatorParams(model="jerk", jerk=STEP_JERK, release_jerk=STEP_JERK)
 
-NONE = AEBSystem(
-    name="none",
-    description="no AEB: the record is replayed",
-    aeb=None, driver=None, brake=BrakeActuatorParams(),
-)
+def builtin_definition(name: str) -> Path:
+    """The definition file of the built-in system ``name`` (``adas/<name>.toml``)."""
+    return catalog_path("adas", f"{name}.toml")
 
-OPENPASS_LIKE = AEBSystem(
-    name="openpass-like",
-    description="openPASS-like single stage: 6 m/s^2 step at TTC 2.0 s (outlines +4.0/+1.5 m), "
-                "release at 1.5 x TTC, 150 m / 0.35 rad sensor, no latency",
-    aeb=AEBParams(
-        sensor=SensorParams(range=150.0, field_of_view=0.35, cycle_time=0.01, latency=0.0),
-        prediction="ctrv", ttc_horizon=4.0,
-        warning_ttc=None, partial_ttc=None, full_ttc=2.0, full_deceleration=6.0,
-        release="ttc", release_factor=1.5,
-        box_margin_longitudinal=4.0, box_margin_lateral=1.5, min_speed=0.0,
-    ),
-    driver=None,
-    brake=_STEP_BRAKE,
-)
 
-THREE_STAGE = AEBSystem(
-    name="three-stage",
-    description="warning 2.6 s, partial (4 m/s^2) 1.6 s, full 0.6 s; 150 m / 0.35 rad sensor, "
-                "20 Hz, 0.1 s latency; jerk 40 m/s^3; Gamma(7,7) driver reacts to the warning",
-    aeb=AEBParams(
-        sensor=SensorParams(range=150.0, field_of_view=0.35, cycle_time=0.05, latency=0.1),
-        prediction="ctrv", ttc_horizon=4.0,
-        warning_ttc=2.6, partial_ttc=1.6, partial_deceleration=4.0,
-        full_ttc=0.6, full_deceleration=10.0,
-        release="standstill",
-    ),
-    driver=DriverParams(),
-    brake=BrakeActuatorParams(model="jerk", jerk=40.0, release_jerk=40.0),
-)
-
-_IDEAL_AEB = AEBParams(
-    sensor=SensorParams(range=math.inf, field_of_view=2.0 * math.pi, cycle_time=0.0,
-                        latency=0.0),
-    prediction="cv", ttc_horizon=6.0,
-    warning_ttc=None, partial_ttc=None, full_ttc=None, full_deceleration=100.0,
-    last_moment=True, release="standstill", min_speed=0.2,
-)
-
-IDEAL = AEBSystem(
-    name="ideal",
-    description="ideal: 360 deg perfect sensor, no latency, instant full braking at the friction "
-                "limit at the last moment that avoids the CV-predicted contact",
-    aeb=_IDEAL_AEB,
-    driver=None,
-    brake=BrakeActuatorParams(model="jerk", jerk=STEP_JERK, release_jerk=STEP_JERK,
-                              max_deceleration=20.0),
-)
-
-IDEAL_CTRA = dataclasses.replace(
-    IDEAL, name="ideal-ctra",
-    description="ideal with the CTRA prediction (path curvature and acceleration kept): "
-                "sees braking leads and turning objects; not one of SYSTEM_NAMES",
-    aeb=dataclasses.replace(_IDEAL_AEB, prediction="ctra"),
-)
+NONE = load_system(builtin_definition("none"))
+OPENPASS_LIKE = load_system(builtin_definition("openpass-like"))
+THREE_STAGE = load_system(builtin_definition("three-stage"))
+IDEAL = load_system(builtin_definition("ideal"))
+IDEAL_CTRA = load_system(builtin_definition("ideal-ctra"))
 
 #: Names of the built-in systems.
 SYSTEM_NAMES: tuple[str, ...] = ("none", "openpass-like", "three-stage", "ideal")
 
+def _is_system(obj: object) -> bool:
+    """True for an :class:`AEBSystem` or any object a study can run (a user's controller)."""
+    return isinstance(obj, AEBSystem) or (
+        isinstance(getattr(obj, "name", None), str)
+        and callable(getattr(obj, "controller", None))
+        and callable(getattr(obj, "precrash_params", None)))
+
+
 def _check_system(name: str, system: AEBSystem) -> None:
-    if not isinstance(system, AEBSystem):
-        raise ParameterError(f"register_system needs an AEBSystem, got {type(system).__name__}")
+    if not _is_system(system):
+        raise ParameterError(f"register_system needs an AEB system (an AEBSystem or an object "
+                             f"with name, controller() and precrash_params()), got "
+                             f"{type(system).__name__}")
     if name != system.name:
         raise ParameterError(f"AEB system {system.name!r} registered as {name!r}")
 
@@ -192,8 +94,7 @@ def register_system(system: AEBSystem) -> AEBSystem:
     ParameterError
         If the name is taken by a different system.
     """
-    if not isinstance(system, AEBSystem):
-        raise ParameterError(f"register_system needs an AEBSystem, got {type(system).__name__}")
+    _check_system(getattr(system, "name", ""), system)
     return SYSTEMS.add(system.name, system)
 
 
@@ -211,3 +112,70 @@ def get_system(name: str) -> AEBSystem:
 def system_names() -> tuple[str, ...]:
     """Names of all registered systems (built-in first, then in registration order)."""
     return SYSTEMS.names()
+
+
+def find_system(spec: str, *, cwd: str | os.PathLike[str] | None = None) -> AEBSystem:
+    """An AEB system by name or definition file, as ``vfs study --systems`` takes them.
+
+    Parameters
+    ----------
+    spec : str
+        A path of a definition file (ends in ``.toml`` or holds a ``/``; relative to
+        ``cwd``), or a name.  A name is looked up (1) in the project's ``adas/`` folder,
+        ``<cwd>/adas/<name>.toml``, then (2) among the registered systems: the built-ins
+        and those added by :func:`register_system` or a ``--plugin`` module.
+    cwd : path, optional
+        The project folder; default the current working directory.
+
+    Raises
+    ------
+    DefinitionError
+        For a definition file that is missing or wrong (names file, field and range).
+    ParameterError
+        For an unknown name (listing the known ones).
+    """
+    if is_definition_path(spec):
+        path = Path(spec)
+        if not path.is_absolute() and cwd is not None:
+            path = Path(cwd) / path
+        return load_system(path)
+    own = project_path("adas", f"{spec}.toml", cwd=cwd)
+    if own is not None and own.is_file():
+        return load_system(own)
+    return get_system(spec)
+
+
+def python_system(path: str | os.PathLike[str], attribute: str = "SYSTEM") -> AEBSystem:
+    """The system ``attribute`` of a user's Python file (imported once per process).
+
+    A user-written controller (``adas/example_controller.py``) pickles itself as a call of
+    this function, so the worker processes of a study import the same file by path.
+
+    Raises
+    ------
+    ParameterError
+        A missing file or one without ``attribute``.
+    """
+    import importlib.util
+    import sys
+
+    file = Path(path).resolve()
+    module_name = f"vfs_plugin_{file.stem}"
+    module = sys.modules.get(module_name)
+    if module is None:
+        if not file.is_file():
+            raise ParameterError(f"{file}: no such file")
+        spec = importlib.util.spec_from_file_location(module_name, file)
+        if spec is None or spec.loader is None:
+            raise ParameterError(f"{file}: cannot import")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[module_name] = module
+        try:
+            spec.loader.exec_module(module)
+        except Exception:
+            del sys.modules[module_name]
+            raise
+    system = getattr(module, attribute, None)
+    if system is None or not _is_system(system):
+        raise ParameterError(f"{file}: {attribute} is not an AEB system")
+    return system

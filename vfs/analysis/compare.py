@@ -824,7 +824,7 @@ def compare_tables(
     pairs["reference_poi_x"], pairs["reference_poi_y"] = rx.ravel(), ry.ravel()
     pairs["vfs_poi_x"], pairs["vfs_poi_y"] = vx.ravel(), vy.ravel()
     poi_distance = np.hypot(vx - rx, vy - ry)
-    # An instrumented test's POI is the assumed set-up (vfs/data/crash-tests/README.md,
+    # An instrumented test's POI is the assumed set-up (scenarios/databases/crash-tests/README.md,
     # "Assumptions"), not an observation: no distance to report.
     poi_distance[_assumed_poi(rec_n)] = np.nan
     poi_distance = poi_distance.ravel()

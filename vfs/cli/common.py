@@ -27,6 +27,44 @@ STRICT_HELP = ("treat the plausibility warnings of the input (docs/data-format.m
 WHERE_HELP = "SQL predicate on the cases table, e.g. \"accident_type IN (241, 242)\""
 
 
+#: The folder (relative to the working directory) below which every command writes when
+#: ``--out`` is not given: ``results/<command>-<name>`` (results/README.md).
+RESULTS_DIR = "results"
+
+
+def path_label(text: str) -> str:
+    """A file-name-safe short label of a database or system given on the command line."""
+    name = text.rstrip("/").rsplit("/", 1)[-1]
+    name = name.removesuffix(".toml").removesuffix(".py") or "db"
+    return "".join(c if c.isalnum() or c in "-_.+" else "_" for c in name)
+
+
+def results_folder(command: str, *names: str) -> str:
+    """The default output folder ``results/<command>-<name>-...`` of a command.
+
+    >>> results_folder("study", "default", "three-stage+ideal")
+    'results/study-default-three-stage+ideal'
+    >>> results_folder("compare", "/data/my db/")
+    'results/compare-my_db'
+    """
+    parts = [command, *(path_label(n) for n in names if n)]
+    return f"{RESULTS_DIR}/{'-'.join(parts)}"
+
+
+def out_option(p: argparse.ArgumentParser, what: str, default: str) -> None:
+    """Add ``--out`` with the default ``results/<default>`` (filled in by :func:`out_folder`)."""
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help=f"{what} (default {RESULTS_DIR}/{default}; see results/README.md)")
+
+
+def out_folder(args: argparse.Namespace, command: str, *names: str) -> str:
+    """``args.out``, or the default :func:`results_folder` (stored in ``args.out``)."""
+    if not getattr(args, "out", None):
+        args.out = results_folder(command, *names)
+        say(f"output -> {args.out}")
+    return str(args.out)
+
+
 def add_db_options(p: argparse.ArgumentParser, *, required: bool = True,
                    where: bool = True) -> None:
     """Add ``--db`` (and ``--where``) to a command."""

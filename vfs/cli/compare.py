@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from vfs.cli.common import out_option
+
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Register ``vfs compare``."""
@@ -53,7 +55,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="write a page per case in the report's tables (OUT/cases/<id>.html: "
                    "the simulation beside the reconstruction, top views, impact table, speed "
                    "over time) by re-simulating only those cases (default: on)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    out_option(p, "output folder", "compare-<db>")
     p.set_defaults(func=run_compare)
 
 
@@ -61,10 +63,11 @@ def run_compare(args: argparse.Namespace) -> int:
     """Run ``vfs compare`` (exit code 0)."""
     from vfs.analysis.compare import compare_database, parse_margins
     from vfs.analysis.model_config import load_model_config
-    from vfs.cli.common import load_plugins, open_db
+    from vfs.cli.common import load_plugins, open_db, out_folder
     from vfs.report.compare import write_comparison_report
 
     load_plugins(args.plugin)
+    out_folder(args, "compare", args.db)
     db = open_db(args)
     params = load_model_config(args.model) if args.model else None
     setting = "default" if args.impact_parameters == "defaults" else "reconstruction"

@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vfs.cli.common import load_plugins, say
+from vfs.cli.common import load_plugins, out_folder, out_option, say
 from vfs.errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -41,6 +41,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from vfs.report.diagnose import write_diagnosis_report
 
     load_plugins(args.plugin)
+    out_folder(args, "diagnose", args.db)
     db, path = _load_db(args.db)
     s = _settings(args)
     diag = diagnose(db, outputs=args.outputs, effects=args.effects, folds=s["folds"],
@@ -203,7 +204,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--effects", default="all",
                    help="candidate effects, comma separated, or 'all' (default)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the summary here")
-    p.add_argument("--out", required=True, help="report folder, e.g. results/NAME/diagnose")
+    out_option(p, "report folder", "diagnose-<db>")
     p.add_argument("--n-boot", dest="n_boot", type=int, default=None,
                    help="bootstrap samples (default 2000)")
     p.add_argument("--correction", choices=("bh", "holm"), default="bh",

@@ -69,7 +69,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
             "model plus hidden effects plus measurement noise. The ground truth goes to "
             "ground_truth.json in the output folder."),
     )
-    p.add_argument("--preset", default="default", help="recipe: default, study36, clean")
+    p.add_argument("--preset", default="default",
+                   help="recipe: a name (./scenarios/presets/NAME.toml first, then the built-in "
+                   "default, study36, clean) or a preset file (scenarios/README.md)")
     p.add_argument("--cases", type=int, default=None, help="number of cases (preset default)")
     p.add_argument("--seed", type=int, default=0, help="seed of all randomness (default 0)")
     p.add_argument("--out", default=None, help="output database folder")

@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from vfs.cli.common import out_folder, out_option
+
 
 def cmd_evaluate_policy(args: argparse.Namespace) -> int:
     """``vfs evaluate-policy POLICY --db DIR --split test --out results/NAME``."""
@@ -17,6 +19,7 @@ def cmd_evaluate_policy(args: argparse.Namespace) -> int:
         from vfs.gym.evaluate import evaluate_policy
 
         env_kwargs = _env_kwargs(args.env_kwargs)
+        out_folder(args, "evaluate-policy", args.db)
         result = evaluate_policy(
             args.policy, args.db, args.out, split=args.split, test_share=args.test_share,
             split_seed=args.split_seed, where=args.where, ego=args.ego, engine=args.engine,
@@ -90,7 +93,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--where", help="SQL predicate on the cases table first")
     p.add_argument("--ego", type=int, choices=(1, 2), default=1,
                    help="participant braked by the policy (default 1)")
-    p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
+    out_option(p, "study folder", "evaluate-policy-<db>")
     p.add_argument("--engine", choices=("serial", "process", "dask"), default="process",
                    help="executor (default process; serial for policies that cannot be pickled)")
     p.add_argument("--workers", type=int, help="parallel workers")

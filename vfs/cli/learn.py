@@ -9,7 +9,7 @@ import json
 import time
 from pathlib import Path
 
-from vfs.cli.common import say
+from vfs.cli.common import out_folder, out_option, say
 from vfs.errors import ParameterError
 
 
@@ -19,6 +19,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     from vfs.analysis.identify import identification_features, identify, write_identification
     from vfs.database import open_database, resolve_database_path
 
+    out_folder(args, "identify", args.db)
     db = open_database(args.db)
     data = CalibrationData.from_database(db, args.outputs)
     t0 = time.perf_counter()
@@ -103,7 +104,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--zoom", type=int, default=0, metavar="N",
                    help="zoom per case into the N lowest minima of its grid profile (finer "
                         "than the grid; two more simulations per channel; default 0 = off)")
-    p.add_argument("--out", required=True, help="output folder")
+    out_option(p, "output folder", "identify-<db>")
     p.set_defaults(func=cmd_identify)
 
     q = subparsers.add_parser(

@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from vfs.cli.common import DB_HELP, WHERE_HELP
+from vfs.cli.common import DB_HELP, WHERE_HELP, out_option
 from vfs.errors import ParameterError, VfsError
 
 
@@ -41,8 +41,10 @@ def _default_equip(db: str) -> str:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
+    from vfs.cli.common import load_plugins, out_folder, path_label
     from vfs.study import run_study
 
+    load_plugins(args.plugin)
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
@@ -54,6 +56,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         terminate_as_interrupt,
     )
 
+    out_folder(args, "study", args.db, "+".join(path_label(s) for s in systems))
     try:
         with terminate_as_interrupt():  # SIGTERM stops the study as Ctrl-C does
             result = run_study(
@@ -133,9 +136,14 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
     p.add_argument("--db", required=True, help=DB_HELP)
     p.add_argument("--systems", required=True, metavar="NAMES",
-                   help="comma-separated AEB systems, e.g. three-stage,ideal; known: "
-                   f"{', '.join(SYSTEMS)} (docs/aeb.md)")
-    p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
+                   help="comma-separated AEB systems: names or definition files, e.g. "
+                   "three-stage,adas/my-aeb.toml; a name is looked up in ./adas/NAME.toml "
+                   f"first, then among the built-ins: {', '.join(SYSTEMS)} (adas/README.md, "
+                   "docs/aeb.md)")
+    p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
+                   help="import a module or .py file first that registers systems with "
+                   "vfs.adas.register_system (e.g. adas/example_controller.py); repeatable")
+    out_option(p, "study folder", "study-<db>-<systems>")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
     p.add_argument("--equip", choices=("1", "2", "both"), default=None,
                    help="vehicles carrying the system in the treatment runs (default the "

@@ -10,6 +10,7 @@ import argparse
 import math
 from typing import Any
 
+from vfs.cli.common import out_folder, out_option
 from vfs.errors import ParameterError
 from vfs.units import KMH_PER_MS
 
@@ -78,7 +79,7 @@ def _common(p: argparse.ArgumentParser, max_cases_default: int | None = None) ->
     p.add_argument("--config", metavar="TOML", help="input distributions (TOML, on top of "
                    "vfs/data/uncertainty_default.toml; see docs/uncertainty.md)")
     p.add_argument("--seed", type=int, default=0, help="seed of all random numbers (default 0)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    out_option(p, "output folder", f"{p.prog.split()[-1]}-<db>")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
 
 
@@ -88,6 +89,7 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
     from vfs.uncertainty import OUTCOMES_BY_NAME, run_uncertainty
 
     samples = _positive(args.samples, "--samples", integer=True)
+    out_folder(args, "uncertainty", args.db)
     cases = _load_cases(args)
     result = run_uncertainty(cases, _config(args), n_samples=samples, seed=args.seed,
                              keep_samples=args.save_samples, sampling=args.sampling)
@@ -125,6 +127,7 @@ def cmd_sensitivity(args: argparse.Namespace) -> int:
     n_boot = int(args.bootstrap)
     if n_boot < 0:
         raise ParameterError(f"--bootstrap {n_boot}: must be >= 0")
+    out_folder(args, "sensitivity", args.db)
     cases = _load_cases(args)
     result = sensitivity_analysis(cases, _config(args), n_base=n_base, seed=args.seed,
                                   outcomes=outcomes, n_boot=n_boot)
@@ -196,6 +199,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     args.max_cases = None
     args.where = None
     args.cases = ",".join(args.case)
+    out_folder(args, "reconstruct", args.db, *args.case[:1])
     cases = _load_cases(args)
     config = _config(args)
     out = Path(args.out)
@@ -309,7 +313,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.add_argument("--config", metavar="TOML", help="distributions of the uncertain "
                    "parameters (see docs/uncertainty.md)")
     r.add_argument("--seed", type=int, default=0, help="seed (default 0)")
-    r.add_argument("--out", required=True, metavar="DIR", help="output folder (one "
-                   "sub-folder per case when several are given)")
+    out_option(r, "output folder (one sub-folder per case when several are given)",
+               "reconstruct-<db>")
     r.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     r.set_defaults(func=cmd_reconstruct)

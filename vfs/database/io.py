@@ -31,7 +31,7 @@ import pyarrow.parquet as pq
 
 from vfs.atomic import with_field_metadata, write_folder
 from vfs.database.database import Database
-from vfs.database.metadata import field_metadata
+from vfs.database.metadata import extra_column_metadata, field_metadata
 from vfs.database.schema import (
     SCHEMA_VERSION,
     TABLE_NAMES,
@@ -207,8 +207,9 @@ def save_database(db: Database, path: str | os.PathLike[str], *, validate: bool 
 
     def write(folder: Path) -> None:
         for name, df in tables_for_writing(norm).items():
-            table = with_field_metadata(pa.Table.from_pandas(df, preserve_index=False),
-                                        field_metadata(df.columns, table=name, stored=True))
+            meta = {**extra_column_metadata(norm.meta, name, df.columns),
+                    **field_metadata(df.columns, table=name, stored=True)}
+            table = with_field_metadata(pa.Table.from_pandas(df, preserve_index=False), meta)
             pq.write_table(table, folder / f"{name}.parquet")
         (folder / META_FILE).write_text(_meta_for_writing(norm.meta), encoding="utf-8")
 

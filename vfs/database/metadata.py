@@ -13,7 +13,7 @@ then the outcome columns of study runs); :func:`schema_json` and
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from vfs.database.schema import TABLES, ColumnSpec, TableSpec
@@ -53,6 +53,30 @@ def _spec_lookup() -> dict[str, ColumnSpec]:
             if spec.accepts_uncertainty and getattr(col, "uncertainty", False):
                 sd = col.uncertainty_spec()
                 out.setdefault(sd.name, sd)
+    return out
+
+
+def extra_column_metadata(meta: Mapping[str, Any], table: str,
+                          columns: Iterable[str]) -> dict[str, dict[str, str]]:
+    """Field metadata of the columns beyond the schema that ``meta["columns"]`` documents.
+
+    Parameters
+    ----------
+    meta : mapping
+        A database's ``meta`` (``meta.json``); its optional key ``columns`` maps table ->
+        column -> ``{"unit": ..., "description": ...}``.
+    table : str
+        The table.
+    columns : iterable of str
+        The table's columns; documented columns that are absent are left out.
+    """
+    documented = meta.get("columns") or {}
+    own = documented.get(table) or {} if isinstance(documented, Mapping) else {}
+    out: dict[str, dict[str, str]] = {}
+    for name in columns:
+        doc = own.get(name) if isinstance(own, Mapping) else None
+        if isinstance(doc, Mapping):
+            out[name] = {k: str(doc[k]) for k in ("unit", "description") if k in doc}
     return out
 
 
@@ -164,4 +188,5 @@ def frictionless_schema() -> dict[str, Any]:
     return {"profile": "data-package", "name": "vfs-database", "resources": resources}
 
 
-__all__ = ["RUN_COLUMNS", "field_metadata", "frictionless_schema", "schema_json"]
+__all__ = ["RUN_COLUMNS", "extra_column_metadata", "field_metadata", "frictionless_schema",
+           "schema_json"]

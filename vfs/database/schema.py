@@ -484,6 +484,11 @@ META_KEYS: dict[str, str] = {
     "equip": ('optional: "1", "2" or "both", the vehicles a study equips unless --equip says '
               'otherwise (the Euro NCAP matrix: "1", the VUT)'),
     "test_protocol": "optional; the test protocol a test-matrix database implements",
+    "columns": (
+        "optional: unit and description of columns beyond the schema, "
+        '{"table": {"column": {"unit": "J", "description": "..."}}}; the Parquet writer '
+        "puts them into the field metadata"
+    ),
 }
 
 

@@ -5,8 +5,10 @@
     db = open_database("default")                         # the bundled database
     db = open_database("path/to/folder", where="accident_type = 241")
 
-Bundled databases ship inside the package (``vfs/data/<name>``) and are
-found with :mod:`importlib.resources`, so they work from any install.  A
+Bundled databases are the folders ``scenarios/databases/<name>`` of the
+catalogue (:mod:`vfs.catalog`: the repository's folder in a clone, the copy
+inside the package of a wheel, read with :mod:`importlib.resources`), so they
+work from any install.  A
 Parquet database can also be named by an fsspec URL (``file:///data/db``,
 ``memory://db``, ``s3://bucket/db``; :func:`vfs.database.io.is_url`).
 
@@ -25,6 +27,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
+from vfs.catalog import catalog_path
 from vfs.database.database import Database
 from vfs.database.io import (
     is_url,
@@ -36,10 +39,10 @@ from vfs.database.io import (
 from vfs.database.pcm import import_pcm
 from vfs.errors import DataError, DataProblem, ParameterError
 
-#: Databases shipped with vfs: ``--db NAME`` -> folder below ``vfs/data``.
+#: Databases shipped with vfs: ``--db NAME`` -> folder below ``scenarios/databases``.
 BUNDLED_DATABASES: dict[str, str] = {
     "default": "default",
-    "crash-tests": "crash-tests",  # vfs/data/crash-tests/README.md
+    "crash-tests": "crash-tests",  # scenarios/databases/crash-tests/README.md
     "euro-ncap-c2c": "euro-ncap-c2c",  # built by vfs.scenarios.euro_ncap
 }
 
@@ -66,7 +69,7 @@ def bundled_database_path(name: str = "default") -> Path:
     if name not in BUNDLED_DATABASES:
         raise ParameterError(f"unknown bundled database {name!r}; known: "
                              f"{', '.join(BUNDLED_DATABASES)}")
-    return data_path(BUNDLED_DATABASES[name])
+    return catalog_path("scenarios", "databases", BUNDLED_DATABASES[name])
 
 
 def resolve_database_path(source: str | os.PathLike[str]) -> Path:

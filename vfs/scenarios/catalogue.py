@@ -1,16 +1,27 @@
-"""Accident-type catalogue of the synthetic scenes: one :class:`ScenarioSpec` per type code."""
+"""Accident-type catalogue of the synthetic scenes: one :class:`ScenarioSpec` per type code.
+
+The types are data: ``scenarios/accident-types/<code>.toml`` (read through
+:mod:`vfs.catalog`; every field in ``scenarios/README.md``), loaded into
+:data:`SCENARIO_TYPES` when this module is imported.
+"""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
 
 from vfs.accident_types import ACCIDENT_TYPES
-from vfs.errors import ParameterError
+from vfs.catalog import Field, catalog_path, read_fields, read_toml
+from vfs.errors import DefinitionError, ParameterError
 from vfs.scenarios.validation import check_range, check_share
 from vfs.units import KMH_PER_MS
 
-__all__ = ["KINDS", "SCENARIO_TYPES", "ScenarioSpec"]
+__all__ = ["KINDS", "SCENARIO_TYPES", "SPEC_FIELDS", "ScenarioSpec", "load_scenario_types",
+           "scenario_from_dict"]
 
 
 def _kmh(lo: float, hi: float) -> tuple[float, float]:
@@ -204,40 +215,94 @@ class ScenarioSpec:
                 raise ParameterError(f"{where} {name}={value!r} outside [{lo:g}, {hi:g}]")
 
 
-_HEAD_ON = dict(speed1=_kmh(60.0, 110.0), speed2=_kmh(50.0, 100.0), brake_prob=(0.3, 0.5),
-                evasive_prob=(0.0, 0.3), overlap=(0.1, 1.0))
+def _pair(name: str, of: str, lo: float = -math.inf, hi: float = math.inf,
+          ordered: bool = True) -> Field:
+    return Field(name, "pair", lo=lo, hi=hi, pair_of=of, ordered=ordered)
 
-#: The accident types by code of the German/Austrian accident-type catalogue; names from
-#: :data:`vfs.accident_types.ACCIDENT_TYPES`.
-SCENARIO_TYPES: dict[int, ScenarioSpec] = {
-    241: ScenarioSpec(ACCIDENT_TYPES[241], "head_on",
-                      "head-on on a straight road: participant 1 drifted into the oncoming "
-                      "lane", **_HEAD_ON),  # type: ignore[arg-type]
-    242: ScenarioSpec(ACCIDENT_TYPES[242], "head_on",
-                      "head-on in a right bend: participant 1 was carried out of the bend "
-                      "into the oncoming lane", bend=-1, **_HEAD_ON),  # type: ignore[arg-type]
-    243: ScenarioSpec(ACCIDENT_TYPES[243], "head_on",
-                      "head-on in a left bend: participant 1 cut the corner into the "
-                      "oncoming lane", bend=1, **_HEAD_ON),  # type: ignore[arg-type]
-    264: ScenarioSpec(ACCIDENT_TYPES[264], "overtaking",
-                      "head-on while overtaking: participant 1 overtook in the oncoming lane "
-                      "and met participant 2", speed1=_kmh(80.0, 130.0),
-                      speed2=_kmh(60.0, 100.0), brake_prob=(0.5, 0.5),
-                      evasive_prob=(0.0, 0.3), evasive_time=(0.5, 1.2),
-                      heading_angle=_deg(1.0, 12.0)),
-    601: ScenarioSpec(ACCIDENT_TYPES[601], "rear_end",
-                      "rear-end: participant 1 ran into participant 2 ahead in the same lane",
-                      speed1=_kmh(40.0, 100.0), speed2=_kmh(5.0, 60.0), standing2_share=0.3,
-                      min_closing_speed=2.0, brake_prob=(0.6, 0.4), evasive_prob=(0.2, 0.15),
-                      evasive_angle=_deg(2.0, 7.0), overlap=(0.3, 1.0)),
-    321: ScenarioSpec(ACCIDENT_TYPES[321], "crossing",
-                      "crossing paths at a junction: participant 1 struck the side of "
-                      "participant 2", speed1=_kmh(25.0, 70.0), speed2=_kmh(25.0, 70.0),
-                      brake_prob=(0.4, 0.4), evasive_prob=(0.0, 0.0),
-                      impact_position=(0.1, 0.9)),
-    211: ScenarioSpec(ACCIDENT_TYPES[211], "left_turn",
-                      "left turn: participant 1 turned left across the path of oncoming "
-                      "participant 2", speed1=_kmh(10.0, 30.0), speed2=_kmh(40.0, 90.0),
-                      brake_prob=(0.3, 0.5), evasive_prob=(0.0, 0.2),
-                      impact_position=(0.0, 0.6), striker_offset=0.35),
-}
+
+#: The fields of an accident-type file (``scenarios/accident-types/<code>.toml``); the
+#: ranges are checked by :class:`ScenarioSpec` itself (its messages give them).
+SPEC_FIELDS: tuple[Field, ...] = (
+    Field("code", "int", lo=100, hi=799),
+    Field("name", "text"), Field("kind", "text", choices=KINDS), Field("description", "text"),
+    Field("bend", "int", lo=-1, hi=1),
+    _pair("speed1", "speed"), _pair("speed2", "speed"),
+    Field("standing2_share", "ratio"), Field("min_closing_speed", "speed"),
+    Field("min_impact_speed_share", "ratio"),
+    _pair("brake_prob", "ratio", ordered=False), _pair("brake_lead_time", "time"),
+    _pair("brake_jerk", "jerk"), _pair("brake_deceleration", "acceleration"),
+    _pair("evasive_prob", "ratio", ordered=False), _pair("evasive_angle", "angle"),
+    _pair("evasive_time", "time"), _pair("heading_angle", "angle"), _pair("overlap", "ratio"),
+    _pair("near_miss_gap", "length"), _pair("bend_lateral_accel", "acceleration"),
+    _pair("bend_radius", "length"), _pair("crossing_angle", "angle"),
+    Field("crossing_from_right_share", "ratio"), _pair("impact_position", "ratio"),
+    Field("striker_offset", "ratio"), _pair("turn_radius", "length"),
+    _pair("turn_angle", "angle"), _pair("turner_lane", "length"),
+    _pair("lane_change_time", "time"), _pair("lane_change_gap", "time"),
+    _pair("lane_change_width", "length"), Field("swerve_left_share", "ratio"),
+    Field("lane_offset", "length"), Field("max_lateral_accel", "acceleration"),
+)
+
+
+def scenario_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str],
+                       base: ScenarioSpec | None = None) -> tuple[int | None, ScenarioSpec]:
+    """The accident code and :class:`ScenarioSpec` of a parsed accident-type table.
+
+    Parameters
+    ----------
+    data : mapping
+        The table (:data:`SPEC_FIELDS`; units in the keys).
+    path : path
+        The file, for messages.
+    base : ScenarioSpec, optional
+        Fields left out are taken from it (a preset's override of a catalogue type);
+        otherwise from the defaults of :class:`ScenarioSpec`, the name from
+        :data:`vfs.accident_types.ACCIDENT_TYPES`.
+
+    Raises
+    ------
+    DefinitionError
+        Naming the file, the field and the allowed values.
+    """
+    values = read_fields(data, SPEC_FIELDS, path=path)
+    code = values.pop("code", None)
+    if base is None:
+        if code is None:
+            raise DefinitionError(str(path), "code", "missing", "an integer in [100, 799]")
+        if "name" not in values:
+            if code not in ACCIDENT_TYPES:
+                raise DefinitionError(str(path), "name", f"missing (code {code} has no "
+                                      "catalogue name)", "text")
+            values["name"] = ACCIDENT_TYPES[code]
+        for key in ("kind", "description"):
+            if key not in values:
+                raise DefinitionError(str(path), key, "missing", "text")
+    try:
+        spec = replace(base, **values) if base is not None else ScenarioSpec(**values)
+    except (ParameterError, TypeError) as exc:
+        raise DefinitionError(str(path), "", str(exc)) from None
+    return code, spec
+
+
+def load_scenario_types(folder: str | os.PathLike[str] | None = None) -> dict[int, ScenarioSpec]:
+    """The accident types of a folder of ``<code>.toml`` files, by code (sorted by file).
+
+    Parameters
+    ----------
+    folder : path, optional
+        Default ``scenarios/accident-types`` of the catalogue (:mod:`vfs.catalog`).
+    """
+    root = Path(folder) if folder is not None else catalog_path("scenarios", "accident-types")
+    out: dict[int, ScenarioSpec] = {}
+    for file in sorted(root.glob("*.toml")):
+        code, spec = scenario_from_dict(read_toml(file), file)
+        if code in out:
+            raise DefinitionError(str(file), "code", f"{code} is defined twice in {root}")
+        out[int(code)] = spec  # type: ignore[arg-type]
+    return out
+
+
+#: The accident types by code of the German/Austrian accident-type catalogue: the files
+#: ``scenarios/accident-types/<code>.toml`` (names from
+#: :data:`vfs.accident_types.ACCIDENT_TYPES`), in the order of their codes.
+SCENARIO_TYPES: dict[int, ScenarioSpec] = dict(sorted(load_scenario_types().items()))

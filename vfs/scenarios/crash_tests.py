@@ -12,8 +12,8 @@ Five instrumented tests nobody here made:
   parameters" (head-on identification paper); the barrier is a fixed object.
 
 Every number below names its source; every other number is an assumption,
-marked ``ASSUMPTION``.  ``vfs/data/crash-tests/README.md`` lists them all.
-Regenerate with ``python -m vfs.scenarios.crash_tests vfs/data/crash-tests``.
+marked ``ASSUMPTION``.  ``scenarios/databases/crash-tests/README.md`` lists them all.
+Regenerate with ``python -m vfs.scenarios.crash_tests scenarios/databases/crash-tests``.
 
 Measured outcomes go into the reconstruction table with ``outcome_source =
 'measurement'``; outcomes the papers' text does not give are NaN (not
@@ -184,6 +184,52 @@ def _reconstruction(case_id: int, p1: dict[str, float], p2: dict[str, float],
     return row
 
 
+#: Unit and description of the columns beyond the schema (``meta.json`` key ``columns``;
+#: the Parquet writer puts them into the field metadata).
+EXTRA_COLUMNS: dict[str, dict[str, str]] = {
+    "measured_kinetic_energy_contact": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_kAB(0), kinetic energy "
+        "of both cars at first contact (measured)"},
+    "measured_kinetic_energy_separation": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_kAB(t_k), kinetic "
+        "energy of both cars at separation (measured)"},
+    "measured_deformation_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_D, deformation work"},
+    "measured_body_friction_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_T, friction work between "
+        "the bodies"},
+    "measured_tyre_road_work": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_tAB, tyre-road friction "
+        "work during the contact"},
+    "measured_other_loss": {
+        "unit": "J", "description": "energy-balance paper, Table 2: E_p, other losses"},
+    "measured_separation_time": {
+        "unit": "s", "description": "energy-balance paper, section 4: separation time t_k "
+        "(F_xA reaches zero)"},
+    "paper_speed_a_eq29_all": {
+        "unit": "m/s", "description": "energy-balance paper, Table 3: V_A from its eq. (29) "
+        "with all energy terms"},
+    "paper_speed_a_eq29_deformation": {
+        "unit": "m/s", "description": "energy-balance paper, Table 3: V_A from its eq. (29) "
+        "with the deformation work only"},
+    "paper_speed2_alternative": {
+        "unit": "m/s", "description": "collision-uncertainty paper: the other speed of the "
+        "Vectra its text gives (30.0 km/h; Table 1's 38.0 km/h is used)"},
+    "paper_restitution": {
+        "unit": "-", "description": "head-on identification paper, Table 1: identified "
+        "restitution"},
+    "paper_front_wheel_lock_time": {
+        "unit": "s", "description": "head-on identification paper, Table 1: time at which "
+        "the front wheels block"},
+    "paper_ees2_crash3": {
+        "unit": "m/s", "description": "collision-uncertainty paper, section 2.3: the Opel's "
+        "EES computed with the CRASH3 method (13.6 km/h), not a measurement"},
+    "paper_ees2_crash3_sd": {
+        "unit": "m/s", "description": "standard deviation of paper_ees2_crash3: 25 % as a 95 % "
+        "limit, from Smith and Noga's CRASH accuracy (see docs/references.md)"},
+}
+
+
 def build_crash_test_database() -> Database:
     """The five crash tests as a database (SI units; see the module docstring).
 
@@ -285,6 +331,7 @@ def build_crash_test_database() -> Database:
         "AB1-AB3, collision-uncertainty paper Mondeo/Vectra, head-on identification paper "
         "C300 barrier); outcomes measured where the papers' text gives them; README.md "
         "lists every source and assumption")
+    meta["columns"] = {"reconstruction": EXTRA_COLUMNS}
     return Database(**tables, meta=meta)
 
 
@@ -293,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
     from vfs.database.io import save_database
 
     args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0] if args else os.path.join("vfs", "data", "crash-tests"))
+    folder = Path(args[0] if args else os.path.join("scenarios", "databases", "crash-tests"))
     save_database(build_crash_test_database(), folder)
     print(f"wrote {folder}")
     return 0

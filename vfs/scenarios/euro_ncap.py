@@ -19,7 +19,7 @@ the speed reduction, scored by :mod:`vfs.analysis.euro_ncap`.
 The undisturbed record of every test collides at ``impact_time`` (the protocol's
 impact location); coordinates follow ISO 8855 (x along the VUT's approach, y to
 its left), SI units.  The database is written once into the package
-(``vfs/data/euro-ncap-c2c``, like the crash-test database) with
+(``scenarios/databases/euro-ncap-c2c``, like the crash-test database) with
 ``python -m vfs.scenarios.euro_ncap``; ``tests/test_euro_ncap.py`` checks that
 the bundled copy equals a fresh build.
 """
@@ -53,10 +53,27 @@ MATRIX_COLUMNS = ("ncap_scenario", "ncap_vut_speed", "ncap_gvt_speed", "ncap_ove
                   "ncap_gvt_deceleration", "ncap_headway", "ncap_turn_radius",
                   "ncap_impact_location")
 
+#: Unit and description of the matrix columns (``meta.json`` key ``columns``).
+MATRIX_COLUMN_UNITS: dict[str, dict[str, str]] = {
+    "ncap_scenario": {"unit": "", "description": "Euro NCAP test scenario (CCRs, CCRm, ...)"},
+    "ncap_vut_speed": {"unit": "m/s", "description": "test speed of the vehicle under test"},
+    "ncap_gvt_speed": {"unit": "m/s", "description": "speed of the global vehicle target"},
+    "ncap_overlap": {"unit": "-", "description": "signed overlap share (protocol convention)"},
+    "ncap_gvt_deceleration": {"unit": "m/s^2",
+                              "description": "deceleration of the braking target (magnitude)"},
+    "ncap_headway": {"unit": "m", "description": "gap between VUT and GVT at braking onset"},
+    "ncap_turn_radius": {"unit": "m", "description": "radius of the VUT's turning path"},
+    "ncap_impact_location": {"unit": "-",
+                             "description": "impact point as share of the GVT's length from "
+                             "its front"},
+}
+
 
 def protocol_path() -> Path:
-    """The protocol file, ``scenarios/euro-ncap-c2c/protocol.toml`` at the repository root."""
-    return Path(__file__).resolve().parents[2] / "scenarios" / DATABASE_NAME / "protocol.toml"
+    """The protocol file, ``scenarios/euro-ncap-c2c/protocol.toml`` of the catalogue."""
+    from vfs.catalog import catalog_path
+
+    return catalog_path("scenarios", DATABASE_NAME, "protocol.toml")
 
 
 def read_protocol(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
@@ -405,6 +422,7 @@ def build_euro_ncap_database(protocol: dict[str, Any] | None = None) -> Database
     meta["has_reconstruction"] = False
     meta["equip"] = "1"  # the VUT carries the system; `vfs study` takes it as --equip default
     meta["test_protocol"] = str(protocol["protocol"]["test_protocol"])
+    meta["columns"] = {"cases": MATRIX_COLUMN_UNITS}
     return Database(**tables, meta=meta)
 
 
@@ -413,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
     from vfs.database.io import save_database
 
     args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0] if args else os.path.join("vfs", "data", DATABASE_NAME))
+    folder = Path(args[0] if args else os.path.join("scenarios", "databases", DATABASE_NAME))
     save_database(build_euro_ncap_database(), folder)
     print(f"wrote {folder}")
     return 0

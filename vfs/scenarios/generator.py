@@ -34,24 +34,25 @@ import json
 import math
 import os
 from collections.abc import Iterable, Mapping
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from vfs.catalog import Field, catalog_path, project_path, read_fields, read_toml
 from vfs.database import Database, default_meta, save_csv_folder, save_database
 from vfs.database.schema import empty_table, normalise_table, table_as_stored
 from vfs.effects import Effect, check_effects, parse_effect
-from vfs.errors import ParameterError
+from vfs.errors import DefinitionError, ParameterError
 from vfs.physics.impact import (
     angle_between,
     deformation_energy,
     impact_type_names,
     velocity_change,
 )
-from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec
+from vfs.scenarios.catalogue import SCENARIO_TYPES, ScenarioSpec, scenario_from_dict
 from vfs.scenarios.scenes import generate_scenes
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
 from vfs.units import KMH_PER_MS, wrap_angle
@@ -183,60 +184,119 @@ class Preset:
     sample_interval: float = 0.01
 
 
-def _study36_specs() -> dict[int, ScenarioSpec]:
-    """The Momentum Based Impact Model paper's fatal frontal collisions: delta-v about 50 km/h
-    (its Table 1) needs
-    closing speeds of about 90-100 km/h at impact, so somewhat lower travel speeds
-    and more late braking than the default head-on scenes, overlaps from 15 %.
-    """
-    out: dict[int, ScenarioSpec] = {}
-    for code in (241, 242, 243, 264):
-        spec = SCENARIO_TYPES[code]
-        if code != 264:
-            spec = replace(spec, speed1=(45 * _KMH, 90 * _KMH), speed2=(40 * _KMH, 85 * _KMH))
-        out[code] = replace(spec, overlap=(0.15, 1.0), brake_prob=(0.5, 0.6))
+#: The fields of a preset file (``scenarios/presets/<name>.toml``) besides its tables
+#: ``type_shares`` or ``type_weights``, ``specs``, ``noise`` and ``expert``.
+PRESET_FIELDS: tuple[Field, ...] = (
+    Field("name", "text"), Field("description", "text"),
+    Field("cases", "int", lo=1, hi=10_000_000),
+    Field("near_miss_share", "ratio", lo=0.0, hi=1.0),
+    Field("wet_share", "ratio", lo=0.0, hi=1.0),
+    Field("exclude_secondary_collisions", "bool"), Field("frontal_only", "bool"),
+    Field("sample_interval", "time", lo=1e-4, hi=0.1),
+)
+#: The fields of a preset's ``[noise]`` table (:class:`NoiseModel`).
+NOISE_FIELDS: tuple[Field, ...] = tuple(
+    Field(name, quantity, lo=0.0, hi_open=True) for name, quantity in (
+        ("post_velocity", "ratio"), ("yaw_rate", "angular_rate"), ("ees", "ratio"),
+        ("pdof", "degrees"), ("rest_position", "length"), ("rest_yaw", "degrees"),
+        ("scale", "ratio")))
+#: The fields of a preset's ``[expert]`` table (:class:`ExpertChoice`).
+EXPERT_FIELDS: tuple[Field, ...] = (
+    Field("restitution", "pair", lo=0.0, hi=1.0, pair_of="ratio"),
+    Field("contact_friction", "pair", lo=0.0, hi=2.0, pair_of="ratio"),
+)
+_PRESET_TABLES = ("type_shares", "type_weights", "specs", "noise", "expert", "hidden")
+
+
+def _codes(table: Any, path: str, key: str) -> dict[int, Any]:
+    if not isinstance(table, Mapping) or not table:
+        raise DefinitionError(path, key, "must be a non-empty table code = value")
+    out = {}
+    for code, value in table.items():
+        if not (code.isdigit() and 100 <= int(code) <= 799):
+            raise DefinitionError(path, f"{key}.{code}", "not an accident-type code",
+                                  "a 3-digit code in [100, 799]")
+        out[int(code)] = value
     return out
 
 
-PRESETS: dict[str, Preset] = {
-    "default": Preset(
-        name="default",
-        description=("all accident types of the catalogue (head-on straight, in a bend, "
-                     "cutting a bend, while overtaking; rear-end; crossing; left turn), "
-                     "10 % near misses, 30 % wet roads, realistic reconstruction noise, "
-                     "the structure-aware POI/contact-plane rule as in real reconstructions"),
-        cases=600,
-        type_shares={241: 0.20, 242: 0.12, 243: 0.05, 264: 0.10, 601: 0.20, 321: 0.18,
-                     211: 0.15},
-        near_miss_share=0.10,
-        hidden=("structure_poi",),
-        sample_interval=0.05,
-    ),
-    "study36": Preset(
-        name="study36",
-        description=("mirrors the Momentum Based Impact Model paper's sample: 36 fatal "
-                     "frontal collisions of two cars "
-                     "driving in opposite directions, no secondary collisions, "
-                     "241 > 242 > 264 as in its Figure 3 (the remaining codes are ours), "
-                     "structure-aware POI/contact-plane rule and realistic noise"),
-        cases=36,
-        type_shares={241: 13 / 36, 242: 9 / 36, 264: 6 / 36, 243: 5 / 36, 211: 3 / 36},
-        specs=_study36_specs(),
-        near_miss_share=0.0,
-        hidden=("structure_poi",),
-        exclude_secondary_collisions=True,
-        frontal_only=True,
-    ),
-    "clean": Preset(
-        name="clean",
-        description=("all accident types, no hidden effect and no noise: the reconstructions "
-                     "equal the default model (for tests and as a baseline)"),
-        cases=200,
-        type_shares={241: 0.20, 242: 0.12, 243: 0.05, 264: 0.10, 601: 0.20, 321: 0.18,
-                     211: 0.15},
-        noise=NO_NOISE,
-    ),
-}
+def preset_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str]) -> Preset:
+    """The :class:`Preset` of a parsed preset file (see ``scenarios/README.md``).
+
+    Type shares are given as ``[type_shares]`` (used as written) or ``[type_weights]``
+    (divided by their sum); ``[specs.CODE]`` tables override fields of the catalogue's
+    accident type ``CODE`` (:data:`vfs.scenarios.catalogue.SCENARIO_TYPES`).
+
+    Raises
+    ------
+    DefinitionError
+        Naming the file, the field and the allowed values.
+    """
+    p = str(path)
+    values = read_fields(data, PRESET_FIELDS, path=p, extra=_PRESET_TABLES)
+    for key in ("name", "description", "cases"):
+        if key not in values:
+            raise DefinitionError(p, key, "missing")
+    if ("type_shares" in data) == ("type_weights" in data):
+        raise DefinitionError(p, "type_shares", "give either [type_shares] or [type_weights]")
+    key = "type_shares" if "type_shares" in data else "type_weights"
+    raw = _codes(data[key], p, key)
+    for code, share in raw.items():
+        if not (isinstance(share, int | float) and not isinstance(share, bool)
+                and math.isfinite(share) and share >= 0):
+            raise DefinitionError(p, f"{key}.{code}", f"{share!r} is not a share", "[0, inf)")
+    total = sum(raw.values())
+    if not total > 0:
+        raise DefinitionError(p, key, "the shares must have a positive sum")
+    shares = raw if key == "type_shares" else {c: w / total for c, w in raw.items()}
+    specs = {}
+    specs_table = data.get("specs")
+    spec_items = _codes(specs_table, p, "specs").items() if specs_table is not None else ()
+    for code, table in spec_items:
+        if code not in SCENARIO_TYPES:
+            raise DefinitionError(p, f"specs.{code}", "no such accident type in "
+                                  "scenarios/accident-types", ", ".join(map(str, SCENARIO_TYPES)))
+        if not isinstance(table, Mapping):
+            raise DefinitionError(p, f"specs.{code}", "must be a table ([specs.CODE])")
+        specs[code] = scenario_from_dict(table, f"{p} [specs.{code}]",
+                                         base=SCENARIO_TYPES[code])[1]
+    hidden = data.get("hidden", [])
+    if not (isinstance(hidden, list) and all(isinstance(h, str) for h in hidden)):
+        raise DefinitionError(p, "hidden", f"{hidden!r} is not a list of effect specs",
+                              'e.g. ["structure_poi"]')
+    try:
+        noise = NoiseModel(**read_fields(data.get("noise", {}), NOISE_FIELDS, path=p,
+                                         where="noise."))
+        expert = ExpertChoice(**read_fields(data.get("expert", {}), EXPERT_FIELDS, path=p,
+                                            where="expert."))
+        return Preset(type_shares=shares, specs=specs, hidden=tuple(hidden), noise=noise,
+                      expert=expert, **values)
+    except ParameterError as exc:
+        if isinstance(exc, DefinitionError):
+            raise
+        raise DefinitionError(p, "", str(exc)) from None
+
+
+def load_presets(folder: str | os.PathLike[str] | None = None) -> dict[str, Preset]:
+    """The presets of a folder of ``<name>.toml`` files ("default" first, then by name).
+
+    Parameters
+    ----------
+    folder : path, optional
+        Default ``scenarios/presets`` of the catalogue (:mod:`vfs.catalog`).
+    """
+    root = Path(folder) if folder is not None else catalog_path("scenarios", "presets")
+    presets = [preset_from_dict(read_toml(f), f) for f in sorted(root.glob("*.toml"))]
+    out: dict[str, Preset] = {}
+    for preset in sorted(presets, key=lambda q: (q.name != "default", q.name)):
+        if preset.name in out:
+            raise DefinitionError(str(root), "name", f"preset {preset.name!r} defined twice")
+        out[preset.name] = preset
+    return out
+
+
+#: The generator's presets: the files ``scenarios/presets/<name>.toml``.
+PRESETS: dict[str, Preset] = load_presets()
 
 
 @dataclass(frozen=True)
@@ -278,8 +338,31 @@ class GroundTruth:
         }
 
 
-def get_preset(name: str) -> Preset:
-    """The preset called ``name`` (raises ParameterError naming the known ones)."""
+def get_preset(name: str, *, cwd: str | os.PathLike[str] | None = None) -> Preset:
+    """A preset by name or file, as ``vfs generate --preset`` takes it.
+
+    Parameters
+    ----------
+    name : str
+        The path of a preset file (ends in ``.toml`` or holds a ``/``; relative to ``cwd``),
+        or a name: looked up in the project's ``<cwd>/scenarios/presets/<name>.toml`` first,
+        then among :data:`PRESETS`.
+    cwd : path, optional
+        The project folder; default the current working directory.
+
+    Raises
+    ------
+    DefinitionError
+        For a preset file that is missing or wrong.
+    ParameterError
+        For an unknown name (naming the known ones).
+    """
+    if name.endswith(".toml") or "/" in name:
+        path = Path(name) if cwd is None or Path(name).is_absolute() else Path(cwd) / name
+        return preset_from_dict(read_toml(path), path)
+    own = project_path("scenarios", "presets", f"{name}.toml", cwd=cwd)
+    if own is not None and own.is_file():
+        return preset_from_dict(read_toml(own), own)
     if name not in PRESETS:
         raise ParameterError(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}")
     return PRESETS[name]

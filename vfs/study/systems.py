@@ -38,10 +38,12 @@ def resolve_system(name: str, registry: SystemRegistry | None = None) -> AEBSyst
     Parameters
     ----------
     name : str
-        System name, e.g. ``"three-stage"``.
+        System name, e.g. ``"three-stage"``, or the path of a definition file
+        (``adas/my-aeb.toml``).
     registry : mapping or callable, optional
         Where to look: a ``{name: system}`` mapping or a ``name -> system``
-        function; default :func:`vfs.adas.get_system`.
+        function; default :func:`vfs.adas.find_system` (a definition file, the
+        project's ``adas/<name>.toml``, then the registered systems).
 
     Returns
     -------
@@ -53,9 +55,9 @@ def resolve_system(name: str, registry: SystemRegistry | None = None) -> AEBSyst
         Unknown name, or the systems package is not installed.
     """
     if registry is None:
-        from vfs.adas import get_system
+        from vfs.adas import find_system
 
-        registry = get_system
+        registry = find_system
     if isinstance(registry, Mapping):
         if name not in registry:
             raise ParameterError(f"unknown system {name!r}; known: {', '.join(registry)}")

@@ -12,6 +12,7 @@ import os
 import re
 import subprocess
 import sys
+import tomllib
 import venv
 from pathlib import Path
 
@@ -51,9 +52,13 @@ def test_lazy_public_api_resolves_every_name() -> None:
 
 
 def test_no_top_level_helper_packages() -> None:
-    # vfs is the only top-level package of the distribution
+    # vfs is the only top-level package of the distribution; tests/ is a package too (its
+    # folders mirror vfs/ and hold same-named files, which pytest imports as tests.<sub>.<name>)
+    # but is not shipped: the package finder includes vfs* only
     top = {p.name for p in ROOT.iterdir() if (p / "__init__.py").exists()}
-    assert top == {"vfs"}
+    assert top == {"vfs", "tests"}
+    finder = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert finder["packages"]["find"]["include"] == ["vfs*"]
 
 
 def _python_modules() -> list[Path]:

@@ -29,7 +29,7 @@ from vfs.interop.scenario_import import import_xosc
 from vfs.physics.geometry import vehicle_outline
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

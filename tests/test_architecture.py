@@ -146,3 +146,63 @@ def test_non_editable_install_works_from_another_folder(tmp_path: Path) -> None:
     run("vfs", "study", "--db", "default", "--where", "case_id <= 12", "--systems",
         "three-stage", "--engine", "serial", "--out", "s")
     assert (work / "s" / "runs.parquet").exists()
+
+
+def _sibling_imports(package: Path) -> dict[str, set[str]]:
+    """Module -> sibling modules it imports, type-only (``if TYPE_CHECKING:``) imports and
+    imports inside functions included (import-linter skips the former)."""
+    prefix = "vfs." + ".".join(package.relative_to(PACKAGE).parts)
+    prefix = prefix.rstrip(".") + "."
+    names = {p.stem for p in package.glob("*.py") if p.stem != "__init__"}
+    edges: dict[str, set[str]] = {name: set() for name in names}
+    for name in names:
+        tree = ast.parse((package / f"{name}.py").read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            targets: list[str] = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            for target in targets:
+                if target.startswith(prefix):
+                    sibling = target[len(prefix):].split(".")[0]
+                    if sibling in names and sibling != name:
+                        edges[name].add(sibling)
+    return edges
+
+
+def _cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(edges[node]):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state and (found := visit(nxt)):
+                return found
+        state[node] = 2
+        stack.pop()
+        return None
+
+    for start in sorted(edges):
+        if start not in state and (found := visit(start)):
+            return found
+    return None
+
+
+def test_cycle_finder_sees_a_type_only_cycle() -> None:
+    edges = _sibling_imports(PACKAGE / "gym")
+    assert "observation" in edges["config"]
+    edges["observation"].add("config")  # the former back edge under TYPE_CHECKING
+    assert _cycle(edges) is not None
+
+
+@pytest.mark.parametrize("package", sorted(p.name for p in PACKAGE.iterdir()
+                                            if (p / "__init__.py").exists()))
+def test_no_import_cycle_between_sibling_modules(package: str) -> None:
+    # type-only imports count: a cycle of them still means the two modules cannot be
+    # understood (or split) one without the other
+    assert _cycle(_sibling_imports(PACKAGE / package)) is None

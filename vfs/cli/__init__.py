@@ -1,10 +1,18 @@
 """The ``vfs`` command line: one entry point, one module per command group.
 
 Each module of this package has ``add_parsers(subparsers)``; the sub-parsers
-set ``func(args) -> int`` (the exit code).  User errors
-(:class:`vfs.errors.VfsError`) are printed as one line without a traceback and
-give exit code 2.  Heavy imports happen inside the commands, so ``vfs --help``
-stays fast.
+set ``func(args) -> int`` (the exit code).  Heavy imports happen inside the
+commands, so ``vfs --help`` stays fast.
+
+Exit codes (every command; tests/cli/test_exit_codes.py):
+
+* 0: done;
+* 1: ``vfs db validate`` found problems in the database it checks (its verdict), or the
+  system refused a file operation (a full disk, a read-only folder: one line);
+* 2: a user error: a bad flag value (argparse), or a :class:`vfs.errors.VfsError` (unreadable
+  input, a value out of range), printed as one line without a traceback;
+* 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
+* 130: interrupted (Ctrl-C).
 """
 
 from __future__ import annotations

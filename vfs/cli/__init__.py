@@ -64,36 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:
         add(subparsers)
-    for sub in _drawing_parsers(subparsers):
-        _add_figure_options(sub)
     return parser
-
-
-#: Commands that draw figures (``--figure-format`` and ``--dpi``).
-DRAWING_COMMANDS: frozenset[str] = frozenset({
-    "run-case", "compare", "diagnose", "calibrate", "ledger", "effectiveness", "uncertainty",
-    "sensitivity", "reconstruct", "evaluate-policy",
-})
-
-
-def _drawing_parsers(action: argparse._SubParsersAction) -> list[argparse.ArgumentParser]:
-    out = []
-    for name, sub in action.choices.items():
-        if name in DRAWING_COMMANDS:
-            out.append(sub)
-        for child in sub._actions:
-            if isinstance(child, argparse._SubParsersAction):
-                out.extend(_drawing_parsers(child))
-    return out
-
-
-def _add_figure_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--figure-format", default="png", metavar="LIST",
-                   help="figure formats, comma separated, from png, svg, pdf (default png; the "
-                   "reports embed the PNG, the others are written beside it)")
-    p.add_argument("--dpi", type=float, metavar="N",
-                   help="resolution of raster figures [dots per inch] (default: 110, top "
-                   "views 120)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

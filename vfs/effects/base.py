@@ -54,10 +54,6 @@ from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, ImpactResult
 from vfs.registry import Registry
 
-#: The case batch the ``vehicles`` stage returns changed (a ``vfs.simulation.CaseBatch``,
-#: which this lower layer does not import).
-BatchT = TypeVar("BatchT")
-
 #: Simulation stages an effect can hook into, in the order they run.
 STAGES: tuple[str, ...] = (
     "vehicles", "penetration", "impact_configuration", "impact_parameters",
@@ -244,7 +240,7 @@ class Effect:
 
     # --------------------------------------------------------------- hooks
     # Defaults do nothing; the simulation calls only overridden hooks.
-    def vehicles(self, batch: BatchT) -> BatchT:
+    def vehicles(self, batch: Any) -> Any:
         """Stage ``vehicles``: return the case batch (``vfs.simulation.CaseBatch``) with changed
         vehicle data.
         """

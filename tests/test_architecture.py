@@ -11,6 +11,7 @@ import ast
 import json
 import os
 import re
+import tomllib
 import subprocess
 import sys
 from pathlib import Path
@@ -51,9 +52,13 @@ def test_lazy_public_api_resolves_every_name() -> None:
 
 
 def test_no_top_level_helper_packages() -> None:
-    # vfs is the only top-level package of the distribution
+    # vfs is the only top-level package of the distribution; tests/ is a package too (its
+    # folders mirror vfs/ and hold same-named files, which pytest imports as tests.<sub>.<name>)
+    # but is not shipped: the package finder includes vfs* only
     top = {p.name for p in ROOT.iterdir() if (p / "__init__.py").exists()}
-    assert top == {"vfs"}
+    assert top == {"vfs", "tests"}
+    finder = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert finder["packages"]["find"]["include"] == ["vfs*"]
 
 
 def _python_modules() -> list[Path]:
@@ -108,3 +113,63 @@ def test_api_example_runs_and_prints_what_the_docs_show(tmp_path: Path) -> None:
                          cwd=tmp_path, env=env, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == expected.split()
+
+
+def _sibling_imports(package: Path) -> dict[str, set[str]]:
+    """Module -> sibling modules it imports, type-only (``if TYPE_CHECKING:``) imports and
+    imports inside functions included (import-linter skips the former)."""
+    prefix = "vfs." + ".".join(package.relative_to(PACKAGE).parts)
+    prefix = prefix.rstrip(".") + "."
+    names = {p.stem for p in package.glob("*.py") if p.stem != "__init__"}
+    edges: dict[str, set[str]] = {name: set() for name in names}
+    for name in names:
+        tree = ast.parse((package / f"{name}.py").read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            targets: list[str] = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            for target in targets:
+                if target.startswith(prefix):
+                    sibling = target[len(prefix):].split(".")[0]
+                    if sibling in names and sibling != name:
+                        edges[name].add(sibling)
+    return edges
+
+
+def _cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(edges[node]):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state and (found := visit(nxt)):
+                return found
+        state[node] = 2
+        stack.pop()
+        return None
+
+    for start in sorted(edges):
+        if start not in state and (found := visit(start)):
+            return found
+    return None
+
+
+def test_cycle_finder_sees_a_type_only_cycle() -> None:
+    edges = _sibling_imports(PACKAGE / "gym")
+    assert "observation" in edges["config"]
+    edges["observation"].add("config")  # the former back edge under TYPE_CHECKING
+    assert _cycle(edges) is not None
+
+
+@pytest.mark.parametrize("package", sorted(p.name for p in PACKAGE.iterdir()
+                                            if (p / "__init__.py").exists()))
+def test_no_import_cycle_between_sibling_modules(package: str) -> None:
+    # type-only imports count: a cycle of them still means the two modules cannot be
+    # understood (or split) one without the other
+    assert _cycle(_sibling_imports(PACKAGE / package)) is None

@@ -1,7 +1,6 @@
 """Baseline virtual forward simulation (VFS) against the reconstructions (``vfs compare``).
 
-Reproduces the analysis of the Momentum Based Impact Model paper (Tomasch et al.: VFS with the
-geometric
+Reproduces the analysis of the Momentum Based Impact Model paper (VFS with the geometric
 POI / contact-plane rule against the reconstructions of 36 head-on accidents)
 and adds the statistics reviewers expect for paired data:
 

@@ -323,7 +323,10 @@ class CandidateResult:
 
 @dataclass
 class Diagnosis:
-    """Everything :func:`diagnose` found (see :func:`write_report`)."""
+    """Everything :func:`diagnose` found.
+
+    Written as a report by :func:`vfs.report.diagnose.write_diagnosis_report`.
+    """
 
     data: CalibrationData
     features: pd.DataFrame
@@ -440,7 +443,8 @@ def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
     min_reduction : float
         Smallest overall reduction that counts as "helps" (besides the CI).
     worst : int
-        Number of worst cases listed (and sketched by :func:`write_report`).
+        Number of worst cases listed (and sketched by
+        :func:`vfs.report.diagnose.write_diagnosis_report`).
     params : SimulationParams, optional
         Base model (default: the default model).
     database : str

@@ -1,6 +1,6 @@
 """Effectiveness of AEB systems from a study's runs: crashes avoided, speeds, injury risk.
 
-Input: the runs table of a study (:mod:`vfs.study.core`, ``runs.parquet``), one row
+Input: the runs table of a study (:mod:`vfs.study.layout`, ``runs.parquet``), one row
 per (case, system) with ``system = "baseline"`` for the runs without a
 system.  Every system is compared with the baseline *case by case* (paired),
 overall and per accident type, with the cases weighted by their ``weight``
@@ -54,7 +54,7 @@ from vfs.analysis.stats import bca_interval, wilson_interval
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.units import KMH_PER_MS
 
-BASELINE = "baseline"  # same as vfs.study.core.BASELINE (not imported: keep this module light)
+BASELINE = "baseline"  # same as vfs.study.layout.BASELINE (not imported: keep this module light)
 
 #: Injury levels of the report and their curves unless replaced
 #: (:data:`vfs.analysis.risk.DEFAULT_CURVES`).
@@ -452,7 +452,7 @@ def effectiveness(runs: pd.DataFrame, *, risk_curves: Iterable[str] | None = Non
     Parameters
     ----------
     runs : pandas.DataFrame
-        Runs table (:mod:`vfs.study.core`); needs :data:`REQUIRED_COLUMNS`, and
+        Runs table (:mod:`vfs.study.layout`); needs :data:`REQUIRED_COLUMNS`, and
         uses ``weight`` (default 1), ``accident_type`` and ``error`` if present.
     risk_curves : iterable of str, optional
         Curve names replacing the default curve of their injury level

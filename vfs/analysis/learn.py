@@ -412,7 +412,7 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
         +-30 % of its value or a tenth of the channel's range), for outcomes
         more sensitive to the channel than its identification is precise
         (off by default: with the robust fits of the identified values the
-        laws of tests/test_learn.py reach the true law's reduction without it).
+        laws of tests/analysis/test_learn.py reach the true law's reduction without it).
     grid_points, zoom_rounds : int
         Search of the polish.
 

@@ -9,7 +9,7 @@ a small functional API that returns frozen result records:
   Bland-Altman bias and limits of agreement, equivalence test (TOST), effect
   size and error measures for one numeric outcome;
 * :func:`paired_comparison_table` -- the same for several outcomes and groups
-  (e.g. Table 1 of Tomasch et al.: split by impact type), as a DataFrame;
+  (e.g. Table 1 of the Momentum Based Impact Model paper: split by impact type), as a DataFrame;
 * :func:`contingency_comparison` -- paired categorical data: the chi-squared
   test of the paper (which treats the samples as independent), McNemar,
   Stuart-Maxwell, Bowker and Cohen's kappa;
@@ -482,7 +482,7 @@ def paired_comparison_table(
 ) -> pd.DataFrame:
     """Paired comparisons of several outcomes, overall and per group.
 
-    Reproduces tables like Table 1 of Tomasch et al. (paired t-tests of
+    Reproduces tables like Table 1 of the Momentum Based Impact Model paper (paired t-tests of
     delta-v, EES and the change-of-velocity angle split by impact type) and adds
     the other columns of :class:`PairedComparison`.
 
@@ -610,7 +610,7 @@ class ContingencyComparison:
         ``n_agree / n`` [-].
     chi2_statistic : float
         Pearson chi-squared statistic of the 2 x k table "reference counts vs
-        model counts" (samples treated as independent, as in Tomasch et al.,
+        model counts" (samples treated as independent, as in the Momentum Based Impact Model paper,
         Figure 4; no continuity correction) [-].
     chi2_pvalue : float
         Its p-value [-].
@@ -827,8 +827,8 @@ def contingency_comparison(
 
     Notes
     -----
-    * Chi-squared as in Tomasch et al. (Figure 4): the reference counts and the
-      model counts per category form a 2 x k table analysed with
+    * Chi-squared as in the Momentum Based Impact Model paper (Figure 4): the
+      reference counts and the model counts per category form a 2 x k table analysed with
       ``scipy.stats.chi2_contingency(correction=False)``.  This treats the two
       samples as independent although they are the same cases; it tests only
       whether the category *frequencies* differ, ignores which case changed

@@ -1,10 +1,18 @@
 """The ``vfs`` command line: one entry point, one module per command group.
 
 Each module of this package has ``add_parsers(subparsers)``; the sub-parsers
-set ``func(args) -> int`` (the exit code).  User errors
-(:class:`vfs.errors.VfsError`) are printed as one line without a traceback and
-give exit code 2.  Heavy imports happen inside the commands, so ``vfs --help``
-stays fast.
+set ``func(args) -> int`` (the exit code).  Heavy imports happen inside the
+commands, so ``vfs --help`` stays fast.
+
+Exit codes (every command; tests/cli/test_exit_codes.py):
+
+* 0: done;
+* 1: ``vfs db validate`` found problems in the database it checks (its verdict), or the
+  system refused a file operation (a full disk, a read-only folder: one line);
+* 2: a user error: a bad flag value (argparse), or a :class:`vfs.errors.VfsError` (unreadable
+  input, a value out of range), printed as one line without a traceback;
+* 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
+* 130: interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -56,8 +64,6 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:
         add(subparsers)
-    for sub in _drawing_parsers(subparsers):
-        _add_figure_options(sub)
     from vfs.cli.common import add_strict_option
 
     for sub in _input_parsers(subparsers):  # every reader of a database or table: --strict
@@ -75,33 +81,6 @@ def _input_parsers(action: argparse._SubParsersAction) -> list[argparse.Argument
             if isinstance(child, argparse._SubParsersAction):
                 out.extend(_input_parsers(child))
     return out
-
-
-#: Commands that draw figures (``--figure-format`` and ``--dpi``).
-DRAWING_COMMANDS: frozenset[str] = frozenset({
-    "run-case", "compare", "diagnose", "calibrate", "ledger", "effectiveness", "uncertainty",
-    "sensitivity", "reconstruct", "evaluate-policy",
-})
-
-
-def _drawing_parsers(action: argparse._SubParsersAction) -> list[argparse.ArgumentParser]:
-    out = []
-    for name, sub in action.choices.items():
-        if name in DRAWING_COMMANDS:
-            out.append(sub)
-        for child in sub._actions:
-            if isinstance(child, argparse._SubParsersAction):
-                out.extend(_drawing_parsers(child))
-    return out
-
-
-def _add_figure_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--figure-format", default="png", metavar="LIST",
-                   help="figure formats, comma separated, from png, svg, pdf (default png; the "
-                   "reports embed the PNG, the others are written beside it)")
-    p.add_argument("--dpi", type=float, metavar="N",
-                   help="resolution of raster figures [dots per inch] (default: 110, top "
-                   "views 120)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

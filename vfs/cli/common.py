@@ -187,3 +187,17 @@ def load_plugins(specs: Sequence[str] | None) -> list[str]:
             name = spec
         loaded.append(name)
     return loaded
+
+
+def add_figure_options(p: argparse.ArgumentParser) -> None:
+    """Declare that command ``p`` draws figures: ``--figure-format`` and ``--dpi``.
+
+    Each command that draws calls it on its own parser; :func:`vfs.cli.main` applies the
+    options (``vfs.report.figures.figure_options``) wherever they are present.
+    """
+    p.add_argument("--figure-format", default="png", metavar="LIST",
+                   help="figure formats, comma separated, from png, svg, pdf (default png; the "
+                   "reports embed the PNG, the others are written beside it)")
+    p.add_argument("--dpi", type=float, metavar="N",
+                   help="resolution of raster figures [dots per inch] (default: 110, top "
+                   "views 120)")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from vfs.cli.common import out_option
+from vfs.cli.common import add_figure_options, out_option
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
@@ -24,6 +24,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "(t-test, Wilcoxon, Bland-Altman, TOST, Holm), errors per case. Writes comparison.json, "
         "CSV/Parquet tables, report.md, report.html and figures. Details: docs/compare.md.",
     )
+    add_figure_options(p)  # draws figures
     p.add_argument("--db", required=True,
                    help="database folder (Parquet, CSV or PCM) or 'default' for the bundled one")
     p.add_argument("--run", metavar="DIR",

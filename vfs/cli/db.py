@@ -3,7 +3,10 @@
 
 :func:`add_parsers` adds the command group to the main ``vfs`` parser; every
 subcommand sets ``func``, a callable ``func(args) -> int`` returning the exit
-code.  Data problems are printed, one per line, with exit code 1.
+code.  Data problems are printed, one per line.  Exit codes: ``validate`` returns 1 when the
+database it checks has problems (its verdict); every other command returns 2
+(:data:`USER_ERROR`, as every ``vfs`` command does for a user error) when its input cannot be
+read, other user errors reach :func:`vfs.cli.main`, which prints them and returns 2.
 """
 
 from __future__ import annotations
@@ -15,7 +18,10 @@ from pathlib import Path
 from vfs.database.io import save_csv_folder, save_database
 from vfs.database.pcm import export_pcm, import_pcm
 from vfs.database.source import FORMATS, load_any, resolve_database_path
-from vfs.errors import DataError, ParameterError, VfsError
+from vfs.errors import DataError, ParameterError
+
+#: Exit code of a user error (unreadable input, bad value): the code of every ``vfs`` command.
+USER_ERROR = 2
 
 
 def _path(arg: str | Path) -> str:
@@ -96,10 +102,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         out = writer(db, args.destination)
     except DataError as error:
         _print_problems(error)
-        return 1
-    except VfsError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+        return USER_ERROR
     print(f"wrote {db.n_cases} cases to {out} ({args.to})")
     return 0
 
@@ -111,10 +114,7 @@ def cmd_import_pcm(args: argparse.Namespace) -> int:
         out = save_database(db, args.destination)
     except DataError as error:
         _print_problems(error)
-        return 1
-    except VfsError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+        return USER_ERROR
     report = db.meta.get("pcm_import", {})
     print(f"imported {db.n_cases} cases into {out}")
     if isinstance(report, dict):
@@ -168,7 +168,7 @@ def cmd_import_xosc(args: argparse.Namespace) -> int:
         out = save_database(db, args.out)
     except DataError as error:
         _print_problems(error)
-        return 1
+        return USER_ERROR
     print(f"imported {db.n_cases} case(s) from {len(args.files)} file(s) into {out}")
     notes = db.meta.get("import_notes", [])
     for note in notes if isinstance(notes, list) else []:

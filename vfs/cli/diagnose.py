@@ -8,7 +8,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vfs.cli.common import load_plugins, out_folder, out_option, say
+from vfs.cli.common import add_figure_options, load_plugins, out_folder, out_option, say
 from vfs.errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -200,6 +200,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
             "files. Writes ranking.csv, summary.json, report.md/html with figures into "
             "--out and appends the models to the ledger."),
     )
+    add_figure_options(p)  # draws figures
     _common(p)
     p.add_argument("--effects", default="all",
                    help="candidate effects, comma separated, or 'all' (default)")
@@ -233,6 +234,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
             "append them to the ledger and write the model configuration for "
             "vfs compare --model."),
     )
+    add_figure_options(c)  # draws figures
     _common(c)
     c.add_argument("--effects", required=True,
                    help="effects in the order they are added: NAME or NAME:PARAM=VALUE "
@@ -249,6 +251,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                      "the chain from the default model through each added effect "
                      "(cross-validated RMSE), with a waterfall figure."),
     )
+    add_figure_options(g)  # draws figures
     g.add_argument("folder", help="results folder holding ledger.jsonl")
     g.add_argument("--all", action="store_true", help="also list every record")
     g.add_argument("--plot", default=None, metavar="FILE",

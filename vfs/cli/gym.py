@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vfs.cli.common import out_folder, out_option
+from vfs.cli.common import add_figure_options, out_folder, out_option
 
 
 def cmd_evaluate_policy(args: argparse.Namespace) -> int:
@@ -77,6 +77,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "and observation normalisation from PATH.vecnormalize.pkl when present) or "
         "MODULE:ATTRIBUTE. The policy is asked every action_repeat simulation steps, as in "
         "training. See docs/gym.md.")
+    add_figure_options(p)  # draws figures
     p.add_argument("policy", nargs="+",
                    help="never-brake | always-brake | aeb:NAME | sb3:PATH | MODULE:ATTRIBUTE "
                    "(several: one study, one report)")

@@ -6,6 +6,7 @@ import argparse
 import math
 from typing import Any
 
+from vfs.cli.common import add_figure_options
 from vfs.physics.precrash import PrecrashParams
 from vfs.units import KMH_PER_MS
 
@@ -18,6 +19,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "with braking), contact, penetration, impact, run-out to rest. Without --db the "
         "built-in example (head-on with partial overlap in a bend) is used.",
     )
+    add_figure_options(p)  # draws figures
     p.add_argument("--db", help=("database folder (Parquet or CSV), or 'default' for the "
                                  "bundled synthetic database; default: built-in example"))
     p.add_argument("--case", help="case_id (default: the first case)")

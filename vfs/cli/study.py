@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from vfs.cli.common import DB_HELP, WHERE_HELP, out_option
+from vfs.cli.common import DB_HELP, WHERE_HELP, add_figure_options, out_option
 from vfs.errors import ParameterError, VfsError
 
 
@@ -185,6 +185,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "shares, BCa bootstrap for ratios); "
         "writes STUDY/report/report.md, report.html and PNG figures.",
     )
+    add_figure_options(r)  # draws figures
     r.add_argument("study", help="study folder (results/NAME)")
     r.add_argument("--risk-curve", action="append", metavar="NAME",
                    help="injury-risk curve (vfs.analysis.risk) replacing the default of its "

@@ -10,7 +10,7 @@ import argparse
 import math
 from typing import Any
 
-from vfs.cli.common import out_folder, out_option
+from vfs.cli.common import add_figure_options, out_folder, out_option
 from vfs.errors import ParameterError
 from vfs.units import KMH_PER_MS
 
@@ -229,6 +229,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "(p95 - p5) / (2 median) and the probability of a sliding impact. Writes bands.parquet, "
         "cases.parquet, summary.csv, uncertainty.json, report.md/html and figures. Details: "
         "docs/uncertainty.md.")
+    add_figure_options(p)  # draws figures
     _common(p)
     p.add_argument("--samples", type=int, default=1024,
                    help="samples per case (default 1024; a power of two keeps Sobol' balanced)")
@@ -249,6 +250,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "impact is full and those whose nominal impact is sliding, with bootstrap intervals, "
         "ranked bar figures and a dummy input as a check. Outcomes: "
         + ", ".join(OUTCOME_NAMES) + ". Details: docs/uncertainty.md.")
+    add_figure_options(s)  # draws figures
     _common(s, max_cases_default=60)
     s.add_argument("--base-samples", dest="base_samples", type=int, default=256,
                    help="base samples n per case, a power of two; n (d + 2) runs per case "
@@ -272,6 +274,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "(scipy least_squares) and chains exploring the feasible set; reports the feasible "
         "set, its 5-95 % spread and the optimum with its scaled residuals. Details: "
         "docs/uncertainty.md.")
+    add_figure_options(r)  # draws figures
     r.add_argument("--db", required=True,
                    help="database folder (Parquet, CSV or PCM) or 'default' for the bundled one")
     r.add_argument("--case", action="append", required=True, metavar="ID",

@@ -47,7 +47,7 @@ class Database:
 
     Treat the frames as read-only: methods return new objects and never
     modify them.  Build one with :func:`vfs.database.load_database`,
-    :func:`vfs.database.import_pcm`, :func:`vfs.database.make_example_database`
+    :func:`vfs.database.import_pcm`, :func:`vfs.scenarios.example_database.make_example_database`
     or directly (then call :meth:`normalised` and
     :func:`vfs.database.validate_database`).
 

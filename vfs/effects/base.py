@@ -49,7 +49,9 @@ from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 
+from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
+from vfs.physics.impact import ImpactConfig, ImpactResult
 from vfs.registry import Registry
 
 #: Simulation stages an effect can hook into, in the order they run.
@@ -239,32 +241,35 @@ class Effect:
     # --------------------------------------------------------------- hooks
     # Defaults do nothing; the simulation calls only overridden hooks.
     def vehicles(self, batch: Any) -> Any:
-        """Stage ``vehicles``: return the case batch with changed vehicle data."""
+        """Stage ``vehicles``: return the case batch (``vfs.simulation.CaseBatch``) with changed
+        vehicle data.
+        """
         return batch
 
-    def penetration(self, ctx: Any, penetration_time: np.ndarray) -> np.ndarray:
+    def penetration(self, ctx: ContactContext, penetration_time: np.ndarray) -> np.ndarray:
         """Stage ``penetration``: penetration time [s] per case at first contact."""
         return penetration_time
 
-    def impact_configuration(self, ctx: Any, config: Any) -> Any:
+    def impact_configuration(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
         """Stage ``impact_configuration``: POI and contact plane (ImpactConfig)."""
         return config
 
-    def impact_parameters(self, ctx: Any, config: Any) -> Any:
+    def impact_parameters(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
         """Stage ``impact_parameters``: restitution and contact friction (ImpactConfig)."""
         return config
 
-    def contact_impulse(self, ctx: Any, config: Any, result: Any) -> VelocityChange:
+    def contact_impulse(self, ctx: ImpactContext, config: ImpactConfig,
+                        result: ImpactResult) -> VelocityChange:
         """Stage ``contact_impulse``: velocity changes by external impulses."""
         return VelocityChange.zeros(config.size)
 
-    def energy_split(self, ctx: Any, config: Any, result: Any, e1: np.ndarray,
-                     e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def energy_split(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                     e1: np.ndarray, e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Stage ``energy_split``: deformation energies [J] of vehicles 1 and 2."""
         return e1, e2
 
-    def post_impact(self, ctx: Any, config: Any, result: Any, brake1: np.ndarray,
-                    brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Stage ``post_impact``: wheel brake factors (n, 4) FL, FR, RL, RR for the run-out."""
         return brake1, brake2
 

@@ -7,7 +7,7 @@ many case instances at once (float32, clipped to the Box bounds).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
 
@@ -18,7 +18,6 @@ from vfs.physics.geometry import rectangle_distance
 from vfs.physics.precrash import PrecrashObservation
 
 if TYPE_CHECKING:
-    from vfs.gym.config import EnvConfig
     from vfs.simulation import CaseBatch
 
 #: Names of the sensor observation's entries, in order (docs/gym.md, "Observation").
@@ -45,6 +44,35 @@ PRIVILEGED_LOW = np.array([0.0, 0.0, 0.0, -20.0, -10.0, 0.0, -1000.0, -1000.0, -
 PRIVILEGED_HIGH = np.array([120.0, 2.0, 80.0, 20.0, 10.0, 20.0, 1000.0, 1000.0, math.pi,
                             100.0, 100.0, 10.0, 80.0, 20.0, 25.0, 5.0, 25.0, 25.0, 5.0, 25.0,
                             2000.0])
+
+class ObservationSettings(Protocol):
+    """What :func:`observe` reads of the environment's configuration.
+
+    :class:`vfs.gym.config.EnvConfig` satisfies it; declared here so that this module does
+    not import the configuration module, which imports this one (no cycle, not even a
+    type-only one).
+    """
+
+    @property
+    def ego(self) -> int:
+        """Vehicle under control, 1 or 2."""
+
+    @property
+    def sensor(self) -> SensorParams:
+        """The ego vehicle's sensor."""
+
+    @property
+    def observe_friction(self) -> bool:
+        """Whether the road friction is observed."""
+
+    @property
+    def privileged(self) -> bool:
+        """Whether the observation holds the full state (not only what the sensor sees)."""
+
+    @property
+    def threat_features(self) -> bool:
+        """Whether the threat entries :data:`THREAT_NAMES` are appended."""
+
 
 #: Names of the threat entries appended with ``EnvConfig.threat_features`` (docs/gym.md,
 #: "Observation"): both yaw rates, the miss distance and time of closest approach under
@@ -180,7 +208,7 @@ def threat_entries(p: PrecrashObservation, dims: Dimensions, ego: int, gap: np.n
     return np.stack([p.yaw_rate[:, e], p.yaw_rate[:, o], miss, t_closest, ttc], axis=1)
 
 
-def observe(p: PrecrashObservation, dims: Dimensions, cfg: EnvConfig) -> np.ndarray:
+def observe(p: PrecrashObservation, dims: Dimensions, cfg: ObservationSettings) -> np.ndarray:
     """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
 
     Sensor observation (:data:`OBSERVATION_NAMES`): ego speed [m/s] and

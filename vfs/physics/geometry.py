@@ -3,8 +3,7 @@
 Everything here works on arrays of N vehicle pairs at once (shape ``(N, ...)``)
 and on one pair (N = 1); there is no per-pair Python loop.
 
-The rules follow the Momentum Based Impact Model paper, section 3.2.1 (Tomasch et al., the
-X-RATE/PC-Crash
+The rules follow the Momentum Based Impact Model paper, section 3.2.1 (its X-RATE/PC-Crash
 VFS): the outlines are rectangles, the overlap region is found by the
 Sutherland-Hodgman algorithm, the point of impact (POI) is the centroid of the
 overlap polygon (Nuernberg's formulas = shoelace area and centroid), and the

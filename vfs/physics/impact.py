@@ -17,11 +17,11 @@ eqs. 3-5; the Reconstruction chapter, "Collision model").  Two impact types
 
 In both, eps multiplies both components (PC-Crash convention,
 docs/references.md), so in a sliding impact T/N = mu holds for the total
-impulse too.  Momentum balance (the Collision Calculation Uncertainty paper, eqs. 6-9) and angular
-momentum
-balance about each CG (the Collision Calculation Uncertainty paper, eqs. 10-11, whose levers
-n_ic, t_ic are the coordinates of the contact point relative to each centre of gravity)
-close the system.
+impulse too.  Momentum balance (the Collision Calculation Uncertainty paper, eqs. 6-9) and
+angular momentum balance about each CG (its eqs. 10-11) close the system.  That paper's levers
+n_ic, t_ic are the coordinates of the contact point relative to the centre of gravity of each
+body, i.e. they point from the CG to the POI, as r_i = POI - CG_i below (the signs of its eqs.
+10-11 follow its own axis orientation, its Fig. 9).
 
 Conventions (docs/physics.md has the figure):
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "train_ppo.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "train_ppo.py"
 
 
 def test_recipe_trains_saves_and_its_model_evaluates(tmp_path):

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slow_scale
 from scipy import stats
 
+from tests.conftest import slow_scale
 from vfs.bench import BENCHMARKS
 from vfs.cli import main as vfs_main
 from vfs.errors import DataError, ParameterError

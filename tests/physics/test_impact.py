@@ -7,9 +7,11 @@ friction-cone conditions, and rigid-motion / vehicle-swap invariance.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vfs.errors import ParameterError
@@ -17,11 +19,17 @@ from vfs.physics.impact import (
     IMPACT_FULL,
     IMPACT_NONE,
     IMPACT_SLIDING,
+    IMPACT_TYPE_NAMES,
     ImpactConfig,
     ImpactParams,
+    deformation_energy,
+    ees_from_energy,
     energy_split,
+    impact_type_names,
     solve_impact,
+    velocity_change,
 )
+from vfs.physics.precrash import PrecrashParams
 
 
 def config(**over) -> ImpactConfig:
@@ -395,3 +403,32 @@ def test_the_two_conventions_differ_only_through_restitution():
         ImpactParams(restitution_mode="tangential")
     with pytest.raises(ParameterError, match="restitution_mode"):
         solve_impact(c, restitution_mode="both")
+
+
+# ----------------------------------------------------------------------------
+# Names, energies, delta-v kernels
+# ----------------------------------------------------------------------------
+
+
+def test_impact_type_names_follow_the_one_constant():
+    codes = np.array([2, 0, 1, 1])
+    assert impact_type_names(codes).tolist() == [IMPACT_TYPE_NAMES[int(k)] for k in codes]
+
+
+@settings(max_examples=200, deadline=None)
+@given(mass=st.floats(500.0, 3000.0), ees=st.floats(0.0, 40.0), dvx=st.floats(-30.0, 30.0),
+       dvy=st.floats(-30.0, 30.0))
+def test_energy_and_delta_v_kernels(mass, ees, dvx, dvy):
+    assert float(ees_from_energy(deformation_energy(mass, ees), mass)) == pytest.approx(
+        ees, rel=1e-12, abs=1e-12)
+    # sqrt(dvx^2 + dvy^2): equal to hypot up to rounding (squares underflow below 1e-154)
+    assert float(velocity_change(dvx, dvy)) == pytest.approx(math.hypot(dvx, dvy), rel=1e-15,
+                                                             abs=1e-12)
+
+
+def test_penetration_time_default_lives_in_precrash():
+    assert "penetration_time" not in ImpactParams.__dataclass_fields__
+    with pytest.raises(TypeError):
+        ImpactParams(penetration_time=0.05)  # type: ignore[call-arg]
+    with pytest.warns(DeprecationWarning):
+        assert ImpactParams().penetration_time == PrecrashParams().penetration_time

@@ -16,8 +16,8 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slow_scale
 
+from tests.conftest import slow_scale
 from vfs.analysis.calibrate import CalibrationData, VariantSimulator, kfold_indices
 from vfs.analysis.identify import identification_features, identify
 from vfs.analysis.learn import (

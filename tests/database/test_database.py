@@ -35,7 +35,7 @@ from vfs.physics.vehicle import yaw_inertia_axle_product
 from vfs.scenarios.example_database import make_example_database
 from vfs.units import G
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "data-format.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "data-format.md"
 
 
 # ----------------------------------------------------------------------------

@@ -9,10 +9,10 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slow_scale
 from SALib.analyze import sobol as salib_analyze
 from SALib.sample import sobol as salib_sample
 
+from tests.conftest import slow_scale
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
 from vfs.scenarios.generator import generate_database, write_generated

@@ -41,7 +41,7 @@ from vfs.study import run_study as _run_study
 from vfs.study.inputs import study_input
 from vfs.study.manifest import data_hash
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 WHERE = "case_id <= 24"
 CHUNK = 6  # -> 4 chunks, 8 tasks with one system
 SYSTEMS = ["three-stage"]

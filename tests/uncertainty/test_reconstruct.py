@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slow_scale
 
+from tests.conftest import slow_scale
 from vfs.cli import main as vfs_main
 from vfs.errors import ParameterError
 from vfs.scenarios.generator import generate_database, write_generated

@@ -6,19 +6,24 @@ hand-computable configurations for the contact-plane rules.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import slow_scale
 from vfs.physics.geometry import (
     AREA_TOLERANCE,
     contact_geometry,
+    first_contact,
     outline_corners,
+    outline_distance,
     overlap,
     polygon_area_centroid,
+    rectangle_distance,
     to_vehicle_frame,
     vehicle_outline,
 )
@@ -196,3 +201,100 @@ def test_area_centroid_of_known_polygon_and_frames():
     np.testing.assert_allclose(centroid[0], [1.0, 1.0])
     local = to_vehicle_frame([[1.0, 2.0]], [1.0], [1.0], [np.pi / 2])
     np.testing.assert_allclose(local[0], [1.0, 0.0], atol=1e-12)
+
+
+# ----------------------------------------------------------------------------
+# Rectangle kernels (from the former tests/test_kernels.py)
+# ----------------------------------------------------------------------------
+
+_coord = st.floats(-8.0, 8.0)
+_angle = st.floats(-math.pi, math.pi)
+_half_length = st.floats(0.4, 3.0)
+_half_width = st.floats(0.3, 1.5)
+
+
+def _polygon(x: float, y: float, yaw: float, hl: float, hw: float) -> shapely.Polygon:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return shapely.Polygon([(x + c * u - s * v, y + s * u + c * v)
+                            for u, v in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))])
+
+
+# ----------------------------------------------------------------------------
+# Distance between two rectangles
+# ----------------------------------------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(ax=_coord, ay=_coord, ayaw=_angle, ahl=_half_length, ahw=_half_width, bx=_coord,
+       by=_coord, byaw=_angle, bhl=_half_length, bhw=_half_width)
+def test_rectangle_distance_equals_shapely(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
+    ref = _polygon(ax, ay, ayaw, ahl, ahw).distance(_polygon(bx, by, byaw, bhl, bhw))
+    got = rectangle_distance([ax], [ay], [ayaw], [ahl], [ahw], [bx], [by], [byaw], [bhl],
+                             [bhw])[0]
+    assert got == pytest.approx(ref, abs=1e-9)
+    # the corner form is the same kernel
+    oa = outline_corners([ax], [ay], [ayaw], [ahl], [ahl], [2 * ahw])
+    ob = outline_corners([bx], [by], [byaw], [bhl], [bhl], [2 * bhw])
+    assert outline_distance(oa, ob)[0] == pytest.approx(ref, abs=1e-9)
+
+
+def test_crossing_rectangles_without_a_corner_inside_have_distance_zero():
+    # a plus sign: no corner of either rectangle lies in the other, yet they overlap
+    gap = rectangle_distance([0.0], [0.0], [0.0], [3.0], [0.5], [0.0], [0.0], [math.pi / 2],
+                             [3.0], [0.5])
+    assert gap[0] == 0.0
+
+
+# ----------------------------------------------------------------------------
+# First contact of two moving rectangles
+# ----------------------------------------------------------------------------
+
+
+def _bisect_first_contact(a: shapely.Polygon, b: shapely.Polygon, ddx: float, ddy: float,
+                          samples: int = 400, steps: int = 60) -> float:
+    """First s in [0, 1] at which b translated by s (ddx, ddy) touches a: a fine scan for
+    the first touching sample, then bisection between it and the sample before."""
+    def touches(s: float) -> bool:
+        return a.intersects(shapely.affinity.translate(b, s * ddx, s * ddy))
+
+    if touches(0.0):
+        return 0.0
+    grid = np.linspace(0.0, 1.0, samples + 1)
+    hits = [s for s in grid if touches(float(s))]
+    if not hits:
+        return math.inf
+    hi = float(hits[0])
+    lo = hi - 1.0 / samples
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if touches(mid) else (mid, hi)
+    return hi
+
+
+@settings(max_examples=150, deadline=None)
+@given(dx=_coord, dy=_coord, ddx=st.floats(-16.0, 16.0), ddy=st.floats(-16.0, 16.0),
+       yaw_a=_angle, hl_a=_half_length, hw_a=_half_width, yaw_b=_angle, hl_b=_half_length,
+       hw_b=_half_width)
+def test_first_contact_equals_bisection_on_shapely(dx, dy, ddx, ddy, yaw_a, hl_a, hw_a, yaw_b,
+                                                   hl_b, hw_b):
+    import shapely.affinity  # noqa: F401  (used by the reference)
+
+    a = _polygon(0.0, 0.0, yaw_a, hl_a, hw_a)
+    b = _polygon(dx, dy, yaw_b, hl_b, hw_b)
+    s = first_contact(np.array([dx]), np.array([dy]), np.array([ddx]), np.array([ddy]),
+                      np.array([yaw_a]), np.array([hl_a]), np.array([hw_a]),
+                      np.array([yaw_b]), np.array([hl_b]), np.array([hw_b]))[0]
+    ref = _bisect_first_contact(a, b, ddx, ddy)
+    move = math.hypot(ddx, ddy)
+    if math.isinf(ref):
+        # no sample touches: the kernel may still find a graze between samples
+        assert math.isinf(s) or a.distance(shapely.affinity.translate(
+            b, s * ddx, s * ddy)) <= 1e-9
+        return
+    assert np.isfinite(s)
+    assert abs(s - ref) * move <= 1e-6 + move / 400  # within one scan sample [m]
+    # at s the rectangles touch, shortly before they are apart
+    assert a.distance(shapely.affinity.translate(b, s * ddx, s * ddy)) <= 1e-9
+    if s > 1e-6:
+        back = max(s - 1e-4, 0.0)
+        assert a.distance(shapely.affinity.translate(b, back * ddx, back * ddy)) > 0.0

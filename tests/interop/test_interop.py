@@ -29,7 +29,7 @@ from vfs.interop.scenario_import import import_xosc
 from vfs.physics.geometry import vehicle_outline
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +157,8 @@ def test_case_roads_straight_bend_and_crossing(db):
 def test_straight_road_follows_the_scene_not_a_lane_change(db):
     import pandas as pd
 
-    truth = pd.read_parquet(ROOT / "scenarios" / "databases" / "default" / "ground_truth_cases.parquet")
+    truth = pd.read_parquet(
+        ROOT / "scenarios" / "databases" / "default" / "ground_truth_cases.parquet")
     truth = truth.set_index("case_id")
     cases = db.cases[(db.cases.road_curvature == 0) & (db.cases.accident_type != 321)]
     worst = 0.0

@@ -4,16 +4,16 @@ Each channel is identified with the others at the model's values, so a law missi
 channel leaks into the identification of others; the diagnosis claims the best law, then
 re-identifies the other channels with the claimed laws applied and claims a further law
 only when it helps alone, on top of the claimed laws and with them refitted together.
-The hidden laws are those of tests/test_learn.py (not in the effect library).
+The hidden laws are those of tests/analysis/test_learn.py (not in the effect library).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import slow_scale
-from test_learn import LAWS
 
+from tests.analysis.test_learn import LAWS
+from tests.conftest import slow_scale
 from vfs.analysis.claims import LawFinding, Reduction, helps, stepwise_helps
 from vfs.analysis.diagnose import diagnose
 from vfs.scenarios.generator import generate_database

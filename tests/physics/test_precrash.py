@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vfs.errors import ParameterError
 from vfs.physics.geometry import outline_corners, outline_distance
@@ -12,6 +14,7 @@ from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
+    friction_limited_deceleration,
     simulate_precrash,
 )
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
@@ -278,3 +281,22 @@ def test_staggered_starts_equal_a_common_start():
                                           err_msg=f"case {i} {name}")
         for a, b in zip(res.impact_state, ref.impact_state, strict=True):
             np.testing.assert_array_equal(a[0], b[i])
+
+
+# ----------------------------------------------------------------------------
+# Friction-limited deceleration
+# ----------------------------------------------------------------------------
+
+
+@settings(max_examples=200, deadline=None)
+@given(mu=st.floats(0.05, 1.5), a_max=st.floats(0.5, 15.0))
+def test_friction_limited_deceleration_closed_form(mu, a_max):
+    a = float(friction_limited_deceleration(mu, a_max))
+    assert a == (mu * G if mu * G < a_max else a_max)
+    # the stopping distance from 20 m/s is that of the weaker limit
+    assert 20.0**2 / (2 * a) == pytest.approx(max(20.0**2 / (2 * mu * G), 20.0**2 / (2 * a_max)))
+
+
+def test_friction_limited_deceleration_broadcasts():
+    out = friction_limited_deceleration(np.array([0.2, 0.8, 1.0]), np.array([9.0]))
+    np.testing.assert_array_equal(out, [0.2 * G, 0.8 * G, 9.0])

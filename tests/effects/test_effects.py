@@ -340,7 +340,7 @@ def test_yaw_inertia_scales_only_unknown_inertias(batch):
 
 
 def test_all_effects_together_are_mirror_symmetric(batch):
-    from test_simulation import mirrored
+    from tests.test_simulation import mirrored
 
     effects = tuple(get_effect(n)() for n in BUILTIN_EFFECTS)
     a = run(batch, *effects)

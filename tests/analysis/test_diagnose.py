@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slow_scale
 
+from tests.conftest import slow_scale
 from vfs.analysis.calibrate import (
     CalibrationData,
     FitSpace,
@@ -48,7 +48,7 @@ from vfs.report.diagnose import summary_blocks, write_diagnosis_report
 from vfs.scenarios.generator import NO_NOISE, generate_database, write_generated
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 QUICK = {"folds": 3, "grid_points": 5, "zoom_rounds": 2, "n_boot": 400}
 
 
@@ -374,7 +374,7 @@ def _reduce(argv: list[str], cases: int) -> list[str]:
         out += ["--worst", "1"]
         if slow_scale() < 1.0:
             # reduced form: the law-learning part of diagnose has its own tests
-            # (tests/test_learn.py); the tutorial's chain is what is checked here
+            # (tests/analysis/test_learn.py); the tutorial's chain is what is checked here
             out += ["--laws", "none"]
     if out[0] == "compare" and slow_scale() < 1.0:
         out.append("--no-case-pages")

@@ -1,0 +1,1 @@
+"""Tests of vfs.cli (one file per module: tests/cli/test_<module>.py)."""

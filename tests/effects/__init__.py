@@ -1,0 +1,1 @@
+"""Tests of vfs.effects (one file per module: tests/effects/test_<module>.py)."""

@@ -1,0 +1,1 @@
+"""Tests of vfs.physics (one file per module: tests/physics/test_<module>.py)."""

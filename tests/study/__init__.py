@@ -1,0 +1,1 @@
+"""Tests of vfs.study (one file per module: tests/study/test_<module>.py)."""

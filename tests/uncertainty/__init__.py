@@ -1,0 +1,1 @@
+"""Tests of vfs.uncertainty (one file per module: tests/uncertainty/test_<module>.py)."""

@@ -11,9 +11,9 @@ import ast
 import json
 import os
 import re
-import tomllib
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest

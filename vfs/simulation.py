@@ -36,6 +36,7 @@ from vfs.physics.precrash import (
     KinematicState,
     PrecrashParams,
     PrecrashResult,
+    SegmentedRandom,
     simulate_precrash,
 )
 from vfs.physics.runout import (
@@ -430,7 +431,7 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
 
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
-                   rng: np.random.Generator | None = None) -> CaseResults:
+                   rng: np.random.Generator | SegmentedRandom | None = None) -> CaseResults:
     """Simulate N cases end to end (pre-crash, impact, run-out to rest).
 
     The effects of ``params.effects`` act at their stages (:mod:`vfs.effects`):
@@ -444,8 +445,10 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     controller : BrakeController, optional
         Brake demand during the pre-crash phase (None: replay the record).
     params : SimulationParams, optional
-    rng : numpy.random.Generator, optional
-        Randomness for the controller (sensor noise, reaction times).
+    rng : numpy.random.Generator or SegmentedRandom, optional
+        Randomness for the controller (sensor noise, reaction times); a
+        :class:`vfs.physics.precrash.SegmentedRandom` gives consecutive
+        segments of the batch their own streams.
 
     Returns
     -------

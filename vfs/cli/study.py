@@ -28,18 +28,19 @@ def _positive_int(text: str) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
-    from vfs.study import run_study
+    from vfs.study import StudySpec, run_study
 
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
+    spec = StudySpec(
+        args.db, tuple(systems), args.out, engine=args.engine, workers=args.workers,
+        scheduler=args.scheduler, chunk_size=args.chunk_size, task_cases=args.task_cases,
+        seed=args.seed, where=args.where, equip=args.equip, resume=args.resume,
+        overwrite=args.overwrite, impact_parameters=args.impact_parameters,
+        dashboard=args.dashboard)
     try:
-        result = run_study(
-            args.db, systems, args.out, engine=args.engine, workers=args.workers,
-            scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
-            where=args.where, equip=args.equip, resume=args.resume, overwrite=args.overwrite,
-            impact_parameters=args.impact_parameters, dashboard=args.dashboard,
-        )
+        result = run_study(spec)
     except KeyboardInterrupt:
         print(f"interrupted; finished chunks are kept in {args.out}; continue with the same "
               "command and --resume", file=sys.stderr)
@@ -100,6 +101,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     from vfs.adas import SYSTEMS
     from vfs.study import EXECUTORS
+    from vfs.study.layout import DEFAULT_CHUNK_SIZE
+    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource
 
     p.add_argument("--db", required=True, help=DB_HELP)
     p.add_argument("--systems", required=True, metavar="NAMES",
@@ -107,7 +110,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    f"{', '.join(SYSTEMS)} (docs/aeb.md)")
     p.add_argument("--out", required=True, help="study folder, e.g. results/NAME")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
-    p.add_argument("--equip", choices=("1", "2", "both"), default="both",
+    p.add_argument("--equip", choices=[m.value for m in Equip], default=Equip.BOTH.value,
                    help="vehicles carrying the system in the treatment runs (default both)")
     p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
                    help="executor: serial, local processes (default), dask, or one registered "
@@ -121,11 +124,18 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dashboard", metavar="ADDRESS",
                    help="serve the dashboard of the local dask cluster at ADDRESS, e.g. :8787, "
                    "and print its link (needs bokeh; default off)")
-    p.add_argument("--chunk-size", type=_positive_int, default=200,
-                   help="cases per chunk (default 200)")
+    p.add_argument("--chunk-size", type=_positive_int, default=DEFAULT_CHUNK_SIZE,
+                   help=f"cases per chunk file, the unit of resume and of the random streams "
+                   f"(default {DEFAULT_CHUNK_SIZE})")
+    p.add_argument("--task-cases", type=_positive_int, default=DEFAULT_TASK_CASES,
+                   metavar="N",
+                   help="cases one task simulates as one batch: whole chunks, each with its "
+                   "own random stream, so results do not depend on it; larger batches share "
+                   f"the per-step cost (default {DEFAULT_TASK_CASES}; fewer when workers "
+                   "would idle)")
     p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
-    p.add_argument("--impact-parameters", choices=("reconstruction", "default"),
-                   default="reconstruction",
+    p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
+                   default=ImpactParameterSource.RECONSTRUCTION.value,
                    help="restitution and contact friction: the reconstruction's where present "
                    "(default) or the model defaults")
     group = p.add_mutually_exclusive_group()

@@ -30,8 +30,9 @@ reports the minimum outline distance and the time of closest approach.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -75,6 +76,7 @@ __all__ = [
     "PrecrashResult",
     "PrecrashRun",
     "ScheduledBraking",
+    "SegmentedRandom",
     "actuator_step",
     "friction_limited_deceleration",
     "simulate_precrash",
@@ -124,6 +126,54 @@ class PrecrashParams:
             raise ParameterError("contact_tolerance must be in (0, dt]")
         if not 0.0 <= self.extra_time <= 60.0:
             raise ParameterError(f"extra_time={self.extra_time} s outside [0, 60]")
+
+
+class SegmentedRandom(NamedTuple):
+    """Random streams of consecutive segments of a batch (several study chunks run as one).
+
+    Case ``i`` of segment ``k`` (the cases ``sum(sizes[:k]) ..`` in batch
+    order) draws its random numbers from ``generators[k]``, as it would in a
+    run of that segment alone with that generator.  A controller takes them
+    through ``reset_segments(sizes, generators)`` (e.g.
+    :meth:`vfs.adas.controller.AEBController.reset_segments`); one without that
+    method cannot run segmented batches (:func:`simulate_precrash` raises
+    :class:`ParameterError`).
+
+    Attributes
+    ----------
+    sizes : tuple of int
+        Cases per segment (sum = batch size).
+    generators : tuple of numpy.random.Generator
+        One per segment.
+    """
+
+    sizes: tuple[int, ...]
+    generators: tuple[np.random.Generator, ...]
+
+    @classmethod
+    def of(cls, sizes: Sequence[int], generators: Sequence[np.random.Generator]
+           ) -> SegmentedRandom:
+        """Checked construction (one generator per segment, sizes >= 1)."""
+        sizes_t = tuple(int(n) for n in sizes)
+        if len(sizes_t) != len(generators) or any(n < 1 for n in sizes_t):
+            raise ParameterError("SegmentedRandom: one generator per segment of >= 1 case")
+        return cls(sizes_t, tuple(generators))
+
+
+def reset_controller(controller: BrakeController, n: int,
+                     rng: np.random.Generator | SegmentedRandom | None) -> None:
+    """``controller.reset(n, rng)``, or ``reset_segments`` for :class:`SegmentedRandom`."""
+    if isinstance(rng, SegmentedRandom):
+        if sum(rng.sizes) != n:
+            raise ParameterError(f"SegmentedRandom covers {sum(rng.sizes)} cases, the "
+                                 f"run has {n}")
+        reset_segments = getattr(controller, "reset_segments", None)
+        if not callable(reset_segments):
+            raise ParameterError(f"{type(controller).__name__} cannot run segmented batches "
+                                 "(no reset_segments)")
+        reset_segments(rng.sizes, rng.generators)
+        return
+    controller.reset(n, rng if rng is not None else np.random.default_rng(0))
 
 
 # ----------------------------------------------------------------------------
@@ -287,7 +337,7 @@ def simulate_precrash(
     vehicle1: VehicleArrays, vehicle2: VehicleArrays,
     paths: PathArrays, road_friction: npt.ArrayLike,
     controller: BrakeController | None = None, params: PrecrashParams | None = None,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | SegmentedRandom | None = None,
     penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
 ) -> PrecrashResult:
     """Re-simulate N cases from the start of their records to impact or the horizon.
@@ -307,8 +357,9 @@ def simulate_precrash(
     controller : BrakeController, optional
         Brake demand; None replays the record.
     params : PrecrashParams, optional
-    rng : numpy.random.Generator, optional
-        Passed to ``controller.reset`` (sensor noise, reaction times).
+    rng : numpy.random.Generator or SegmentedRandom, optional
+        Passed to ``controller.reset`` (sensor noise, reaction times);
+        a :class:`SegmentedRandom` to ``controller.reset_segments``.
     penetration : callable, optional
         ``penetration(rows, contact_state) -> seconds``: penetration time per
         case [s], in [0, 0.5], called once at first contact with the case
@@ -328,7 +379,7 @@ def simulate_precrash(
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
                       penetration=penetration)
     if controller is not None:
-        controller.reset(run.n, rng if rng is not None else np.random.default_rng(0))
+        reset_controller(controller, run.n, rng)
     while not run.done:
         demand = controller.demand(run.observation()) if controller is not None else None
         run.advance(demand)

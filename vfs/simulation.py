@@ -1,6 +1,7 @@
 """One virtual forward simulation per case, for many cases at once.
 
-    pre-crash replay (+ controller)  ->  first contact, penetration
+    opening (vehicle hooks, penetration rule, impact parameters: open_cases)
+    ->  pre-crash replay (+ controller)  ->  first contact, penetration
         ->  POI / contact plane (geometry)  ->  impulse impact  ->  run-out to rest
 
 Every stage is a vectorised kernel over the cases of a :class:`CaseBatch`;
@@ -429,6 +430,51 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     return config, result, b1, b2
 
 
+class OpenedCases(NamedTuple):
+    """The cases as the pre-crash, impact and run-out stages see them (:func:`open_cases`).
+
+    Attributes
+    ----------
+    batch : CaseBatch
+        The cases after the effects' ``vehicles`` hooks.
+    penetration : callable or None
+        The penetration-time rule of the effects (:func:`penetration_rule`);
+        None: ``PrecrashParams.penetration_time``.
+    restitution, contact_friction : ndarray (N,)
+        Impact parameters before the impact-stage effects [-]
+        (:func:`impact_parameters`).
+    """
+
+    batch: CaseBatch
+    penetration: PenetrationRule | None
+    restitution: np.ndarray
+    contact_friction: np.ndarray
+
+
+def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
+    """The opening of every simulation of ``batch``: the stages before the pre-crash run.
+
+    In this order: the effects' ``vehicles`` hooks (vehicle data), their
+    ``penetration`` rule, the impact parameters per case (the batch's values,
+    NaN -> ``params.impact``).  :func:`simulate_cases` and the gym
+    environments (:mod:`vfs.gym.env`) open their cases here, so a new stage
+    is added once.
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    params : SimulationParams
+
+    Returns
+    -------
+    OpenedCases
+    """
+    for hook in hooks(params.effects, "vehicles"):
+        batch = hook(batch)
+    eps, mu = impact_parameters(batch, params.impact)
+    return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
+
+
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
                    rng: np.random.Generator | SegmentedRandom | None = None) -> CaseResults:
@@ -458,12 +504,10 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     n = batch.size
     if n == 0:
         raise ParameterError("empty case batch")
-    for hook in hooks(params.effects, "vehicles"):
-        batch = hook(batch)
+    batch, penetration, eps, mu = open_cases(batch, params)
     pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                             controller=controller, params=params.precrash, rng=rng,
-                            penetration=penetration_rule(batch, params.effects))
-    eps, mu = impact_parameters(batch, params.impact)
+                            penetration=penetration)
     hit = np.flatnonzero(pre.collided)
     poi = np.full((n, 2), np.nan)
     cp = np.full(n, np.nan)

@@ -140,7 +140,8 @@ class AEBController:
                     segments: tuple[tuple[int, ...], tuple[np.random.Generator, ...]] | None
                     = None) -> None:
         """Fresh state for a run; the drivers are drawn from ``rng`` (None: not yet), or
-        segment by segment from ``segments`` = (sizes, generators)."""
+        segment by segment from ``segments`` = (sizes, generators).
+        """
         self._rng = rng if rng is not None else np.random.default_rng(0)
         # first case of each segment and its generator (one segment: the whole batch)
         if segments is None:
@@ -200,7 +201,8 @@ class AEBController:
 
     def _draw(self, case: np.ndarray) -> np.ndarray:
         """One uniform draw [0, 1) per entry of ``case`` (ascending case indices), each from
-        its segment's generator, segment by segment."""
+        its segment's generator, segment by segment.
+        """
         if len(self._segment_rngs) == 1:
             return self._segment_rngs[0].random(case.size)
         seg = np.searchsorted(self._segment_starts, case, side="right") - 1

@@ -24,7 +24,6 @@ columns and the command line in docs/study.md.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import sys
 import time
@@ -64,8 +63,8 @@ from vfs.study.manifest import (
     prepare_folder,
 )
 from vfs.study.orphans import pid_alive
-from vfs.study.systems import SystemRegistry, resolve_systems
 from vfs.study.spec import ImpactParameterSource, StudySpec
+from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, error_text
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).

@@ -34,7 +34,8 @@ class Equip(StrEnum):
 
 class ImpactParameterSource(StrEnum):
     """Where restitution and contact friction come from (``--impact-parameters``;
-    :meth:`vfs.simulation.CaseBatch.from_database`)."""
+    :meth:`vfs.simulation.CaseBatch.from_database`).
+    """
 
     RECONSTRUCTION = "reconstruction"
     DEFAULT = "default"

@@ -50,6 +50,7 @@ from vfs.physics.geometry import (
     AREA_TOLERANCE,
     contact_geometry,
     outline_distance,
+    outlines_may_overlap,
     overlap,
     vehicle_outline,
 )
@@ -289,10 +290,26 @@ def _overlap_area(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
     return overlap(o1, o2).area
 
 
+#: Outlines farther apart than twice this [m] (by a separating axis) skip the clipping in
+#: the contact test: their overlap is empty, so the decision is the same.
+SEPARATION_MARGIN = 1e-6
+
+
 def _overlapping(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
                  st: KinematicState) -> np.ndarray:
-    """True where the outlines overlap with positive area."""
-    return _overlap_area(v1, v2, rows, st) > AREA_TOLERANCE
+    """True where the outlines overlap with positive area (> :data:`AREA_TOLERANCE`).
+
+    The separating-axis test (:func:`outlines_may_overlap`) settles the pairs
+    that are certainly apart; only the others are clipped (:func:`overlap`).
+    """
+    o1, o2 = _outlines(v1, v2, rows, st)
+    out = np.zeros(rows.shape[0], dtype=bool)
+    maybe = outlines_may_overlap(o1, o2, SEPARATION_MARGIN)
+    if maybe.all():
+        return overlap(o1, o2).area > AREA_TOLERANCE
+    if maybe.any():
+        out[maybe] = overlap(o1[maybe], o2[maybe]).area > AREA_TOLERANCE
+    return out
 
 
 #: Samples of the penetration window searched for the largest overlap of a graze.

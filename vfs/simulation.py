@@ -616,6 +616,31 @@ def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> 
     return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
 
 
+def vehicle_axis(record: tuple, template: str) -> np.ndarray:
+    """(N, 2) array of the fields ``template`` with ``{i}`` = 1, 2 of a record that names
+    the vehicle in the field (ImpactConfig, ImpactResult, VelocityChange), vehicle 1 in
+    column 0: the one conversion to the axis convention of :class:`KinematicState`.
+    """
+    fields = record._asdict()  # type: ignore[attr-defined]
+    return np.stack([fields[template.format(i=1)], fields[template.format(i=2)]], axis=1)
+
+
+def runout_axis(runout: PairRunoutResult) -> dict[str, np.ndarray]:
+    """The per-case fields of both vehicles' :class:`RunoutResult` as (N, 2) arrays
+    (vehicle 1 in column 0); ``path`` and ``path_t`` are left out.
+    """
+    one, two = runout.result1._asdict(), runout.result2._asdict()
+    return {name: np.stack([one[name], two[name]], axis=1) for name in RunoutResult._fields
+            if name not in ("path", "path_t", "kinetic_energy")}
+
+
+def vehicle_columns(pairs: list[tuple[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Table columns from (N, 2) arrays: vehicle 1's columns, then vehicle 2's, each named
+    by its template with ``{i}`` = 1, 2 (the file edge of the axis convention).
+    """
+    return {name.format(i=i): values[:, i - 1] for i in (1, 2) for name, values in pairs}
+
+
 def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
     """One tidy row per case with the main figures (SI units; angles in rad).
 
@@ -641,35 +666,30 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
         "impact_time": pre.impact_time,
         "impact_type": impact_type_names(imp.impact_type).astype(object),
     }
-    for i in (1, 2):
-        j = i - 1
-        cols[f"impact_speed{i}"] = st.speed[:, j]
-        for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}"] = getattr(st, name)[:, j]
+    state = st._asdict()  # (N, 2) arrays
+    cols.update(vehicle_columns([("impact_speed{i}", st.speed), *(
+        (f"{name}{{i}}", state[name]) for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"))]))
     cols.update({
         "closing_speed": imp.closing_speed, "poi_x": res.poi[:, 0], "poi_y": res.poi[:, 1],
         "cp_angle": res.cp_angle, "cp_rule": pre.cp_rule, "overlap_area": pre.overlap_area,
         "restitution": res.restitution, "contact_friction": res.contact_friction,
         "energy_loss": imp.energy_loss,
     })
-    for i in (1, 2):
-        r = ro.result1 if i == 1 else ro.result2
-        for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")
-        for name in ("vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")
-        cols[f"rest_x{i}"] = r.rest_x
-        cols[f"rest_y{i}"] = r.rest_y
-        cols[f"rest_yaw{i}"] = r.rest_yaw
-        cols[f"time_to_rest{i}"] = r.time_to_rest
-        cols[f"runout_distance{i}"] = r.distance
-        cols[f"at_rest{i}"] = r.at_rest
+    rest = runout_axis(ro)
+    cols.update(vehicle_columns([
+        *((f"{name}{{i}}", vehicle_axis(imp, f"{name}{{i}}"))
+          for name in ("delta_v", "ees", "pdof", "velocity_angle_change")),
+        *((f"{name}{{i}}_post", vehicle_axis(imp, f"{name}{{i}}_post"))
+          for name in ("vx", "vy", "yaw_rate")),
+        ("rest_x{i}", rest["rest_x"]), ("rest_y{i}", rest["rest_y"]),
+        ("rest_yaw{i}", rest["rest_yaw"]), ("time_to_rest{i}", rest["time_to_rest"]),
+        ("runout_distance{i}", rest["distance"]), ("at_rest{i}", rest["at_rest"]),
+    ]))
     cols.update({
         "secondary_collision": ro.secondary_collision,
         "secondary_collision_time": ro.secondary_collision_time,
         "min_distance": pre.min_distance, "time_closest": pre.time_closest,
     })
-    for i in (1, 2):
-        cols[f"brake_start{i}"] = pre.brake_start[:, i - 1]
-        cols[f"speed_reduction{i}"] = pre.speed_reduction[:, i - 1]
+    cols.update(vehicle_columns([("brake_start{i}", pre.brake_start),
+                                 ("speed_reduction{i}", pre.speed_reduction)]))
     return pd.DataFrame(cols)

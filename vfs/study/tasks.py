@@ -190,6 +190,8 @@ def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     if record is None:
         res = simulate_cases(batch, controller=controller, params=params, rng=rng)
     else:
+        if isinstance(rng, SegmentedRandom):
+            raise ParameterError("traces are recorded for one random stream only")
         res, traces = simulate_with_traces(batch, controller, params, rng, record)
     table = results_table(batch, res)
     for name, values in _events_columns(controller, batch.size).items():
@@ -230,7 +232,7 @@ def _segmentable(system: Any | None, batch: CaseBatch, equipped: np.ndarray) -> 
     """Whether the system's controller can run several chunks as one batch."""
     if system is None:
         return True
-    return callable(getattr(system.controller(batch.take(slice(0, 1)), equipped[:1]),
+    return callable(getattr(system.controller(batch.take(np.arange(1)), equipped[:1]),
                             "reset_segments", None))
 
 

@@ -44,7 +44,7 @@ class ImpactParameterSource(StrEnum):
 #: Cases one task runs as one vectorised batch by default: several chunks of
 #: :data:`DEFAULT_CHUNK_SIZE` together (each keeps its own file and random
 #: stream), so that the per-step cost of the pre-crash loop is shared.
-DEFAULT_TASK_CASES = 2_000
+DEFAULT_TASK_CASES = 5_000
 
 #: Bounds (inclusive; None = open) of the numeric settings, checked when set.
 RANGES: dict[str, tuple[int | None, int | None]] = {

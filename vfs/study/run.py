@@ -8,18 +8,20 @@ from the start of the records through impact or avoidance to rest
 row per (case, system), ``runs.parquet``, read by the effectiveness analysis
 (:mod:`vfs.analysis.effectiveness`).
 
-Work is split into chunks of ``chunk_size`` cases in database order.  Every
-(chunk, system) pair, the baseline included, is one task
-(:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the chunk's
-cases.  When all runs of a chunk are in, the main process writes the chunk
-atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never redone
-(``resume``).  A case that makes a batch raise is isolated by bisection and
-recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
+Work is split into chunks of ``chunk_size`` cases in database order, and
+consecutive chunks into groups of up to ``task_cases`` cases
+(:func:`task_groups`).  Every (group, system) pair, the baseline included, is
+one task (:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the
+group's cases.  When all runs of a chunk are in, the main process writes the
+chunk atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never
+redone (``resume``).  A case that makes a batch raise is isolated by bisection
+and recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
 baseline, 1.. = the systems in the order given) draw their random numbers from
-``numpy.random.default_rng([seed, k, j])``, so the results do not depend on
-the executor (:mod:`vfs.study.executors`) nor on the order in which tasks
-finish.  The folder layout is described in :mod:`vfs.study.manifest`; the
-columns and the command line in docs/study.md.
+``numpy.random.default_rng([seed, k, j])`` (also inside a group), so the
+results do not depend on the executor (:mod:`vfs.study.executors`), on the
+grouping nor on the order in which tasks finish.  The settings are one
+:class:`vfs.study.spec.StudySpec`.  The folder layout is described in
+:mod:`vfs.study.manifest`; the columns and the command line in docs/study.md.
 """
 
 from __future__ import annotations

@@ -51,8 +51,9 @@ def _child_cpu() -> float:
 def run_cli(argv: list[str]) -> tuple[float, float]:
     """Run ``python -m vfs ARGV`` in a fresh interpreter; (wall [s], CPU [s]).
 
-    The child imports the same ``vfs`` as this process (``PYTHONPATH`` set
-    to the package's parent folder).
+    The child imports the same ``vfs`` as this process (it runs in the
+    package's parent folder, which is also put on ``PYTHONPATH``); paths in
+    ``argv`` should be absolute.
     """
     import vfs
 
@@ -62,7 +63,8 @@ def run_cli(argv: list[str]) -> tuple[float, float]:
     env.setdefault("MPLBACKEND", "Agg")
     cpu0 = _child_cpu()
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "vfs", *argv], env=env,
+    # run in the package's parent folder: ``-m`` puts the working folder first on sys.path
+    proc = subprocess.run([sys.executable, "-m", "vfs", *argv], env=env, cwd=root,
                           capture_output=True, text=True, check=False)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:

@@ -1,6 +1,7 @@
 """One virtual forward simulation per case, for many cases at once.
 
-    pre-crash replay (+ controller)  ->  first contact, penetration
+    opening (vehicle hooks, penetration rule, impact parameters: open_cases)
+    ->  pre-crash replay (+ controller)  ->  first contact, penetration
         ->  POI / contact plane (geometry)  ->  impulse impact  ->  run-out to rest
 
 Every stage is a vectorised kernel over the cases of a :class:`CaseBatch`;
@@ -36,6 +37,7 @@ from vfs.physics.precrash import (
     KinematicState,
     PrecrashParams,
     PrecrashResult,
+    SegmentedRandom,
     simulate_precrash,
 )
 from vfs.physics.runout import (
@@ -428,9 +430,54 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     return config, result, b1, b2
 
 
+class OpenedCases(NamedTuple):
+    """The cases as the pre-crash, impact and run-out stages see them (:func:`open_cases`).
+
+    Attributes
+    ----------
+    batch : CaseBatch
+        The cases after the effects' ``vehicles`` hooks.
+    penetration : callable or None
+        The penetration-time rule of the effects (:func:`penetration_rule`);
+        None: ``PrecrashParams.penetration_time``.
+    restitution, contact_friction : ndarray (N,)
+        Impact parameters before the impact-stage effects [-]
+        (:func:`impact_parameters`).
+    """
+
+    batch: CaseBatch
+    penetration: PenetrationRule | None
+    restitution: np.ndarray
+    contact_friction: np.ndarray
+
+
+def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
+    """The opening of every simulation of ``batch``: the stages before the pre-crash run.
+
+    In this order: the effects' ``vehicles`` hooks (vehicle data), their
+    ``penetration`` rule, the impact parameters per case (the batch's values,
+    NaN -> ``params.impact``).  :func:`simulate_cases` and the gym
+    environments (:mod:`vfs.gym.env`) open their cases here, so a new stage
+    is added once.
+
+    Parameters
+    ----------
+    batch : CaseBatch
+    params : SimulationParams
+
+    Returns
+    -------
+    OpenedCases
+    """
+    for hook in hooks(params.effects, "vehicles"):
+        batch = hook(batch)
+    eps, mu = impact_parameters(batch, params.impact)
+    return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
+
+
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
-                   rng: np.random.Generator | None = None) -> CaseResults:
+                   rng: np.random.Generator | SegmentedRandom | None = None) -> CaseResults:
     """Simulate N cases end to end (pre-crash, impact, run-out to rest).
 
     The effects of ``params.effects`` act at their stages (:mod:`vfs.effects`):
@@ -444,8 +491,10 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     controller : BrakeController, optional
         Brake demand during the pre-crash phase (None: replay the record).
     params : SimulationParams, optional
-    rng : numpy.random.Generator, optional
-        Randomness for the controller (sensor noise, reaction times).
+    rng : numpy.random.Generator or SegmentedRandom, optional
+        Randomness for the controller (sensor noise, reaction times); a
+        :class:`vfs.physics.precrash.SegmentedRandom` gives consecutive
+        segments of the batch their own streams.
 
     Returns
     -------
@@ -455,12 +504,10 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     n = batch.size
     if n == 0:
         raise ParameterError("empty case batch")
-    for hook in hooks(params.effects, "vehicles"):
-        batch = hook(batch)
+    batch, penetration, eps, mu = open_cases(batch, params)
     pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                             controller=controller, params=params.precrash, rng=rng,
-                            penetration=penetration_rule(batch, params.effects))
-    eps, mu = impact_parameters(batch, params.impact)
+                            penetration=penetration)
     hit = np.flatnonzero(pre.collided)
     poi = np.full((n, 2), np.nan)
     cp = np.full(n, np.nan)
@@ -569,6 +616,31 @@ def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> 
     return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
 
 
+def vehicle_axis(record: tuple, template: str) -> np.ndarray:
+    """(N, 2) array of the fields ``template`` with ``{i}`` = 1, 2 of a record that names
+    the vehicle in the field (ImpactConfig, ImpactResult, VelocityChange), vehicle 1 in
+    column 0: the one conversion to the axis convention of :class:`KinematicState`.
+    """
+    fields = record._asdict()  # type: ignore[attr-defined]
+    return np.stack([fields[template.format(i=1)], fields[template.format(i=2)]], axis=1)
+
+
+def runout_axis(runout: PairRunoutResult) -> dict[str, np.ndarray]:
+    """The per-case fields of both vehicles' :class:`RunoutResult` as (N, 2) arrays
+    (vehicle 1 in column 0); ``path`` and ``path_t`` are left out.
+    """
+    one, two = runout.result1._asdict(), runout.result2._asdict()
+    return {name: np.stack([one[name], two[name]], axis=1) for name in RunoutResult._fields
+            if name not in ("path", "path_t", "kinetic_energy")}
+
+
+def vehicle_columns(pairs: list[tuple[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Table columns from (N, 2) arrays: vehicle 1's columns, then vehicle 2's, each named
+    by its template with ``{i}`` = 1, 2 (the file edge of the axis convention).
+    """
+    return {name.format(i=i): values[:, i - 1] for i in (1, 2) for name, values in pairs}
+
+
 def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
     """One tidy row per case with the main figures (SI units; angles in rad).
 
@@ -594,35 +666,30 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
         "impact_time": pre.impact_time,
         "impact_type": impact_type_names(imp.impact_type).astype(object),
     }
-    for i in (1, 2):
-        j = i - 1
-        cols[f"impact_speed{i}"] = st.speed[:, j]
-        for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}"] = getattr(st, name)[:, j]
+    state = st._asdict()  # (N, 2) arrays
+    cols.update(vehicle_columns([("impact_speed{i}", st.speed), *(
+        (f"{name}{{i}}", state[name]) for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"))]))
     cols.update({
         "closing_speed": imp.closing_speed, "poi_x": res.poi[:, 0], "poi_y": res.poi[:, 1],
         "cp_angle": res.cp_angle, "cp_rule": pre.cp_rule, "overlap_area": pre.overlap_area,
         "restitution": res.restitution, "contact_friction": res.contact_friction,
         "energy_loss": imp.energy_loss,
     })
-    for i in (1, 2):
-        r = ro.result1 if i == 1 else ro.result2
-        for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")
-        for name in ("vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")
-        cols[f"rest_x{i}"] = r.rest_x
-        cols[f"rest_y{i}"] = r.rest_y
-        cols[f"rest_yaw{i}"] = r.rest_yaw
-        cols[f"time_to_rest{i}"] = r.time_to_rest
-        cols[f"runout_distance{i}"] = r.distance
-        cols[f"at_rest{i}"] = r.at_rest
+    rest = runout_axis(ro)
+    cols.update(vehicle_columns([
+        *((f"{name}{{i}}", vehicle_axis(imp, f"{name}{{i}}"))
+          for name in ("delta_v", "ees", "pdof", "velocity_angle_change")),
+        *((f"{name}{{i}}_post", vehicle_axis(imp, f"{name}{{i}}_post"))
+          for name in ("vx", "vy", "yaw_rate")),
+        ("rest_x{i}", rest["rest_x"]), ("rest_y{i}", rest["rest_y"]),
+        ("rest_yaw{i}", rest["rest_yaw"]), ("time_to_rest{i}", rest["time_to_rest"]),
+        ("runout_distance{i}", rest["distance"]), ("at_rest{i}", rest["at_rest"]),
+    ]))
     cols.update({
         "secondary_collision": ro.secondary_collision,
         "secondary_collision_time": ro.secondary_collision_time,
         "min_distance": pre.min_distance, "time_closest": pre.time_closest,
     })
-    for i in (1, 2):
-        cols[f"brake_start{i}"] = pre.brake_start[:, i - 1]
-        cols[f"speed_reduction{i}"] = pre.speed_reduction[:, i - 1]
+    cols.update(vehicle_columns([("brake_start{i}", pre.brake_start),
+                                 ("speed_reduction{i}", pre.speed_reduction)]))
     return pd.DataFrame(cols)

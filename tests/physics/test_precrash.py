@@ -84,10 +84,10 @@ def test_replay_reproduces_curved_record_within_1cm():
     assert res.end_state.x[0, 0] == pytest.approx(rec1[1][-1], abs=0.01)
     assert res.end_state.y[0, 0] == pytest.approx(rec1[2][-1], abs=0.01)
     # exact replay at intermediate times: compare with the kinematics look-up
-    from vfs.physics.precrash import _kinematics
+    from vfs.physics.precrash_contact import kinematics_at
 
     for tau in (0.0, 1.234, 2.5, 4.99):
-        st = _kinematics(paths, np.array([0]), tau, np.zeros((1, 2)), np.zeros((1, 2)))
+        st = kinematics_at(paths, np.array([0]), tau, np.zeros((1, 2)), np.zeros((1, 2)))
         x_rec = np.interp(tau, rec1[0], rec1[1])
         y_rec = np.interp(tau, rec1[0], rec1[2])
         assert abs(st.x[0, 0] - x_rec) < 0.01 and abs(st.y[0, 0] - y_rec) < 0.01

@@ -136,9 +136,20 @@ class AEBController:
 
     # ------------------------------------------------------------------ state
 
-    def _initialise(self, n: int, rng: np.random.Generator | None) -> None:
-        """Fresh state for a run; the drivers are drawn from ``rng`` (None: not yet)."""
+    def _initialise(self, n: int, rng: np.random.Generator | None,
+                    segments: tuple[tuple[int, ...], tuple[np.random.Generator, ...]] | None
+                    = None) -> None:
+        """Fresh state for a run; the drivers are drawn from ``rng`` (None: not yet), or
+        segment by segment from ``segments`` = (sizes, generators).
+        """
         self._rng = rng if rng is not None else np.random.default_rng(0)
+        # first case of each segment and its generator (one segment: the whole batch)
+        if segments is None:
+            self._segment_starts = np.zeros(1, dtype=np.int64)
+            self._segment_rngs: tuple[np.random.Generator, ...] = (self._rng,)
+        else:
+            self._segment_starts = np.concatenate([[0], np.cumsum(segments[0])[:-1]])
+            self._segment_rngs = tuple(segments[1])
         self._stage = np.zeros((n, 2, 3), dtype=bool)  # decided at the last measurement
         self._acting = np.zeros((n, 2, 3), dtype=bool)  # decision acting now
         self._ttc = np.full((n, 2), np.inf)  # last measured TTC [s]
@@ -157,13 +168,18 @@ class AEBController:
             self._driver_brakes = np.zeros((n, 2), dtype=bool)
             self._driver_decel = np.zeros((n, 2))
             return
-        if d.reaction_time is None:
-            self._reaction = rng.gamma(d.reaction_shape, 1.0 / d.reaction_rate, (n, 2))
-        else:
-            self._reaction = np.full((n, 2), d.reaction_time)
-        self._driver_brakes = (rng.random((n, 2)) < d.brake_share) & self.equipped
-        decel = d.deceleration_mean + d.deceleration_sd * rng.standard_normal((n, 2))
-        self._driver_decel = np.clip(decel, d.deceleration_min, d.deceleration_max)
+        sizes = np.diff(np.append(self._segment_starts, n))
+        reaction, brakes, decel = [], [], []
+        for size, g in zip(sizes, self._segment_rngs, strict=True):
+            m = int(size)  # each segment draws as a run of its cases alone would
+            reaction.append(g.gamma(d.reaction_shape, 1.0 / d.reaction_rate, (m, 2))
+                            if d.reaction_time is None else np.full((m, 2), d.reaction_time))
+            brakes.append(g.random((m, 2)) < d.brake_share)
+            decel.append(d.deceleration_mean + d.deceleration_sd * g.standard_normal((m, 2)))
+        self._reaction = np.concatenate(reaction)
+        self._driver_brakes = np.concatenate(brakes) & self.equipped
+        self._driver_decel = np.clip(np.concatenate(decel), d.deceleration_min,
+                                     d.deceleration_max)
 
     def reset(self, n_cases: int, rng: np.random.Generator) -> None:
         """Prepare a run over the batch's ``n_cases`` cases; draw the drivers from ``rng``."""
@@ -171,6 +187,28 @@ class AEBController:
             raise ParameterError(f"AEBController was built for {self._n} cases, the simulation "
                                  f"runs {n_cases}")
         self._initialise(n_cases, rng)
+
+    def reset_segments(self, sizes: tuple[int, ...],
+                       generators: tuple[np.random.Generator, ...]) -> None:
+        """Prepare a run whose consecutive segments of ``sizes`` cases draw from their own
+        ``generators`` (:class:`vfs.physics.precrash.SegmentedRandom`): every draw of a
+        case is the one of a run of its segment alone with its generator.
+        """
+        if sum(sizes) != self._n or len(sizes) != len(generators):
+            raise ParameterError(f"AEBController was built for {self._n} cases, the segments "
+                                 f"cover {sum(sizes)}")
+        self._initialise(self._n, generators[0], (tuple(sizes), tuple(generators)))
+
+    def _draw(self, case: np.ndarray) -> np.ndarray:
+        """One uniform draw [0, 1) per entry of ``case`` (ascending case indices), each from
+        its segment's generator, segment by segment.
+        """
+        if len(self._segment_rngs) == 1:
+            return self._segment_rngs[0].random(case.size)
+        seg = np.searchsorted(self._segment_starts, case, side="right") - 1
+        counts = np.bincount(seg, minlength=len(self._segment_rngs))
+        return np.concatenate([g.random(int(c)) for g, c in
+                               zip(self._segment_rngs, counts, strict=True)])
 
     # ------------------------------------------------------------------ steps
 
@@ -261,7 +299,7 @@ class AEBController:
                 if p <= 0.0:
                     found[:] = False
                 elif p < 1.0 and seen.any():
-                    found[seen] = self._rng.random(int(seen.sum())) < p
+                    found[seen] = self._draw(case[near][seen]) < p
                 visible[near], detected[near] = seen, found
                 sel = np.flatnonzero(near)[found]
                 if sel.size:

@@ -7,13 +7,21 @@ Re-exported by :mod:`vfs.analysis.stats`; the reasons and measured coverage are 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats as sps
 
 from vfs.errors import ParameterError
 
+
+def _sps() -> Any:
+    """:mod:`scipy.stats`, imported on first use (it costs about 0.5 s; the command line and
+    the study import this module without needing it).
+    """
+    from scipy import stats
+
+    return stats
 
 def _check_level(confidence: float) -> None:
     """Raise ParameterError unless ``confidence`` lies in (0, 1)."""
@@ -69,7 +77,7 @@ def wilson_interval(successes: npt.ArrayLike, n: npt.ArrayLike, confidence: floa
         bad = int(np.flatnonzero(ok & ((k < -tol) | (k > m + tol)))[0])
         raise ParameterError(f"wilson_interval: successes {float(k.flat[bad]):g} outside "
                              f"[0, n = {float(m.flat[bad]):g}]")
-    z = float(sps.norm.ppf(0.5 * (1.0 + confidence)))
+    z = float(_sps().norm.ppf(0.5 * (1.0 + confidence)))
     with np.errstate(divide="ignore", invalid="ignore"):
         mm = np.where(ok, m, 1.0)
         p = np.clip(np.where(ok, k, 0.0) / mm, 0.0, 1.0)
@@ -123,10 +131,10 @@ def bca_interval(boot: npt.ArrayLike, estimate: float, jackknife: npt.ArrayLike,
     d = jack.mean() - jack if jack.size else jack
     ss = float(np.sum(d * d))
     if 0.0 < below < 1.0 and ss > 0.0:
-        z0 = float(sps.norm.ppf(below))
+        z0 = float(_sps().norm.ppf(below))
         a = float(np.sum(d ** 3)) / (6.0 * ss ** 1.5)
-        zq = sps.norm.ppf(alphas)
-        alphas = sps.norm.cdf(z0 + (z0 + zq) / (1.0 - a * (z0 + zq)))
+        zq = _sps().norm.ppf(alphas)
+        alphas = _sps().norm.cdf(z0 + (z0 + zq) / (1.0 - a * (z0 + zq)))
     lo, hi = np.quantile(b, np.clip(alphas, 0.0, 1.0), method="inverted_cdf")
     return float(lo), float(hi)
 

@@ -48,11 +48,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy import stats as sps
-from statsmodels.stats.contingency_tables import mcnemar as _sm_mcnemar
 
 from vfs.analysis.intervals import bca_interval, wilson_interval
 from vfs.errors import DataError, DataProblem, ParameterError
+
+
+def _sps() -> Any:
+    """:mod:`scipy.stats`, imported on first use (it costs about 0.5 s; the command line and
+    the study import this module without needing it).
+    """
+    from scipy import stats
+
+    return stats
 
 #: Minimum number of complete pairs for which test statistics, p-values and
 #: confidence intervals are reported (with fewer pairs they are NaN).  With two
@@ -290,7 +297,7 @@ def _wilcoxon(differences: np.ndarray) -> tuple[float, float]:
         # "auto" method already switches to a permutation test for n <= 13
         warnings.simplefilter("ignore", RuntimeWarning)
         warnings.simplefilter("ignore", UserWarning)
-        result = sps.wilcoxon(differences, zero_method="pratt", alternative="two-sided")
+        result = _sps().wilcoxon(differences, zero_method="pratt", alternative="two-sided")
     return float(result.statistic), float(result.pvalue)
 
 
@@ -413,9 +420,9 @@ def paired_comparison(
     if not nan_tests:
         t_df = n - 1
         se = sd_d / math.sqrt(n)
-        quantile = float(sps.t.ppf(0.5 * (1.0 + confidence), t_df))
+        quantile = float(_sps().t.ppf(0.5 * (1.0 + confidence), t_df))
         t_stat = _ratio(mean_d, se)
-        t_p = min(1.0, float(2.0 * sps.t.sf(abs(t_stat), t_df)))
+        t_p = min(1.0, float(2.0 * _sps().t.sf(abs(t_stat), t_df)))
         ci_low, ci_high = mean_d - quantile * se, mean_d + quantile * se
         w_stat, w_p = _wilcoxon(diff)
         se_loa = math.sqrt(3.0 * sd_d**2 / n)  # Bland & Altman (1999), section 5
@@ -423,8 +430,8 @@ def paired_comparison(
         loa_ci = (lo - quantile * se_loa, lo + quantile * se_loa,
                   hi - quantile * se_loa, hi + quantile * se_loa)
         if margin is not None:
-            p_lower = float(sps.t.sf(_ratio(mean_d + tost_margin, se), t_df))
-            p_upper = float(sps.t.cdf(_ratio(mean_d - tost_margin, se), t_df))
+            p_lower = float(_sps().t.sf(_ratio(mean_d + tost_margin, se), t_df))
+            p_upper = float(_sps().t.cdf(_ratio(mean_d - tost_margin, se), t_df))
             tost_p = max(p_lower, p_upper)
 
     nonzero_ref = ref != 0.0
@@ -700,7 +707,7 @@ def _independent_chi2(counts: np.ndarray) -> tuple[float, float, int]:
     observed = observed[:, observed.sum(axis=0) > 0]  # zero expected counts are undefined
     if observed.shape[1] < 2:
         return 0.0, 1.0, 0  # both samples in one category: identical distributions
-    res = sps.chi2_contingency(observed, correction=False)
+    res = _sps().chi2_contingency(observed, correction=False)
     return float(res.statistic), float(res.pvalue), int(res.dof)
 
 
@@ -713,7 +720,9 @@ def _mcnemar(counts: np.ndarray) -> tuple[float, float, str]:
     if b + c == 0:
         return 0.0, 1.0, "exact"
     exact = b + c < MCNEMAR_EXACT_BELOW
-    res = _sm_mcnemar(np.array([[0, b], [c, 0]]), exact=exact, correction=True)
+    from statsmodels.stats.contingency_tables import mcnemar
+
+    res = mcnemar(np.array([[0, b], [c, 0]]), exact=exact, correction=True)
     return float(res.statistic), min(1.0, float(res.pvalue)), "exact" if exact else "chi2"
 
 
@@ -737,7 +746,7 @@ def _stuart_maxwell(counts: np.ndarray) -> tuple[float, float, int]:
     if df == 0:
         return 0.0, 1.0, 0
     statistic = float(d @ np.linalg.pinv(cov, hermitian=True) @ d)
-    return statistic, float(sps.chi2.sf(statistic, df)), df
+    return statistic, float(_sps().chi2.sf(statistic, df)), df
 
 
 def _bowker(counts: np.ndarray) -> tuple[float, float, int]:
@@ -753,7 +762,7 @@ def _bowker(counts: np.ndarray) -> tuple[float, float, int]:
     if df == 0:
         return 0.0, 1.0, 0
     statistic = float(np.sum((n_ij[used] - n_ji[used]) ** 2 / total[used]))
-    return statistic, float(sps.chi2.sf(statistic, df)), df
+    return statistic, float(_sps().chi2.sf(statistic, df)), df
 
 
 def _cohens_kappa(counts: np.ndarray, confidence: float) -> tuple[float, ...]:
@@ -784,8 +793,8 @@ def _cohens_kappa(counts: np.ndarray, confidence: float) -> tuple[float, ...]:
     )
     se = math.sqrt(var)
     z = _ratio(kappa, math.sqrt(max(0.0, var0)))
-    quantile = float(sps.norm.ppf(0.5 * (1.0 + confidence)))
-    p_value = min(1.0, float(2.0 * sps.norm.sf(abs(z))))
+    quantile = float(_sps().norm.ppf(0.5 * (1.0 + confidence)))
+    p_value = min(1.0, float(2.0 * _sps().norm.sf(abs(z))))
     return kappa, se, kappa - quantile * se, kappa + quantile * se, p_value
 
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from vfs.bench import gym, kernels, uncertainty
+from vfs.bench import gym, kernels, study, uncertainty
 from vfs.registry import Registry
 
 Benchmark = Callable[[bool], dict[str, Any]]
@@ -30,6 +30,8 @@ BENCHMARKS.add("timestep_convergence", kernels.bench_timestep_convergence)
 BENCHMARKS.add("uncertainty", uncertainty.bench_uncertainty)
 BENCHMARKS.add("uncertainty_sampling", uncertainty.bench_uncertainty_sampling)
 BENCHMARKS.add("gym_env", gym.bench_gym_env)
+BENCHMARKS.add("study", study.bench_study)
+BENCHMARKS.add("diagnose", study.bench_diagnose)
 
 
 def run_benchmarks(names: list[str] | None = None, quick: bool = False) -> dict[str, Any]:

@@ -42,7 +42,7 @@ def _default_equip(db: str) -> str:
 def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
     from vfs.cli.common import load_plugins, out_folder, path_label
-    from vfs.study import run_study
+    from vfs.study import StudySpec, run_study
 
     load_plugins(args.plugin)
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
@@ -57,15 +57,15 @@ def cmd_study(args: argparse.Namespace) -> int:
     )
 
     out_folder(args, "study", args.db, "+".join(path_label(s) for s in systems))
+    spec = StudySpec(
+        args.db, tuple(systems), args.out, engine=args.engine, workers=args.workers,
+        scheduler=args.scheduler, chunk_size=args.chunk_size, task_cases=args.task_cases,
+        seed=args.seed, where=args.where, equip=args.equip or _default_equip(args.db),
+        resume=args.resume, overwrite=args.overwrite,
+        impact_parameters=args.impact_parameters, dashboard=args.dashboard)
     try:
         with terminate_as_interrupt():  # SIGTERM stops the study as Ctrl-C does
-            result = run_study(
-                args.db, systems, args.out, engine=args.engine, workers=args.workers,
-                scheduler=args.scheduler, chunk_size=args.chunk_size, seed=args.seed,
-                where=args.where, equip=args.equip or _default_equip(args.db), resume=args.resume,
-                overwrite=args.overwrite, impact_parameters=args.impact_parameters,
-                dashboard=args.dashboard,
-            )
+            result = run_study(spec)
     except KeyboardInterrupt as exc:
         what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
         print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
@@ -133,6 +133,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     from vfs.adas import SYSTEMS
     from vfs.study import EXECUTORS
+    from vfs.study.layout import DEFAULT_CHUNK_SIZE
+    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource
 
     p.add_argument("--db", required=True, help=DB_HELP)
     p.add_argument("--systems", required=True, metavar="NAMES",
@@ -145,7 +147,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "vfs.adas.register_system (e.g. adas/example_controller.py); repeatable")
     out_option(p, "study folder", "study-<db>-<systems>")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
-    p.add_argument("--equip", choices=("1", "2", "both"), default=None,
+    p.add_argument("--equip", choices=[m.value for m in Equip], default=None,
                    help="vehicles carrying the system in the treatment runs (default the "
                    "database's meta 'equip', else both; euro-ncap-c2c: 1, the VUT)")
     p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
@@ -160,11 +162,18 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--dashboard", metavar="ADDRESS",
                    help="serve the dashboard of the local dask cluster at ADDRESS, e.g. :8787, "
                    "and print its link (needs bokeh; default off)")
-    p.add_argument("--chunk-size", type=_positive_int, default=200,
-                   help="cases per chunk (default 200)")
+    p.add_argument("--chunk-size", type=_positive_int, default=DEFAULT_CHUNK_SIZE,
+                   help=f"cases per chunk file, the unit of resume and of the random streams "
+                   f"(default {DEFAULT_CHUNK_SIZE})")
+    p.add_argument("--task-cases", type=_positive_int, default=DEFAULT_TASK_CASES,
+                   metavar="N",
+                   help="cases one task simulates as one batch: whole chunks, each with its "
+                   "own random stream, so results do not depend on it; larger batches share "
+                   f"the per-step cost (default {DEFAULT_TASK_CASES}; fewer when workers "
+                   "would idle)")
     p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
-    p.add_argument("--impact-parameters", choices=("reconstruction", "default"),
-                   default="reconstruction",
+    p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
+                   default=ImpactParameterSource.RECONSTRUCTION.value,
                    help="restitution and contact friction: the reconstruction's where present "
                    "(default) or the model defaults")
     p.add_argument("--allow-failed", action="store_true",

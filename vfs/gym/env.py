@@ -32,7 +32,7 @@ import numpy.typing as npt
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from vfs.effects.base import hooks, parse_effect
+from vfs.effects.base import parse_effect
 from vfs.errors import ParameterError
 from vfs.gym.config import (
     DEFAULT_BRAKE,
@@ -60,9 +60,8 @@ from vfs.physics.precrash import KinematicState, PrecrashObservation, PrecrashRu
 from vfs.simulation import (
     CaseBatch,
     ImpactInputs,
-    impact_parameters,
     impact_stage,
-    penetration_rule,
+    open_cases,
 )
 from vfs.units import KMH_PER_MS, G
 
@@ -156,13 +155,11 @@ class EpisodeBatch:
         base = cfg.simulation
         self.params = dataclasses.replace(
             base, precrash=dataclasses.replace(base.precrash, brake=cfg.brake), effects=effects)
-        batch = CaseBatch.from_database(db, ids, impact_parameters=cfg.impact_parameters)
-        for hook in hooks(self.params.effects, "vehicles"):
-            batch = hook(batch)
+        batch, penetration, self.eps, self.mu = open_cases(
+            CaseBatch.from_database(db, ids, impact_parameters=cfg.impact_parameters),
+            self.params)
         n_cases = batch.size
         self.batch = batch
-        self.eps, self.mu = impact_parameters(batch, self.params.impact)
-        penetration = penetration_rule(batch, effects)
         # recorded outcome of every case: a near miss makes any braking unnecessary
         replay = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                              params=self.params.precrash, penetration=penetration)

@@ -655,6 +655,23 @@ def _frames_overlap(a: RectangleFrame, b: RectangleFrame) -> np.ndarray:
                + a.half_width * ac))
 
 
+def outlines_may_overlap(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
+                         margin: float = 0.0) -> np.ndarray:
+    """False (N,) where outline rectangles (N, 4, 2) [m] are certainly apart.
+
+    Separating-axis test on the four edge normals with the rectangles grown
+    by ``margin`` [m] on every side: where it finds a separating axis the
+    outlines are more than 2 ``margin`` apart, so their overlap is empty and
+    :func:`overlap` need not be computed (a broad phase for it).  True
+    where they overlap, touch or are closer than that.
+    """
+    a = rectangle_frame(np.asarray(outline1, float))
+    b = rectangle_frame(np.asarray(outline2, float))
+    grow = lambda f: RectangleFrame(f.centre, f.axis, f.half_length + margin,  # noqa: E731
+                                    f.half_width + margin)
+    return _frames_overlap(grow(a), grow(b))
+
+
 def outline_distance(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
                      frame1: RectangleFrame | None = None,
                      frame2: RectangleFrame | None = None) -> np.ndarray:

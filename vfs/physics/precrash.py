@@ -30,8 +30,9 @@ reports the minimum outline distance and the time of closest approach.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -46,18 +47,21 @@ from vfs.physics.braking import (
     friction_limited_deceleration,
 )
 from vfs.physics.geometry import (
-    AREA_TOLERANCE,
-    contact_geometry,
     outline_distance,
-    overlap,
-    vehicle_outline,
 )
-from vfs.physics.paths import (
-    PathArrays,
-    advance_index,
-    find_index,
-    pose_at_arclength,
-    record_at_time,
+from vfs.physics.paths import PathArrays
+from vfs.physics.precrash_cases import PrecrashCases
+from vfs.physics.precrash_contact import (
+    GRAZE_SAMPLES,
+    active_rows,
+    bisect_contact,
+    kinematics_at,
+    outlines,
+    overlapping,
+    put_rows,
+    record_pair,
+    state_at_arclength,
+    take_state,
 )
 from vfs.physics.precrash_result import KinematicState, PrecrashResult
 from vfs.physics.vehicle import VehicleArrays
@@ -75,6 +79,7 @@ __all__ = [
     "PrecrashResult",
     "PrecrashRun",
     "ScheduledBraking",
+    "SegmentedRandom",
     "actuator_step",
     "friction_limited_deceleration",
     "simulate_precrash",
@@ -126,6 +131,54 @@ class PrecrashParams:
             raise ParameterError(f"extra_time={self.extra_time} s outside [0, 60]")
 
 
+class SegmentedRandom(NamedTuple):
+    """Random streams of consecutive segments of a batch (several study chunks run as one).
+
+    Case ``i`` of segment ``k`` (the cases ``sum(sizes[:k]) ..`` in batch
+    order) draws its random numbers from ``generators[k]``, as it would in a
+    run of that segment alone with that generator.  A controller takes them
+    through ``reset_segments(sizes, generators)`` (e.g.
+    :meth:`vfs.adas.controller.AEBController.reset_segments`); one without that
+    method cannot run segmented batches (:func:`simulate_precrash` raises
+    :class:`ParameterError`).
+
+    Attributes
+    ----------
+    sizes : tuple of int
+        Cases per segment (sum = batch size).
+    generators : tuple of numpy.random.Generator
+        One per segment.
+    """
+
+    sizes: tuple[int, ...]
+    generators: tuple[np.random.Generator, ...]
+
+    @classmethod
+    def of(cls, sizes: Sequence[int], generators: Sequence[np.random.Generator]
+           ) -> SegmentedRandom:
+        """Checked construction (one generator per segment, sizes >= 1)."""
+        sizes_t = tuple(int(n) for n in sizes)
+        if len(sizes_t) != len(generators) or any(n < 1 for n in sizes_t):
+            raise ParameterError("SegmentedRandom: one generator per segment of >= 1 case")
+        return cls(sizes_t, tuple(generators))
+
+
+def reset_controller(controller: BrakeController, n: int,
+                     rng: np.random.Generator | SegmentedRandom | None) -> None:
+    """``controller.reset(n, rng)``, or ``reset_segments`` for :class:`SegmentedRandom`."""
+    if isinstance(rng, SegmentedRandom):
+        if sum(rng.sizes) != n:
+            raise ParameterError(f"SegmentedRandom covers {sum(rng.sizes)} cases, the "
+                                 f"run has {n}")
+        reset_segments = getattr(controller, "reset_segments", None)
+        if not callable(reset_segments):
+            raise ParameterError(f"{type(controller).__name__} cannot run segmented batches "
+                                 "(no reset_segments)")
+        reset_segments(rng.sizes, rng.generators)
+        return
+    controller.reset(n, rng if rng is not None else np.random.default_rng(0))
+
+
 # ----------------------------------------------------------------------------
 # Contact tracking
 # ----------------------------------------------------------------------------
@@ -161,123 +214,6 @@ class _Track:
             setattr(self, name, getattr(self, name)[keep])
 
 
-def _record(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
-            t_index: np.ndarray | None, hint: bool = False,
-            active: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, ...]:
-    """Recorded s, speed, acceleration (n, 2) at time(s) ``tau`` and the time indices.
-
-    ``paths`` holds participant 1's paths followed by participant 2's (see
-    :func:`vfs.physics.paths.concat_paths`); both are looked up in one call.  With
-    ``t_index`` (monotone stepping) the indices are advanced, without it
-    (bisection, arbitrary times) found by binary search.
-    """
-    n = rows.shape[0]
-    both, last = active if active is not None else _active(paths, rows)
-    tau2 = np.broadcast_to(np.asarray(tau, float), (n,))
-    tau2 = np.concatenate([tau2, tau2])
-    if t_index is None:
-        ti = find_index(paths, "t", tau2, both)
-    else:
-        ti = advance_index(paths, "t", t_index.T.reshape(-1), tau2, both)
-    rec = record_at_time(paths, both, ti, tau2, last, rows_last=True)
-    pair = lambda a: a.reshape(2, n).T  # noqa: E731
-    return pair(rec.s), pair(rec.speed), pair(rec.accel), pair(ti)
-
-
-def _active(paths: PathArrays, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Path rows of both participants of cases ``rows`` and their last knots."""
-    both = np.concatenate([rows, rows + paths.size // 2])
-    return both, paths.knots[paths.count[both] - 1, both]
-
-
-def _state(paths: PathArrays, rows: np.ndarray, s: np.ndarray,
-           speed: np.ndarray, s_index: np.ndarray | None,
-           active: tuple[np.ndarray, np.ndarray] | None = None,
-           ) -> tuple[KinematicState, np.ndarray]:
-    """Kinematic state of both vehicles at arc lengths ``s`` moving at ``speed`` (n, 2)."""
-    n = rows.shape[0]
-    both, last = active if active is not None else _active(paths, rows)
-    s2 = s.T.reshape(-1)
-    if s_index is None:
-        si = find_index(paths, "s", s2, both)
-    else:
-        si = advance_index(paths, "s", s_index.T.reshape(-1), s2, both)
-    pose = pose_at_arclength(paths, both, si, s2, last, rows_last=True)
-    pair = lambda a: a.reshape(2, n).T  # noqa: E731
-    state = KinematicState(
-        x=pair(pose.x), y=pair(pose.y), yaw=pair(pose.yaw),
-        vx=speed * pair(pose.tx), vy=speed * pair(pose.ty),
-        yaw_rate=speed * pair(pose.curvature), speed=speed,
-    )
-    return state, pair(si)
-
-
-def _kinematics(paths: PathArrays, rows: np.ndarray, tau: float | np.ndarray,
-                dv: np.ndarray, ds: np.ndarray,
-                hint: tuple[np.ndarray, np.ndarray] | None = None) -> KinematicState:
-    """State at arbitrary time(s) ``tau`` given the reductions dv, ds (n, 2).
-
-    ``hint`` = (time index, arc-length index) (n, 2) at an earlier time lets
-    the look-up advance from there instead of searching.
-    """
-    t_hint, s_hint = hint if hint is not None else (None, None)
-    s_rec, v_rec, _, _ = _record(paths, rows, tau, t_hint)
-    return _state(paths, rows, s_rec - ds, np.maximum(v_rec - dv, 0.0), s_hint)[0]
-
-
-def _outlines(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
-              st: KinematicState) -> tuple[np.ndarray, np.ndarray]:
-    o1 = vehicle_outline(v1.take(rows), st.x[:, 0], st.y[:, 0], st.yaw[:, 0])
-    o2 = vehicle_outline(v2.take(rows), st.x[:, 1], st.y[:, 1], st.yaw[:, 1])
-    return o1, o2
-
-
-def _overlap_area(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
-                  st: KinematicState) -> np.ndarray:
-    """Overlap area of the outlines [m^2]."""
-    o1, o2 = _outlines(v1, v2, rows, st)
-    return overlap(o1, o2).area
-
-
-def _overlapping(v1: VehicleArrays, v2: VehicleArrays, rows: np.ndarray,
-                 st: KinematicState) -> np.ndarray:
-    """True where the outlines overlap with positive area."""
-    return _overlap_area(v1, v2, rows, st) > AREA_TOLERANCE
-
-
-#: Samples of the penetration window searched for the largest overlap of a graze.
-GRAZE_SAMPLES = 16
-
-
-def _largest_overlap(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
-                     rows: np.ndarray, t_contact: np.ndarray, t_impact: np.ndarray,
-                     dv: np.ndarray, ds: np.ndarray) -> tuple[np.ndarray, KinematicState]:
-    """Time of the largest overlap within [t_contact, t_impact] and the state then.
-
-    Used for grazing contacts, where the outlines separate again before the
-    penetration time is over.  The reductions dv, ds are held at their
-    values at first contact over this short window (tens of ms).
-    """
-    best_t = t_contact.copy()
-    best_area = np.full(rows.shape[0], -1.0)
-    for frac in np.linspace(0.0, 1.0, GRAZE_SAMPLES + 1):
-        tt = t_contact + frac * (t_impact - t_contact)
-        a = _overlap_area(v1, v2, rows, _kinematics(paths, rows, tt, dv, ds))
-        better = a > best_area
-        best_t = np.where(better, tt, best_t)
-        best_area = np.where(better, a, best_area)
-    return best_t, _kinematics(paths, rows, best_t, dv, ds)
-
-
-def _nan_state(n: int) -> KinematicState:
-    return KinematicState(*(np.full((n, 2), np.nan) for _ in KinematicState._fields))
-
-
-def _put(dst: KinematicState, rows: np.ndarray, src: KinematicState) -> None:
-    for a, b in zip(dst, src, strict=True):
-        a[rows] = b
-
-
 # ----------------------------------------------------------------------------
 # The simulation
 # ----------------------------------------------------------------------------
@@ -287,7 +223,7 @@ def simulate_precrash(
     vehicle1: VehicleArrays, vehicle2: VehicleArrays,
     paths: PathArrays, road_friction: npt.ArrayLike,
     controller: BrakeController | None = None, params: PrecrashParams | None = None,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | SegmentedRandom | None = None,
     penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
 ) -> PrecrashResult:
     """Re-simulate N cases from the start of their records to impact or the horizon.
@@ -307,8 +243,9 @@ def simulate_precrash(
     controller : BrakeController, optional
         Brake demand; None replays the record.
     params : PrecrashParams, optional
-    rng : numpy.random.Generator, optional
-        Passed to ``controller.reset`` (sensor noise, reaction times).
+    rng : numpy.random.Generator or SegmentedRandom, optional
+        Passed to ``controller.reset`` (sensor noise, reaction times);
+        a :class:`SegmentedRandom` to ``controller.reset_segments``.
     penetration : callable, optional
         ``penetration(rows, contact_state) -> seconds``: penetration time per
         case [s], in [0, 0.5], called once at first contact with the case
@@ -328,14 +265,14 @@ def simulate_precrash(
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
                       penetration=penetration)
     if controller is not None:
-        controller.reset(run.n, rng if rng is not None else np.random.default_rng(0))
+        reset_controller(controller, run.n, rng)
     while not run.done:
         demand = controller.demand(run.observation()) if controller is not None else None
         run.advance(demand)
     return run.result()
 
 
-class PrecrashRun:
+class PrecrashRun(PrecrashCases):
     """The pre-crash simulation of N cases, advanced one time step at a time.
 
     :func:`simulate_precrash` runs it to the end with a controller; a gym
@@ -389,10 +326,8 @@ class PrecrashRun:
                 self.case_of.min() < 0 or self.case_of.max() >= n_data):
             raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
         n = n_data if self.case_of is None else self.case_of.size
-        self.n = n
+        super().__init__(vehicle1, vehicle2, paths, params.dt, n, self.case_of)
         self.params = params
-        self.dt = params.dt
-        self.v1, self.v2, self.paths = vehicle1, vehicle2, paths
         self.penetration = penetration
         self.open_ended = bool(open_ended)
         mu = np.broadcast_to(np.asarray(road_friction, float), (n_data,))
@@ -405,31 +340,7 @@ class PrecrashRun:
         self.case_horizon = (np.maximum(duration[:n_data], duration[n_data:])
                              + params.extra_time)[self._d(np.arange(n))]
         self.horizon = float(np.max(self.case_horizon)) if n else 0.0
-        self.k = 0
-        self.k0 = np.zeros(n, dtype=np.int64)
 
-        self.collided = np.zeros(n, dtype=bool)
-        self.contact_time = np.full(n, np.nan)
-        self.min_distance = np.full(n, np.inf)
-        self.time_closest = np.full(n, np.nan)
-        self.brake_start = np.full((n, 2), np.nan)
-        self.speed_reduction = np.zeros((n, 2))
-        self.impact_state = _nan_state(n)
-        self.contact_state = _nan_state(n)
-        self.end_state = _nan_state(n)
-        self.contact_dv = np.zeros((n, 2))  # reductions at first contact
-        self.contact_ds = np.zeros((n, 2))
-        # per case, the integration state at impact time is interpolated between
-        # the two steps around it; remember the reductions at both
-        self.pending = np.zeros(n, dtype=bool)  # in contact, waiting for impact time
-        self.impact_time = np.full(n, np.nan)
-        self.best_time = np.full(n, np.nan)  # time of the smallest CG distance
-        self.best_pose = np.full((3, n, 2), np.nan)  # x, y, yaw of both at that moment
-        self.poi = np.full((n, 2), np.nan)
-        self.cp_angle = np.full(n, np.nan)
-        self.cp_rule = np.zeros(n, dtype=np.int64)
-        self.area = np.zeros(n)
-        self.final = np.zeros(n, dtype=bool)  # post-processed by finalize
         self.running = np.zeros(n, dtype=bool)
 
         rows = np.arange(n) if start is None else np.unique(np.asarray(start, np.int64))
@@ -442,34 +353,6 @@ class PrecrashRun:
         self.done = False
         self._settle()
 
-    # ------------------------------------------------------------------ clocks
-
-    def _d(self, rows: np.ndarray) -> np.ndarray:
-        """Data rows (vehicles, paths) of case instances ``rows``."""
-        return rows if self.case_of is None else self.case_of[rows]
-
-    @property
-    def time(self) -> float:
-        """Time of the run's current step k dt [s] (a case's own time when all started at 0)."""
-        return self.k * self.dt
-
-    def local_time(self, rows: np.ndarray | None = None) -> np.ndarray:
-        """Time since the start of their records [s] of cases ``rows`` (default: running)."""
-        rows = self.rows if rows is None else rows
-        return (self.k - self.k0[rows]) * self.dt
-
-    @property
-    def common_clock(self) -> bool:
-        """All running cases started at the same step (their times are equal)."""
-        k0 = self.k0[self.rows]
-        return bool(k0.size == 0 or (k0 == k0[0]).all())
-
-    def _observed_time(self, rows: np.ndarray) -> float | np.ndarray:
-        k0 = self.k0[rows]
-        if k0.size == 0 or (k0 == k0[0]).all():
-            return (self.k - int(k0[0])) * self.dt if k0.size else self.time
-        return (self.k - k0) * self.dt
-
     def _save_previous(self) -> None:
         t = self.track
         self.prev_dv, self.prev_ds = t.dv.copy(), t.ds.copy()
@@ -478,7 +361,7 @@ class PrecrashRun:
     def _keep(self, keep: np.ndarray) -> None:
         """Drop the running rows where ``keep`` is False."""
         self.rows = self.rows[keep]
-        self.state = _take_state(self.state, keep)
+        self.state = take_state(self.state, keep)
         self.v_rec, self.a_rec = self.v_rec[keep], self.a_rec[keep]
         self.track.take(keep)
         self.prev_dv, self.prev_ds = self.prev_dv[keep], self.prev_ds[keep]
@@ -497,14 +380,14 @@ class PrecrashRun:
         kk = self.k - self.k0[rows]  # steps since each case's start
         tau = kk * dt
         if self.active is None or self.active[0].shape[0] != 2 * rows.shape[0]:
-            self.active = _active(paths, self._d(rows))
-        s_rec, v_rec, a_rec, track.t_index = _record(paths, rows, tau, track.t_index,
+            self.active = active_rows(paths, self._d(rows))
+        s_rec, v_rec, a_rec, track.t_index = record_pair(paths, rows, tau, track.t_index,
                                                      active=self.active)
         gap_now = np.minimum(track.dv, v_rec)
         stepped = (kk > 0)[:, None]
         track.ds = np.where(stepped, track.ds + 0.5 * dt * (track.gap + gap_now), track.ds)
         track.gap = gap_now
-        self.state, track.s_index = _state(paths, rows, s_rec - track.ds,
+        self.state, track.s_index = state_at_arclength(paths, rows, s_rec - track.ds,
                                            np.maximum(v_rec - track.dv, 0.0), track.s_index,
                                            active=self.active)
         self.v_rec, self.a_rec = v_rec, a_rec
@@ -518,8 +401,8 @@ class PrecrashRun:
             w = np.clip((impact_time[r] - prev_tau[due]) / dt, 0.0, 1.0)[:, None]
             dv_i = self.prev_dv[due] + w * (track.dv[due] - self.prev_dv[due])
             ds_i = self.prev_ds[due] + w * (track.ds[due] - self.prev_ds[due])
-            st_i = _kinematics(paths, self._d(r), impact_time[r], dv_i, ds_i)
-            _put(self.impact_state, r, st_i)
+            st_i = kinematics_at(paths, self._d(r), impact_time[r], dv_i, ds_i)
+            put_rows(self.impact_state, r, st_i)
             pending[r] = False
             self.speed_reduction[r] = dv_i
             ended.append(r)
@@ -535,8 +418,8 @@ class PrecrashRun:
         near = free & (lower <= 0.0)
         touching = np.zeros(rows.shape[0], dtype=bool)
         if near.any():
-            touching[near] = _overlapping(v1, v2, self._d(rows[near]),
-                                          _take_state(state, near))
+            touching[near] = overlapping(v1, v2, self._d(rows[near]),
+                                          take_state(state, near))
         new_contact = touching
         if new_contact.any():
             r = rows[new_contact]
@@ -545,7 +428,7 @@ class PrecrashRun:
             later = ~first
             if later.any():
                 sel = np.flatnonzero(new_contact)[later]
-                t_c[later] = _bisect_contact(
+                t_c[later] = bisect_contact(
                     paths, v1, v2, self._d(rows[sel]), prev_tau[sel], tau[sel],
                     self.prev_dv[sel], track.dv[sel], self.prev_ds[sel], track.ds[sel],
                     params.contact_tolerance, (self.prev_ti[sel], self.prev_si[sel]))
@@ -560,8 +443,8 @@ class PrecrashRun:
                                                     - self.prev_dv[new_contact])
             ds_c = self.prev_ds[new_contact] + w * (track.ds[new_contact]
                                                     - self.prev_ds[new_contact])
-            st_c = _kinematics(paths, self._d(r), t_c, dv_c, ds_c)
-            _put(self.contact_state, r, st_c)
+            st_c = kinematics_at(paths, self._d(r), t_c, dv_c, ds_c)
+            put_rows(self.contact_state, r, st_c)
             self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
             t_pen = np.full(r.shape[0], params.penetration_time)
             if self.penetration is not None:
@@ -572,7 +455,7 @@ class PrecrashRun:
             instant = t_pen == 0.0
             if instant.any():
                 ri = r[instant]
-                _put(self.impact_state, ri, _take_state(self.contact_state, ri))
+                put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
                 pending[ri] = False
                 self.speed_reduction[ri] = dv_c[instant]
         # closest approach: exact outline distance while the outlines are
@@ -587,8 +470,8 @@ class PrecrashRun:
         track.best_yaw = np.where(c2, state.yaw, track.best_yaw)
         cand = closer & ~touching & (lower < np.minimum(self.min_distance[rows], CLOSE_RANGE))
         if cand.any():
-            sub = _take_state(state, cand)
-            o1, o2 = _outlines(v1, v2, self._d(rows[cand]), sub)
+            sub = take_state(state, cand)
+            o1, o2 = outlines(v1, v2, self._d(rows[cand]), sub)
             dist = outline_distance(o1, o2)
             r = rows[cand]
             better = dist < self.min_distance[r]
@@ -619,7 +502,7 @@ class PrecrashRun:
     def _close(self, r: np.ndarray, sel: np.ndarray) -> None:
         """End rows ``r`` (= running rows ``sel``) without a collision at the current step."""
         track = self.track
-        _put(self.end_state, r, _take_state(self.state, sel))
+        put_rows(self.end_state, r, take_state(self.state, sel))
         self.speed_reduction[r] = track.dv[sel]
         self.best_time[r] = track.best_time[sel]
         self.best_pose[0, r], self.best_pose[1, r] = track.best_x[sel], track.best_y[sel]
@@ -720,18 +603,7 @@ class PrecrashRun:
         if np.unique(new).size != new.size or self.running[new].any():
             raise ParameterError("cases to start must be distinct and not running")
         self.k0[new] = self.k
-        for arr, value in ((self.collided, False), (self.contact_time, np.nan),
-                           (self.min_distance, np.inf), (self.time_closest, np.nan),
-                           (self.brake_start, np.nan), (self.speed_reduction, 0.0),
-                           (self.contact_dv, 0.0), (self.contact_ds, 0.0),
-                           (self.pending, False), (self.impact_time, np.nan),
-                           (self.best_time, np.nan), (self.poi, np.nan),
-                           (self.cp_angle, np.nan), (self.cp_rule, 0), (self.area, 0.0),
-                           (self.final, False)):
-            arr[new] = value
-        self.best_pose[:, new] = np.nan
-        for st in (self.impact_state, self.contact_state, self.end_state):
-            _put(st, new, _nan_state(new.size))
+        self._reset_outcomes(new)
         m = new.size
         fresh = _Track(m)
         track = self.track
@@ -769,106 +641,3 @@ class PrecrashRun:
         self.running[rows] = False
         if keep_state:
             self.finalize(rows)
-
-    # ------------------------------------------------------------------ results
-
-    def finalize(self, rows: npt.ArrayLike | None = None) -> None:
-        """Post-process ended cases ``rows`` (default: all ended, not yet finalized).
-
-        Outline distance of far passes, grazing contacts (impact moved to the
-        largest overlap) and the contact geometry (POI, contact plane) at
-        impact.
-        """
-        if rows is None:
-            sel = np.flatnonzero(~self.final & ~self.running)
-        else:
-            sel = np.asarray(rows, np.int64).reshape(-1)
-            sel = sel[~self.final[sel]]
-        if sel.size == 0:
-            return
-        v1, v2, paths = self.v1, self.v2, self.paths
-        # never within CLOSE_RANGE: outline distance at the moment of minimal CG distance
-        far = np.isinf(self.min_distance[sel]) & ~np.isnan(self.best_time[sel])
-        if far.any():
-            r = sel[far]
-            bp = self.best_pose[:, r]
-            o1 = vehicle_outline(v1.take(self._d(r)), bp[0, :, 0], bp[1, :, 0], bp[2, :, 0])
-            o2 = vehicle_outline(v2.take(self._d(r)), bp[0, :, 1], bp[1, :, 1], bp[2, :, 1])
-            self.min_distance[r] = outline_distance(o1, o2)
-            self.time_closest[r] = self.best_time[r]
-        hit = self.collided[sel] & ~np.isnan(self.impact_state.x[sel, 0])
-        self.collided[sel] = hit
-        if hit.any():
-            r = sel[hit]
-            graze = _overlap_area(v1, v2, self._d(r), _take_state(self.impact_state, r)) \
-                <= AREA_TOLERANCE
-            if graze.any():
-                # grazing contact: the outlines separated again within the
-                # penetration time; take the impact at the largest overlap
-                g_rows = r[graze]
-                t_best, st_best = _largest_overlap(paths, v1, v2, self._d(g_rows),
-                                                   self.contact_time[g_rows],
-                                                   self.impact_time[g_rows],
-                                                   self.contact_dv[g_rows],
-                                                   self.contact_ds[g_rows])
-                self.impact_time[g_rows] = t_best
-                _put(self.impact_state, g_rows, st_best)
-            st = _take_state(self.impact_state, r)
-            o1, o2 = _outlines(v1, v2, self._d(r), st)
-            cg1 = np.stack([st.x[:, 0], st.y[:, 0]], axis=1)
-            cg2 = np.stack([st.x[:, 1], st.y[:, 1]], axis=1)
-            g = contact_geometry(o1, o2, cg1, cg2)
-            self.poi[r], self.cp_angle[r], self.cp_rule[r], self.area[r] = \
-                g.poi, g.cp_angle, g.rule, g.area
-        self.final[sel] = True
-
-    def result(self, rows: npt.ArrayLike | None = None) -> PrecrashResult:
-        """The :class:`PrecrashResult` of all cases (default) or of the ended ``rows``.
-
-        Finalizes what is not yet; a case still running has NaN results.
-        """
-        self.finalize(None if rows is None else rows)
-        idx = slice(None) if rows is None else np.asarray(rows, np.int64).reshape(-1)
-        hit = self.collided[idx]
-        min_distance = self.min_distance[idx]
-        take = lambda st: KinematicState(*(a[idx] for a in st))  # noqa: E731
-        return PrecrashResult(
-            collided=hit, contact_time=np.where(hit, self.contact_time[idx], np.nan),
-            impact_time=np.where(hit, self.impact_time[idx], np.nan),
-            impact_state=take(self.impact_state), contact_state=take(self.contact_state),
-            poi=self.poi[idx], cp_angle=self.cp_angle[idx], cp_rule=self.cp_rule[idx],
-            overlap_area=self.area[idx],
-            min_distance=np.where(np.isinf(min_distance), np.nan, min_distance),
-            time_closest=self.time_closest[idx], brake_start=self.brake_start[idx],
-            speed_reduction=self.speed_reduction[idx], end_state=take(self.end_state),
-            end_time=self.time,
-        )
-
-
-def _take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
-    """Rows of a state (by mask or index)."""
-    return KinematicState(*(a[mask] for a in state))
-
-
-def _bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
-                    rows: np.ndarray, t_free: float | np.ndarray, t_hit: float | np.ndarray,
-                    dv0: np.ndarray, dv1: np.ndarray, ds0: np.ndarray, ds1: np.ndarray,
-                    tolerance: float,
-                    hint: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """First-contact time between a free and an overlapping step, to ``tolerance`` [s].
-
-    Within the step the reductions dv, ds are interpolated linearly (their
-    error is second order in dt).  Returns the earliest time found to overlap.
-    """
-    lo = np.full(rows.shape[0], t_free)
-    hi = np.full(rows.shape[0], t_hit)
-    span = float(np.max(hi - lo))  # one step [s] (each case on its own clock)
-    while span > tolerance:
-        mid = 0.5 * (lo + hi)
-        w = ((mid - t_free) / (t_hit - t_free))[:, None]
-        st = _kinematics(paths, rows, mid, dv0 + w * (dv1 - dv0), ds0 + w * (ds1 - ds0), hint)
-        inside = _overlapping(v1, v2, rows, st)
-        hi = np.where(inside, mid, hi)
-        lo = np.where(inside, lo, mid)
-        span *= 0.5
-    return hi

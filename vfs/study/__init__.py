@@ -7,7 +7,8 @@ reads one.  The parts: :mod:`~vfs.study.layout` (names, files, columns),
 :mod:`~vfs.study.tasks` (one chunk with one system), :mod:`~vfs.study.executors`
 (serial, processes, dask, registered ones), :mod:`~vfs.study.orphans` (workers
 end with the study process), :mod:`~vfs.study.manifest` (the folder, resume,
-reading) and :mod:`~vfs.study.run`.  See docs/study.md.
+reading), :mod:`~vfs.study.spec` (the settings of a study, checked once) and
+:mod:`~vfs.study.run`.  See docs/study.md.
 """
 
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count, register_executor
@@ -30,6 +31,7 @@ from vfs.study.manifest import (
     read_manifest,
 )
 from vfs.study.run import run_study
+from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
 from vfs.study.systems import AEBSystem, resolve_system, resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, normalise_runs, run_task
 
@@ -38,14 +40,18 @@ __all__ = [
     "CASES_FILE",
     "CHUNK_DIR",
     "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_TASK_CASES",
     "EQUIP_RULES",
     "EXECUTORS",
     "MANIFEST_FILE",
     "RUNS_FILE",
     "AEBSystem",
+    "Equip",
     "ExecutorOptions",
+    "ImpactParameterSource",
     "RunTask",
     "StudyResult",
+    "StudySpec",
     "assemble_chunk",
     "case_ids_hash",
     "combine_chunks",

@@ -8,23 +8,24 @@ from the start of the records through impact or avoidance to rest
 row per (case, system), ``runs.parquet``, read by the effectiveness analysis
 (:mod:`vfs.analysis.effectiveness`).
 
-Work is split into chunks of ``chunk_size`` cases in database order.  Every
-(chunk, system) pair, the baseline included, is one task
-(:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the chunk's
-cases.  When all runs of a chunk are in, the main process writes the chunk
-atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never redone
-(``resume``).  A case that makes a batch raise is isolated by bisection and
-recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
+Work is split into chunks of ``chunk_size`` cases in database order, and
+consecutive chunks into groups of up to ``task_cases`` cases
+(:func:`task_groups`).  Every (group, system) pair, the baseline included, is
+one task (:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the
+group's cases.  When all runs of a chunk are in, the main process writes the
+chunk atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never
+redone (``resume``).  A case that makes a batch raise is isolated by bisection
+and recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
 baseline, 1.. = the systems in the order given) draw their random numbers from
-``numpy.random.default_rng([seed, k, j])``, so the results do not depend on
-the executor (:mod:`vfs.study.executors`) nor on the order in which tasks
-finish.  The folder layout is described in :mod:`vfs.study.manifest`; the
-columns and the command line in docs/study.md.
+``numpy.random.default_rng([seed, k, j])`` (also inside a group), so the
+results do not depend on the executor (:mod:`vfs.study.executors`), on the
+grouping nor on the order in which tasks finish.  The settings are one
+:class:`vfs.study.spec.StudySpec`.  The folder layout is described in
+:mod:`vfs.study.manifest`; the columns and the command line in docs/study.md.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import sys
 import time
@@ -40,7 +41,7 @@ from vfs.atomic import write_json, write_table
 from vfs.database import Database
 from vfs.database.metadata import field_metadata
 from vfs.errors import ParameterError, SimulationError
-from vfs.simulation import CaseBatch, SimulationParams
+from vfs.simulation import CaseBatch
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
 from vfs.study.faults import record_fault
 from vfs.study.inputs import StudyInput, study_input
@@ -48,14 +49,12 @@ from vfs.study.layout import (
     BASELINE,
     CASES_FILE,
     CHUNK_DIR,
-    DEFAULT_CHUNK_SIZE,
     EQUIP_RULES,
     MANIFEST_FILE,
     MANIFEST_FORMAT,
     MANIFEST_VERSION,
     RUNS_FILE,
     chunk_path,
-    equipped_flags,
 )
 from vfs.study.manifest import (
     StudyResult,
@@ -67,44 +66,38 @@ from vfs.study.manifest import (
     prepare_folder,
 )
 from vfs.study.orphans import pid_alive
-from vfs.study.systems import SystemRegistry, resolve_systems
+from vfs.study.spec import ImpactParameterSource, StudySpec
+from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, error_text
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
-IMPACT_PARAMETER_SOURCES: tuple[str, ...] = ("reconstruction", "default")
+IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
 
 
-def _positive_int(name: str, value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer | float) \
-            or int(value) != value or value < 1:
-        raise ParameterError(f"{name}={value!r} must be a positive integer")
-    return int(value)
-
-
-def _new_manifest(selection: StudyInput, where: str | None, chunk_size: int,
-                  n_chunks: int, systems: Sequence[Any], equip: str, seed: int,
-                  impact_parameters: str, params: SimulationParams, engine: str
-                  ) -> dict[str, Any]:
+def _new_manifest(plan: _Plan) -> dict[str, Any]:
     """``study.json`` of a study about to start (status ``running``)."""
+    spec, selection, systems = plan.spec, plan.selection, plan.systems
     ids = selection.case_ids
-    names = [str(s.name) for s in systems]
+    names = plan.names
+    equip = str(spec.equip)
     return {
         "format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "status": "running",
         "created": now(), "updated": now(),
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
         "db_reference": selection.reference, "db_format": selection.fmt,
         "db_name": str(selection.meta.get("name", "")),
-        "where": where, "data_hash": selection.data_hash, "case_ids_hash": case_ids_hash(ids),
-        "n_cases": int(ids.size), "chunk_size": chunk_size, "n_chunks": n_chunks,
+        "where": spec.where, "data_hash": selection.data_hash,
+        "case_ids_hash": case_ids_hash(ids),
+        "n_cases": int(ids.size), "chunk_size": spec.chunk_size, "n_chunks": len(plan.chunks),
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
                      "brake": repr(getattr(s, "brake", None))}
                     for n, s in zip(names, systems, strict=True)],
         "system_definitions": [repr(s) for s in systems],
-        "equip": equip, "equipped": list(EQUIP_RULES[equip]), "seed": seed,
+        "equip": equip, "equipped": list(EQUIP_RULES[equip]), "seed": spec.seed,
         "rng": "numpy.random.default_rng([seed, chunk, system index]); baseline index 0",
-        "impact_parameters": impact_parameters, "params": repr(params),
-        "engine": engine, "versions": environment_versions(),
+        "impact_parameters": str(spec.impact_parameters), "params": repr(spec.params),
+        "engine": spec.engine, "versions": environment_versions(),
     }
 
 
@@ -125,18 +118,27 @@ class _ChunkWriter:
         if len(table) != n:
             raise SimulationError(f"chunk {task.chunk}, system {task.system_name}: "
                                   f"{len(table)} rows for {n} cases")
-        parts = self.pending.setdefault(task.chunk, {})
-        parts[task.system_index] = table
+        start = 0
+        for chunk, size in task.parts:  # a task's table holds its chunks' rows in order
+            part = table if len(task.parts) == 1 else \
+                table.iloc[start:start + size].reset_index(drop=True)
+            start += size
+            self._add(chunk, task.system_index, part)
+
+    def _add(self, chunk: int, system_index: int, table: pd.DataFrame) -> None:
+        n = len(table)
+        parts = self.pending.setdefault(chunk, {})
+        parts[system_index] = table
         self.progress.update(n / self.runners)
         if len(parts) < self.runners:
             return
-        del self.pending[task.chunk]
+        del self.pending[chunk]
         chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
-        write_table(chunk_path(self.out, task.chunk), chunk_table,
+        write_table(chunk_path(self.out, chunk), chunk_table,
                     field_metadata(chunk_table.columns))
         self.cases_run += n
         if self.on_chunk is not None:
-            self.on_chunk(task.chunk, self.cases_run)
+            self.on_chunk(chunk, self.cases_run)
 
 
 #: Exit code of ``vfs study`` for a study that ended incomplete (resume it).
@@ -193,93 +195,84 @@ def _progress_bar(total: int, show: bool | None) -> Any:
                            "{rate_fmt}]")
 
 
-def run_study(
-    db: str | os.PathLike[str] | Database,
-    systems: Sequence[str | Any] | str,
-    out: str | os.PathLike[str],
-    *,
-    engine: str = "process",
-    workers: int | None = None,
-    scheduler: str | None = None,
-    chunk_size: int = DEFAULT_CHUNK_SIZE,
-    seed: int = 0,
-    where: str | None = None,
-    equip: str | int = "both",
-    resume: bool = False,
-    overwrite: bool = False,
-    params: SimulationParams | None = None,
-    impact_parameters: str = "reconstruction",
-    registry: SystemRegistry | None = None,
-    progress: bool | None = None,
-    dask_processes: bool = True,
-    max_chunks: int | None = None,
-    on_chunk: Callable[[int, int], None] | None = None,
-    dashboard: str | None = None,
-    in_flight: int | None = None,
-) -> StudyResult:
+def run_study(db: str | os.PathLike[str] | Database | StudySpec,
+              systems: Sequence[str | Any] | str | None = None,
+              out: str | os.PathLike[str] | None = None, **options: Any) -> StudyResult:
     """Run (or resume) an AEB effectiveness study and write its folder.
+
+    Call it with a :class:`StudySpec` (``run_study(spec)``) or with the
+    spec's fields (``run_study(db, systems, out, engine="serial", ...)``);
+    each setting and its check is declared once, on :class:`StudySpec`.
 
     Parameters
     ----------
-    db : path, URL, ``"default"`` or Database
+    db : path, URL, ``"default"``, Database or StudySpec
         Database folder (Parquet, CSV or PCM), ``"default"`` for the bundled
         database (each worker finds its own copy), the fsspec URL of a Parquet
         database (``file:///shared/db``, ``s3://bucket/db``; ``memory://db``
         only with workers in this process: serial, or dask with threads), or
         an in-memory :class:`vfs.database.Database` (its chunks are then
-        pickled to the workers).
+        pickled to the workers); or the whole spec.
     systems : sequence of str or system objects, or "a,b"
         AEB systems; names are looked up with :func:`resolve_system`.
     out : path
         Study folder (created).
-    engine : str
-        Executor (:data:`vfs.study.executors.EXECUTORS`): ``"serial"``,
-        ``"process"`` (default: local processes), ``"dask"`` or one
-        registered from Python or by an installed package.
-    workers : int, optional
-        Parallel workers; default ``min(cpu count, tasks to run)`` (a task = one
-        chunk with one system).
-    scheduler : str, optional
-        Dask scheduler address (engine "dask"); default a local cluster.
-    chunk_size : int
-        Cases per chunk (default 200).
-    seed : int
-        Seed of all random draws (systems with noise or reaction times).
-    where : str, optional
-        SQL predicate on the cases table selecting the cases (duckdb).
-    equip : {"1", "2", "both"}
-        Which vehicles carry the system in the treatment runs; default both.
-    resume : bool
-        Continue the study in ``out``: chunks on disk are kept; refused if
-        the inputs differ (:data:`RESUME_KEYS`).  An absent or empty ``out``
-        starts a new study.
-    overwrite : bool
-        Replace an existing study in ``out`` (never a folder of another kind).
-    params : SimulationParams, optional
-        Base simulation settings; each system replaces the pre-crash part
-        with ``system.precrash_params(params.precrash)``.
-    impact_parameters : {"reconstruction", "default"}
-        Restitution and contact friction of the reconstruction where present
-        (default) or the model defaults.
-    registry : mapping or callable, optional
-        System lookup instead of :func:`vfs.adas.get_system`.
-    progress : bool, optional
-        Progress bar on stderr; default when stderr is a terminal and the
-        environment variable CI is not set.
-    dask_processes : bool
-        Local dask cluster with processes (True) or threads.
-    max_chunks : int, optional
-        Run at most this many chunks now, then return an incomplete study
-        (to be resumed); for tests and staged runs.
-    on_chunk : callable, optional
-        ``on_chunk(chunk_index, cases_done)`` after each chunk file is written.
-    dashboard : str, optional
-        Serve the dashboard of the local dask cluster at this address
-        (``":8787"``; needs bokeh); default none.  Not with ``scheduler`` (a
-        running scheduler serves its own).
-    in_flight : int, optional
-        Tasks submitted to the workers and not yet written at any time
-        (default 2 per worker).
+    **options
+        The other fields of :class:`StudySpec`:
+
+        engine : str
+            Executor (:data:`vfs.study.executors.EXECUTORS`): ``"serial"``,
+            ``"process"`` (default: local processes), ``"dask"`` or one
+            registered from Python or by an installed package.
+        workers : int, optional
+            Parallel workers; default ``min(cpu count, tasks to run)``.
+        scheduler : str, optional
+            Dask scheduler address (engine "dask"); default a local cluster.
+        chunk_size : int
+            Cases per chunk (default 200): the unit of the chunk files, of
+            resume and of the random streams.
+        task_cases : int
+            Cases a task runs as one vectorised batch (default
+            :data:`DEFAULT_TASK_CASES`; whole chunks, each with its own
+            random stream, so the results do not depend on it); fewer when
+            that would leave workers idle.
+        seed : int
+            Seed of all random draws (systems with noise or reaction times).
+        where : str, optional
+            SQL predicate on the cases table selecting the cases (duckdb).
+        equip : {"1", "2", "both"}
+            Which vehicles carry the system in the treatment runs; default both.
+        resume : bool
+            Continue the study in ``out``: chunks on disk are kept; refused if
+            the inputs differ (:data:`RESUME_KEYS`).  An absent or empty ``out``
+            starts a new study.
+        overwrite : bool
+            Replace an existing study in ``out`` (never a folder of another kind).
+        params : SimulationParams, optional
+            Base simulation settings; each system replaces the pre-crash part
+            with ``system.precrash_params(params.precrash)``.
+        impact_parameters : {"reconstruction", "default"}
+            Restitution and contact friction of the reconstruction where present
+            (default) or the model defaults.
+        registry : mapping or callable, optional
+            System lookup instead of :func:`vfs.adas.get_system`.
+        progress : bool, optional
+            Progress bar on stderr; default when stderr is a terminal and the
+            environment variable CI is not set.
+        dask_processes : bool
+            Local dask cluster with processes (True) or threads.
+        max_chunks : int, optional
+            Run at most this many chunks now, then return an incomplete study
+            (to be resumed); for tests and staged runs.
+        on_chunk : callable, optional
+            ``on_chunk(chunk_index, cases_done)`` after each chunk file is written.
+        dashboard : str, optional
+            Serve the dashboard of the local dask cluster at this address
+            (``":8787"``; needs bokeh); default none.  Not with ``scheduler`` (a
+            running scheduler serves its own).
+        in_flight : int, optional
+            Tasks submitted to the workers and not yet written at any time
+            (default 2 per worker).
 
     Returns
     -------
@@ -294,57 +287,44 @@ def run_study(
         The database cannot be read or ``where`` is invalid.
     """
     started = time.perf_counter()
-    executor = EXECUTORS.get(engine)
-    chunk_size = _positive_int("chunk_size", chunk_size)
-    if workers is not None:
-        workers = _positive_int("workers", workers)
-    if in_flight is not None:
-        in_flight = _positive_int("in_flight", in_flight)
-    if dashboard is not None and (engine != "dask" or scheduler):
-        raise ParameterError("dashboard: only for the local cluster of engine 'dask' (a "
-                             "running scheduler serves its own dashboard)")
-    if impact_parameters not in IMPACT_PARAMETER_SOURCES:
-        raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
-                             f"{', '.join(IMPACT_PARAMETER_SOURCES)}")
-    equip = str(equip)
-    equipped_flags(equip, 0)  # validates
-    seed = int(seed)
-    params = params or SimulationParams()
-    system_objs = resolve_systems(systems, registry)
-    names = [str(s.name) for s in system_objs]
-
-    selection = study_input(db, where)
+    if isinstance(db, StudySpec):
+        if systems is not None or out is not None or options:
+            raise ParameterError("run_study(spec) takes no further arguments")
+        spec = db
+    else:
+        spec = StudySpec.of(db, systems, out, **options)
+    system_objs = resolve_systems(list(spec.systems), spec.registry)
+    selection = study_input(spec.db, spec.where)
     ids = selection.case_ids  # never empty (study_input refuses)
-    chunks = [ids[i:i + chunk_size] for i in range(0, ids.size, chunk_size)]
-    out_dir = Path(out)
-    lock = acquire_lock(out_dir)
+    size = spec.chunk_size
+    plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
+                 system_objs, [str(s.name) for s in system_objs], started)
+    lock = acquire_lock(spec.out)
     try:
-        return _run_locked(out_dir, selection, where, chunk_size, chunks, system_objs, names,
-                           equip, seed, impact_parameters, params, engine, resume, overwrite,
-                           max_chunks, workers, ExecutorOptions(
-                               0, scheduler, dask_processes, dashboard, in_flight), progress,
-                           on_chunk, started, executor)
+        return _run_locked(plan)
     finally:
         lock.unlink(missing_ok=True)
 
 
-def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_size: int,
-                chunks: list[np.ndarray], system_objs: list[Any], names: list[str], equip: str,
-                seed: int, impact_parameters: str, params: SimulationParams, engine: str,
-                resume: bool, overwrite: bool, max_chunks: int | None, workers: int | None,
-                options: ExecutorOptions, progress: bool | None,
-                on_chunk: Callable[[int, int], None] | None, started: float,
-                executor: Any) -> StudyResult:
+@dataclass(frozen=True)
+class _Plan:
+    """A study about to run: its spec and what follows from it."""
+
+    spec: StudySpec
+    selection: StudyInput
+    chunks: list[np.ndarray]
+    systems: list[Any]
+    names: list[str]
+    started: float
+
+
+def _run_locked(plan: _Plan) -> StudyResult:
     """The study in its locked folder (see :func:`run_study`)."""
-    ids = selection.case_ids
-    manifest = prepare_folder(
-        out_dir, _new_manifest(selection, where, chunk_size, len(chunks), system_objs, equip,
-                               seed, impact_parameters, params, engine), resume, overwrite)
+    spec = plan.spec
+    out_dir = spec.out
+    manifest = prepare_folder(out_dir, _new_manifest(plan), spec.resume, spec.overwrite)
     try:
-        return _run_chunks(out_dir, manifest, ids, chunk_size, chunks,
-                           system_objs, names, equip, seed, impact_parameters, params, engine,
-                           max_chunks, workers, options, progress, on_chunk,
-                           started, executor, selection)
+        return _run_chunks(plan, manifest)
     except BaseException as exc:
         # whatever failed (a full disk included), the manifest must not say "running"
         if manifest.get("status") == "running":
@@ -354,14 +334,27 @@ def _run_locked(out_dir: Path, selection: StudyInput, where: str | None, chunk_s
         raise
 
 
-def _run_chunks(out_dir: Path, manifest: dict[str, Any],
-                ids: np.ndarray, chunk_size: int, chunks: list[np.ndarray],
-                system_objs: list[Any], names: list[str], equip: str, seed: int,
-                impact_parameters: str, params: SimulationParams, engine: str,
-                max_chunks: int | None, workers: int | None, options: ExecutorOptions,
-                progress: bool | None, on_chunk: Callable[[int, int], None] | None,
-                started: float, executor: Any, selection: StudyInput) -> StudyResult:
+def task_groups(todo: Sequence[int], chunk_size: int, task_cases: int, runners: int,
+                workers: int) -> list[list[int]]:
+    """The chunks to do, in groups that one task each runs as one batch.
+
+    Groups of consecutive entries of ``todo`` of at most ``task_cases``
+    cases (at least one chunk), and at least ``2 workers / runners`` groups
+    while there are chunks enough (two tasks per worker keep them busy).
+    """
+    if not todo:
+        return []
+    per_task = max(1, task_cases // chunk_size)
+    wanted = -(-2 * workers // runners) if workers > 1 else 1
+    per_task = max(1, min(per_task, len(todo) // max(1, wanted)))
+    return [list(todo[i:i + per_task]) for i in range(0, len(todo), per_task)]
+
+
+def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     """Write the folder's inputs, run the chunks still to do, combine them."""
+    spec, selection, chunks = plan.spec, plan.selection, plan.chunks
+    out_dir = spec.out
+    ids = selection.case_ids
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
     write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = selection.cases.reset_index(drop=True)
@@ -369,35 +362,41 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any],
                 field_metadata(cases_meta.columns, table="cases"))
 
     todo = [k for k in range(len(chunks)) if not chunk_path(out_dir, k).exists()]
-    if max_chunks is not None:
-        todo = todo[:max(0, int(max_chunks))]
+    if spec.max_chunks is not None:
+        todo = todo[:spec.max_chunks]
     batch_all = None
     if selection.database is not None:  # in memory: the tasks carry their cases
         batch_all = CaseBatch.from_database(selection.database,
-                                            impact_parameters=impact_parameters)
-    runners: list[Any | None] = [None, *system_objs]
+                                            impact_parameters=spec.impact_parameters)
+    runners: list[Any | None] = [None, *plan.systems]
+    n_tasks_max = len(todo) * len(runners)
+    n_workers = 1 if spec.engine == "serial" else (
+        spec.workers if spec.workers else max(1, min(cpu_count(), n_tasks_max)))
     tasks = []
-    for k in todo:
-        start = k * chunk_size
-        sub = None if batch_all is None else batch_all.take(
-            np.arange(start, start + chunks[k].size))
+    for group in task_groups(todo, spec.chunk_size, spec.task_cases, len(runners), n_workers):
+        case_ids = np.concatenate([chunks[k] for k in group])
+        parts = tuple((k, int(chunks[k].size)) for k in group) if len(group) > 1 else ()
+        sub = None if batch_all is None else batch_all.take(np.concatenate(
+            [np.arange(k * spec.chunk_size, k * spec.chunk_size + chunks[k].size)
+             for k in group]))
         for j, system in enumerate(runners):
             tasks.append(RunTask(
-                chunk=k, case_ids=chunks[k], system_index=j, system=system,
-                db=selection.reference, db_format=selection.fmt, batch=sub, equip=equip,
-                seed=seed, params=params, impact_parameters=impact_parameters))
-    n_workers = 1 if engine == "serial" else (
-        workers if workers else max(1, min(cpu_count(), len(tasks))))
-    bar = _progress_bar(sum(chunks[k].size for k in todo), progress)
-    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, on_chunk)
+                chunk=group[0], case_ids=case_ids, system_index=j, system=system,
+                db=selection.reference, db_format=selection.fmt, batch=sub,
+                equip=str(spec.equip), seed=spec.seed, params=spec.params,
+                impact_parameters=str(spec.impact_parameters), group=parts))
+    bar = _progress_bar(sum(chunks[k].size for k in todo), spec.progress)
+    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk)
+    options = ExecutorOptions(n_workers, spec.scheduler, spec.dask_processes, spec.dashboard,
+                              spec.in_flight)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
-            executor(tasks, writer, dataclasses.replace(options, workers=n_workers))
+            EXECUTORS.get(spec.engine)(tasks, writer, options)
     finally:
         bar.close()
     manifest.pop("error", None)
 
-    elapsed = time.perf_counter() - started
+    elapsed = time.perf_counter() - plan.started
     done = [k for k in range(len(chunks)) if chunk_path(out_dir, k).exists()]
     summary: dict[str, Any] = {"chunks_done": len(done), "cases_run": writer.cases_run,
                                "elapsed_s": elapsed,
@@ -405,11 +404,11 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any],
                                "workers": n_workers}
     table = None
     if len(done) == len(chunks):
-        runs = combine_chunks(out_dir, ids, [BASELINE, *names])
+        runs = combine_chunks(out_dir, ids, [BASELINE, *plan.names])
         write_table(out_dir / RUNS_FILE, runs, field_metadata(runs.columns))
         del runs  # one copy of the runs table at a time
         table = pd.read_parquet(out_dir / RUNS_FILE)  # dtypes exactly as load_study gives
-        summary["systems"] = counts_summary(table, names)
+        summary["systems"] = counts_summary(table, plan.names)
         manifest["status"] = "complete"
     else:
         manifest["status"] = "incomplete"
@@ -418,5 +417,5 @@ def _run_chunks(out_dir: Path, manifest: dict[str, Any],
     return StudyResult(out_dir, table, manifest)
 
 
-__all__ = ["EXIT_INCOMPLETE", "IMPACT_PARAMETER_SOURCES", "acquire_lock", "lock_path",
-           "run_study"]
+__all__ = ["EXIT_INCOMPLETE", "IMPACT_PARAMETER_SOURCES", "StudySpec", "acquire_lock",
+           "lock_path", "run_study", "task_groups"]

@@ -22,6 +22,7 @@ import pandas as pd
 
 from vfs.database import Database, database_location, load_any, load_database
 from vfs.errors import ParameterError, SimulationError
+from vfs.physics.precrash import SegmentedRandom
 from vfs.simulation import (
     CaseBatch,
     CaseResults,
@@ -71,6 +72,13 @@ class RunTask:
         Base simulation parameters (a system adapts the pre-crash part).
     impact_parameters : str
         ``"reconstruction"`` or ``"default"`` (:meth:`CaseBatch.from_database`).
+    group : tuple of (int, int)
+        Several chunks run as one batch: (chunk number, cases) of each, in
+        the order of ``case_ids`` (``chunk`` is the first); empty: the one
+        chunk ``chunk``.  Each chunk keeps its own random stream
+        (:class:`vfs.physics.precrash.SegmentedRandom`), so the runs are
+        those of the chunks run one by one; the table holds the chunks' rows
+        in this order.
     """
 
     chunk: int
@@ -84,6 +92,12 @@ class RunTask:
     seed: int
     params: SimulationParams
     impact_parameters: str
+    group: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def parts(self) -> tuple[tuple[int, int], ...]:
+        """(chunk number, cases) of each chunk of the task, in row order."""
+        return self.group if self.group else ((self.chunk, len(self.case_ids)),)
 
     @property
     def system_name(self) -> str:
@@ -141,7 +155,7 @@ def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
 
 
 def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
-              params: SimulationParams, rng: np.random.Generator,
+              params: SimulationParams, rng: np.random.Generator | SegmentedRandom,
               record: npt.ArrayLike | None = None
               ) -> tuple[pd.DataFrame, CaseResults, dict[int, RunTrace]]:
     """One vectorised run of ``batch`` (baseline when ``system`` is None).
@@ -154,7 +168,7 @@ def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
         Vehicles carrying the system.
     params : SimulationParams
         Base parameters; the system replaces the pre-crash part.
-    rng : numpy.random.Generator
+    rng : numpy.random.Generator or SegmentedRandom
     record : array_like of int, optional
         Batch positions whose pre-crash traces are recorded
         (:mod:`vfs.study.traces`; the results do not change).
@@ -176,6 +190,8 @@ def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     if record is None:
         res = simulate_cases(batch, controller=controller, params=params, rng=rng)
     else:
+        if isinstance(rng, SegmentedRandom):
+            raise ParameterError("traces are recorded for one random stream only")
         res, traces = simulate_with_traces(batch, controller, params, rng, record)
     table = results_table(batch, res)
     for name, values in _events_columns(controller, batch.size).items():
@@ -212,6 +228,50 @@ def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     return attempt(0, batch.size)
 
 
+def _segmentable(system: Any | None, batch: CaseBatch, equipped: np.ndarray) -> bool:
+    """Whether the system's controller can run several chunks as one batch."""
+    if system is None:
+        return True
+    return callable(getattr(system.controller(batch.take(np.arange(1)), equipped[:1]),
+                            "reset_segments", None))
+
+
+def _run_parts(task: RunTask, batch: CaseBatch, equipped: np.ndarray
+               ) -> tuple[list[pd.DataFrame], dict[int, str]]:
+    """The task's chunks as one batch with a random stream per chunk; chunk by chunk
+    (:func:`_run_guarded`) if that batch raises or the controller cannot segment.
+
+    The ``_pos`` columns and the error keys are positions in ``batch``.
+    """
+    seed, j = int(task.seed), int(task.system_index)
+    parts = task.parts
+    if len(parts) == 1:
+        return _run_guarded(batch, task.system, equipped, task.params, [seed, parts[0][0], j])
+    if _segmentable(task.system, batch, equipped):
+        rng = SegmentedRandom.of([size for _, size in parts],
+                                 [np.random.default_rng([seed, k, j]) for k, _ in parts])
+        try:
+            table = run_batch(batch, task.system, equipped, task.params, rng)[0]
+        except Exception:  # noqa: BLE001 - isolated chunk by chunk below
+            pass
+        else:
+            table.insert(0, "_pos", np.arange(batch.size))
+            return [table], {}
+    tables: list[pd.DataFrame] = []
+    errors: dict[int, str] = {}
+    start = 0
+    for k, size in parts:
+        sub = batch.take(np.arange(start, start + size))
+        t, e = _run_guarded(sub, task.system, equipped[start:start + size], task.params,
+                            [seed, k, j])
+        for table in t:
+            table["_pos"] += start
+        tables += t
+        errors.update({start + p: text for p, text in e.items()})
+        start += size
+    return tables, errors
+
+
 def run_task(task: RunTask) -> pd.DataFrame:
     """Simulate the chunk's cases with one system (or the baseline) as one batch.
 
@@ -222,8 +282,7 @@ def run_task(task: RunTask) -> pd.DataFrame:
     """
     batch = load_chunk(task)
     equipped = equipped_flags(task.equip, batch.size)
-    tables, errors = _run_guarded(batch, task.system, equipped, task.params,
-                                  [int(task.seed), int(task.chunk), int(task.system_index)])
+    tables, errors = _run_parts(task, batch, equipped)
     if errors:
         pos = np.fromiter(errors, dtype=np.int64)
         tables.append(pd.DataFrame({"_pos": pos, "case_id": batch.case_id[pos],

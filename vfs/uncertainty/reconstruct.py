@@ -63,9 +63,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
-from scipy import optimize
 from scipy.special import ndtr, ndtri
-from scipy.stats import chi2
 
 from vfs.errors import ParameterError
 from vfs.physics.impact import impact_type_names
@@ -485,6 +483,8 @@ def _accept(res: np.ndarray, settings: ReconstructSettings) -> tuple[np.ndarray,
     k = res.shape[1]
     if settings.criterion == "box":
         return np.all(np.abs(res) <= settings.k_sigma, axis=1), settings.k_sigma
+    from scipy.stats import chi2  # imported on first use (about 0.5 s)
+
     limit = float(chi2.ppf(settings.chi2_level, k))
     return np.sum(res * res, axis=1) <= limit, limit
 
@@ -505,6 +505,8 @@ _ADAPT_EVERY = 5
 def _optimise(problem: _Problem, starts: np.ndarray
               ) -> list[tuple[np.ndarray, np.ndarray, float, Any]]:
     """least_squares on [r(z), z] from each start; returns (z, J_obs, objective, result)."""
+    from scipy import optimize  # imported on first use
+
     d = problem.d
     k = len(problem.obs.names)
     cache: dict[bytes, np.ndarray] = {}

@@ -20,7 +20,6 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy.special import ndtr, ndtri
-from scipy.stats import qmc
 
 from vfs.errors import ParameterError
 from vfs.uncertainty.cases import CaseSet
@@ -341,6 +340,8 @@ def unit_samples(n_samples: int, n_cases: int, dim: int, rng: np.random.Generato
     s, n, d = int(n_samples), int(n_cases), int(dim)
     if method == "random":
         return rng.random((s * n, d))
+    from scipy.stats import qmc  # imported on first use (about 0.5 s)
+
     u = np.empty((s, n, d))
     for j in range(n):
         if method == "sobol":

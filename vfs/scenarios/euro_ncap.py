@@ -20,7 +20,7 @@ The undisturbed record of every test collides at ``impact_time`` (the protocol's
 impact location); coordinates follow ISO 8855 (x along the VUT's approach, y to
 its left), SI units.  The database is written once into the package
 (``scenarios/databases/euro-ncap-c2c``, like the crash-test database) with
-``python -m vfs.scenarios.euro_ncap``; ``tests/test_euro_ncap.py`` checks that
+``python -m vfs.scenarios.euro_ncap``; ``tests/scenarios/test_euro_ncap.py`` checks that
 the bundled copy equals a fresh build.
 """
 

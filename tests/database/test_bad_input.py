@@ -340,7 +340,7 @@ def _manifest(out: Path) -> dict:
 def test_a_case_that_fails_inside_the_simulation_makes_the_exit_code_non_zero(
         tmp_path, capsys, monkeypatch):
     import vfs.study
-    from tests.test_study import FakeSystem
+    from tests.study.test_run import FakeSystem
 
     real = vfs.study.run_study
     broken = FakeSystem("late", 1.0, fail_case=3)

@@ -20,7 +20,7 @@ from vfs.errors import DefinitionError, ParameterError
 from vfs.physics.precrash import BrakeActuatorParams
 from vfs.units import KMH_PER_MS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # The presets as docs/aeb.md states them (sources: docs/references.md), written as the
 # dataclasses they were before they became files; a step actuator is 1e5 m/s^3.

@@ -25,7 +25,8 @@ def test_proxy_claimed_first_is_dropped_after_the_true_ones_join():
     assert [s.action for s in sel.steps] == ["start", "add", "add", "add", "drop"]
     # the ledger's error falls with every addition; the drop leaves it unchanged
     rmse = [s.rmse for s in sel.steps]
-    assert rmse[1] < rmse[0] and rmse[2] < rmse[1] and rmse[-1] == rmse[-2] == ev.rmse(("law_a", "law_b"))
+    assert rmse[1] < rmse[0] and rmse[2] < rmse[1]
+    assert rmse[-1] == rmse[-2] == ev.rmse(("law_a", "law_b"))
 
 
 def test_a_mimic_is_labelled_with_the_claim_that_absorbs_it():
@@ -52,9 +53,9 @@ def test_too_few_cases_claims_nothing_but_reports_the_reductions():
 
 
 def test_claims_are_ordered_by_their_share_in_the_joint_model():
-    # 'small' alone is larger than 'big' alone? no: order of claiming is by the step, the
-    # verdict order by the share in the final model; 'big' explains a larger component
-    ev = TableEvaluator({"big": {"A": 1.0}, "small": {"B": 1.0}}, {"A": 3.0, "B": 1.0, "noise": 1.0})
+    # the verdict order is by the share in the final model: 'big' explains the larger part
+    ev = TableEvaluator({"big": {"A": 1.0}, "small": {"B": 1.0}},
+                        {"A": 3.0, "B": 1.0, "noise": 1.0})
     sel = select(["small", "big"], ev, 0.01)
     assert sel.claims == ["big", "small"]
     assert sel.removed["big"] > sel.removed["small"] > 0

@@ -32,7 +32,7 @@ from vfs.analysis.calibrate import (
     read_model_config,
     write_model_config,
 )
-from vfs.analysis.diagnose import diagnose, residual_associations
+from vfs.analysis.diagnose import diagnose, residual_associations, summary_dict
 from vfs.analysis.ledger import ledger_chain, read_ledger
 from vfs.cli import main as dcli
 from vfs.effects import (
@@ -326,6 +326,9 @@ def test_each_builtin_effect_is_found_and_lowers_its_outputs_error(effect):
     best = diag.candidates[0]
     assert best.significant
     assert best.affected.estimate >= 0.30
+    # the answer read first names it, and nothing absent is claimed beside it
+    assert diag.verdict[0].startswith(f"Most likely missing effect: {effect} ")
+    assert diag.claims == [effect], diag.verdict
 
 
 @pytest.mark.slow
@@ -333,6 +336,7 @@ def test_noise_only_no_candidate_is_significant_full():
     db, _ = generate_database("default", n_cases=_n_cases(), seed=22, hidden=())
     diag = diagnose(db, effects=list(BUILTIN_EFFECTS), worst=0, **_slow_options())
     assert not [c.name for c in diag.candidates if c.significant]
+    assert diag.claims == [] and summary_dict(diag)["significant"] == []
 
 
 @pytest.mark.slow

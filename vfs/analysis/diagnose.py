@@ -503,7 +503,10 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
         f"{data.n} cases, {len(data.groups)} outputs")
     strata, assoc, worst_df = _where_it_fails(data, base, features, spec)
     cvs = _library_alone(sim, held, names, spec, say)
-    table, law_alone, ident, learned = None, [], None, None
+    table: pd.DataFrame | None = None
+    law_alone: list[tuple[Any, np.ndarray]] = []
+    ident: Callable[..., Any] | None = None
+    learned: Callable[..., Any] | None = None
     t_law = time.perf_counter()
     if spec.laws:
         table, law_alone, ident, learned = first_laws(sim, base, held, spec.laws,
@@ -738,10 +741,10 @@ def _verdict(diag: Diagnosis) -> list[str]:
         out.append(first + ".")
         if others:
             items = []
-            for n in others:
-                r = table.set_index("candidate").loc[n]
+            for name in others:
+                r = table.set_index("candidate").loc[name]
                 items.append(
-                    f"{claim_label(diag, n)} ({100 * r['on_top']:.1f} % "
+                    f"{claim_label(diag, name)} ({100 * r['on_top']:.1f} % "
                     f"[{100 * r['on_top_low']:.1f}, {100 * r['on_top_high']:.1f}] on top of "
                     f"{r['on_top_of'] or 'the default model'}; in the selected model "
                     f"{100 * r['share']:.1f} % [{100 * r['share_low']:.1f}, "

@@ -536,7 +536,8 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
     t_sel = time.perf_counter()
     sel = select([*names, *findings], ev, spec.min_reduction,
                  max_steps=spec.max_steps if spec.stepwise else 1, reliable=reliable,
-                 worth_trying=lambda r: bool(np.isfinite(r.high) and r.high > 0), say=say)
+                 worth_trying=lambda r: bool(np.isfinite(r.high)
+                                             and r.high >= spec.min_reduction), say=say)
     say(f"selection: {', '.join(sel.claims) or 'nothing claimed'} "
         f"({time.perf_counter() - t_sel:.1f} s)")
     cands, laws = _apply_selection(sel, cands, ev)

@@ -16,8 +16,8 @@ from vfs.analysis.calibrate import (
 )
 from vfs.analysis.claims import Reduction, helps
 from vfs.analysis.diagnose import MIN_CASES, DiagnoseSpec, diagnose
-from vfs.errors import DataError, ParameterError
 from vfs.effects import get_effect
+from vfs.errors import DataError, ParameterError
 from vfs.scenarios.generator import generate_database
 
 QUICK = {"folds": 3, "grid_points": 5, "zoom_rounds": 2, "n_boot": 400}

@@ -405,6 +405,8 @@ class ModelEvaluator:
         ref = sim_c.data.case_errors(sim_c.residuals([()])[0])
         out: dict[str, Reduction] = {}
         eff = [n for n in names if n not in self.laws]
+        if eff:
+            self.say(f"  fitting {len(eff)} library effect(s) on top of {', '.join(claimed)} ...")
         cvs = cross_validate_many(
             sim_c, [FitSpace.alternatives([self.effects[n]], self.parameters) for n in eff],
             self.held, [f"{'+'.join(claimed)}+{n}" for n in eff], fit_all=False,
@@ -415,6 +417,7 @@ class ModelEvaluator:
         laws = [n for n in names if n in self.laws]
         if laws:
             on = ", ".join(claimed)
+            self.say(f"  re-identifying {len(laws)} channel(s) with {on} applied ...")
             table = self.ident(sim_c, [self.laws[n].channel for n in laws])
             found = {r.channel: r for r in self.learned(table)}
             for n in laws:
@@ -466,9 +469,11 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
         return learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000), band_boot=50)
 
     t0 = time.perf_counter()
-    table = ident(sim, parse_channels(channels))
+    names = parse_channels(channels)
+    say(f"identifying {len(names)} channels per case ({grid} values each, {data.n} cases) ...")
+    table = ident(sim, names)
     say(f"identified {table['channel'].nunique()} channels per case in "
-        f"{time.perf_counter() - t0:.1f} s")
+        f"{time.perf_counter() - t0:.1f} s; learning their laws ...")
     out = []
     for r in learned(table):
         say(r.text())

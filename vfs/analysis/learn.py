@@ -169,7 +169,8 @@ SPLINE_BINS = 80
 
 def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
     """Smoothing spline through weighted means of equal x (increasing abscissas; more
-    than :data:`SPLINE_BINS` distinct ones pooled into that many consecutive groups)."""
+    than :data:`SPLINE_BINS` distinct ones pooled into that many consecutive groups).
+    """
     from scipy.interpolate import make_smoothing_spline
 
     keep = w > 0

@@ -117,3 +117,22 @@ def test_hidden_law_leads_and_the_library_mimic_is_not_claimed():
     if helps(diag.candidates[-1].overall, 0.01) or any(
             c.name == "restitution_speed" and helps(c.overall, 0.01) for c in diag.candidates):
         assert reasons["restitution_speed"].startswith(("mimics", "dropped after"))
+
+
+@pytest.mark.slow
+def test_library_effect_and_law_hidden_together_are_both_claimed():
+    # one selection over both kinds: the tyre impulse (a library effect) and the restitution
+    # step law (not in the library) hidden together; the joint model refits the effect's
+    # parameter per fold with the fold's law applied
+    db, _ = generate_database("default", n_cases=max(150, int(round(400 * slow_scale()))),
+                              seed=21, hidden=("tyre_impulse", LAWS["step_restitution"][0]()))
+    diag = diagnose(db, effects="tyre_impulse,restitution_speed", folds=3, grid_points=3,
+                    zoom_rounds=1, n_boot=400, worst=0, laws="restitution,cp_angle",
+                    law_grid=11)
+    assert sorted(diag.claims) == ["restitution law", "tyre_impulse"], diag.verdict
+    steps = diag.ledger_steps()
+    assert (np.diff(steps["cv_rmse"].to_numpy()) < 0).all()  # each claim lowers the error
+    table = diag.selection_table().set_index("candidate")
+    assert (table.loc[diag.claims, "share_low"] > 0).all()
+    fitted = next(c for c in diag.candidates if c.name == "tyre_impulse").fitted()
+    assert fitted[0]["parameters"]["duration"] == pytest.approx(0.1, abs=0.03)

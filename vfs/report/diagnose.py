@@ -330,6 +330,20 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
                       "cross-validation by case; details and the full verdict below.")]
 
 
+def _answer_figures(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
+    """The figures of the one screen: the error step by step within the selection and the
+    learned law of each claimed channel (curve, identified values, spline band).
+    """
+    out: list[Block] = []
+    if "steps" in figures and len(diag.ledger_steps()) > 1:
+        out.append(Figure(figures["steps"], "The cross-validated RMSE of the selected model "
+                          "after each step of the selection (default model first)"))
+    for k, f in enumerate(diag.laws[:3]):
+        if f.significant and f"law_{k}" in figures:
+            out.append(Figure(figures[f"law_{k}"], f"Claimed: {f.learned.law['formula']}"))
+    return out
+
+
 def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     """The blocks of the diagnosis report (``figures``: key -> path relative to the report)."""
     d = diag.data
@@ -337,6 +351,7 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     doc: list[Block] = [
         Heading("Model diagnosis", 1),
         *summary_blocks(diag),
+        *_answer_figures(diag, figures),
         Paragraph(f"Database: {diag.database or '(in memory)'}; {d.n} cases with a "
                   f"reconstruction; {s['folds']}-fold cross-validation by case (seed "
                   f"{s['seed']}); outputs: {', '.join(d.group_names)}. Errors are RMSEs of "
@@ -349,9 +364,6 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
         Heading("Which effect is missing: one selection over library effects and learned "
                 "laws", 2),
     ]
-    if "steps" in figures:
-        doc.append(Figure(figures["steps"], "The cross-validated RMSE of the selected model "
-                          "after each step of the selection (default model first)"))
     st_ = diag.ledger_steps()
     if len(st_):
         doc.append(_table(pd.DataFrame({
@@ -418,7 +430,7 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
         else:
             doc.append(Paragraph("No identified channel shows a law."))
         for k, f in enumerate(diag.laws[:3]):
-            if f"law_{k}" in figures:
+            if f"law_{k}" in figures and not f.significant:
                 doc.append(Figure(figures[f"law_{k}"], f.text()))
     doc += [
         Heading("Where the model fails", 2),

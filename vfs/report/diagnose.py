@@ -269,14 +269,15 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
         best = table.sort_values("alone", ascending=False, kind="stable").iloc[0]
         what = "candidate effect" if not (table["kind"] == "law").any() \
             else "candidate effect or learned law"
+        shown = (f"`{best['candidate']}`, lowers the cross-validated RMSE by "
+                 f"{100 * best['alone']:.1f} % [{100 * best['alone_low']:.1f}, "
+                 f"{100 * best['alone_high']:.1f}] (simultaneous {level} interval)")
         items.append(
-            f"Unsure: no {what} helps significantly. The best alone, "
-            f"`{best['candidate']}`, lowers the cross-validated RMSE by "
-            f"{100 * best['alone']:.1f} % [{100 * best['alone_low']:.1f}, "
-            f"{100 * best['alone_high']:.1f}] (simultaneous {level} interval): "
-            + ("its interval includes 0 or the reduction stays below "
-               f"{100 * s.get('min_reduction', 0):.0f} %." if diag.reliable else
-               "with so few cases nothing is claimed."))
+            f"Unsure: no {what} helps significantly. The best alone, {shown}: its interval "
+            f"includes 0 or the reduction stays below {100 * s.get('min_reduction', 0):.0f} %."
+            if diag.reliable else
+            f"Unsure: nothing is claimed with so few cases. The best alone, {shown}, is not "
+            "trustworthy at this size.")
     else:
         lead = claims[0]
         r = rows.loc[lead]

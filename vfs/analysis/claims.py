@@ -1,13 +1,14 @@
-"""Claims of the diagnosis: the significance rules and the stepwise claims of learned laws.
+"""Claims of the diagnosis: the significance rules and the evaluator of its one selection.
 
 :func:`helps` is the one significance rule of :func:`vfs.analysis.diagnose.diagnose`
 (its table, JSON and text): the simultaneous bootstrap CI of a CV RMSE reduction
 (:class:`Reduction`) lies above 0 and the estimate reaches ``min_reduction``.
-:func:`stepwise_helps` is the rule of a further effect or law (ranks 2...).
-:func:`learn_laws` identifies every channel per case, learns its law, cross-validates
-it as an effect in outcome space and claims laws forward stepwise, each further one
-learned from the identification with the claimed laws applied (docs/diagnosis.md,
-"Beyond the library").
+:func:`stepwise_helps` is the rule of a further claim (on top of the claims, and with them
+refitted together).  :func:`first_laws` identifies every channel per case, learns its law
+and cross-validates it as an effect in outcome space; :class:`ModelEvaluator` gives
+:func:`vfs.analysis.selection.select` the cross-validated reductions of library effects and
+learned laws alone, on top of claims (laws re-learned from their channels re-identified
+with the claims applied) and in joint models (docs/diagnosis.md, "One selection").
 """
 
 from __future__ import annotations
@@ -28,8 +29,6 @@ from vfs.analysis.calibrate import (
     VariantSimulator,
 )
 
-#: Most stepwise rounds of the law claims of :func:`learn_laws` (after the first law).
-LAW_ROUNDS = 3
 
 
 @dataclass
@@ -482,6 +481,6 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
     return table, out, ident, learned
 
 
-__all__ = ["LAW_ROUNDS", "LawFinding", "ModelEvaluator", "Reduction", "absorb_counters",
+__all__ = ["LawFinding", "ModelEvaluator", "Reduction", "absorb_counters",
            "closed_alternative", "first_laws", "format_reduction", "helps", "law_effects",
            "law_key", "outcome_law", "refit_all", "stepwise_helps", "with_effects"]

@@ -30,7 +30,6 @@ from vfs.analysis.calibrate import (
 )
 
 
-
 @dataclass
 class Reduction:
     """CV RMSE reduction 1 - RMSE_model / RMSE_default with a bootstrap CI."""

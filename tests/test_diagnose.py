@@ -180,6 +180,16 @@ def test_diagnose_ranks_the_hidden_effect_and_writes_reports(tyre_db, tmp_path):
     assert "Most likely missing effect: `tyre_impulse`" in short
     assert f"{100 * best.overall.low:.1f}, {100 * best.overall.high:.1f}]" in short
     assert paths["html"].read_text().startswith("<!DOCTYPE html>")
+    # one source for the console and the report: the same candidates with the same status
+    from vfs.cli.diagnose import format_selection
+
+    console = format_selection(diag)
+    for _, row in diag.selection_table().iterrows():
+        line = next(x for x in console.splitlines() if x.split()[0] == row["candidate"])
+        assert row["status"] in line
+        assert f"| {row['candidate']} | {row['kind']} | {row['status']} |" in md
+    assert summary["significant"] == diag.claims == ["tyre_impulse"]
+    assert {r["name"] for r in summary["rejected"]} == {"restitution_speed", "body_friction"}
     assert (tmp_path / "diag" / "figures" / "ranking.png").is_file()
     assert len(list((tmp_path / "diag" / "figures").glob("case_*.png"))) == 2
     strata = pd.read_csv(paths["strata"])

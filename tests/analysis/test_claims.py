@@ -15,8 +15,9 @@ from vfs.analysis.calibrate import (
     kfold_indices,
 )
 from vfs.analysis.claims import Reduction, helps
-from vfs.analysis.diagnose import MIN_CASES, diagnose
+from vfs.analysis.diagnose import MIN_CASES, DiagnoseSpec, diagnose
 from vfs.effects import get_effect
+from vfs.errors import DataError, ParameterError
 from vfs.scenarios.generator import generate_database
 
 QUICK = {"folds": 3, "grid_points": 5, "zoom_rounds": 2, "n_boot": 400}
@@ -88,7 +89,28 @@ def test_small_sample_claims_nothing():
     assert not diag.reliable
     assert not any(c.significant for c in diag.candidates)
     assert diag.verdict[0].startswith("UNRELIABLE")
-    assert "No candidate effect helps significantly" in diag.verdict[1]
+    # consistent: nothing is claimed because of the size, not "every interval includes 0"
+    assert diag.verdict[1].startswith("Nothing is claimed with so few cases")
+    assert not any("includes 0" in v for v in diag.verdict)
+
+
+def test_too_few_cases_for_the_folds_says_so():
+    db, _ = generate_database("default", n_cases=3, seed=1, hidden=())
+    with pytest.raises(DataError, match=r"too few cases \(3\) for 5 folds"):
+        diagnose(db, effects="tyre_impulse", worst=0)
+
+
+def test_spec_validates_ranges_and_choices_once():
+    with pytest.raises(ParameterError, match=r"folds .* must be in \[2"):
+        DiagnoseSpec(folds=1)
+    with pytest.raises(ParameterError, match="parameters='some'"):
+        DiagnoseSpec(parameters="some")
+    with pytest.raises(ParameterError, match="unknown diagnose setting"):
+        DiagnoseSpec.from_kwargs(fold=3)
+    spec = DiagnoseSpec(effects="a,b", laws="none", correction="holm")
+    assert spec.effects == ("a", "b") and spec.laws == () and spec.correction == "holm"
+    assert DiagnoseSpec(laws="all").laws and DiagnoseSpec(effects="all").effects is None
+    assert DiagnoseSpec.from_kwargs(law_rounds=2).max_steps == 3
 
 
 def test_significance_flags_follow_the_shown_cis():

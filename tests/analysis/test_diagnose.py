@@ -32,7 +32,7 @@ from vfs.analysis.calibrate import (
     read_model_config,
     write_model_config,
 )
-from vfs.analysis.diagnose import diagnose, residual_associations
+from vfs.analysis.diagnose import diagnose, residual_associations, summary_dict
 from vfs.analysis.ledger import ledger_chain, read_ledger
 from vfs.cli import main as dcli
 from vfs.effects import (
@@ -180,6 +180,16 @@ def test_diagnose_ranks_the_hidden_effect_and_writes_reports(tyre_db, tmp_path):
     assert "Most likely missing effect: `tyre_impulse`" in short
     assert f"{100 * best.overall.low:.1f}, {100 * best.overall.high:.1f}]" in short
     assert paths["html"].read_text().startswith("<!DOCTYPE html>")
+    # one source for the console and the report: the same candidates with the same status
+    from vfs.cli.diagnose import format_selection
+
+    console = format_selection(diag)
+    for _, row in diag.selection_table().iterrows():
+        line = next(x for x in console.splitlines() if x.split()[0] == row["candidate"])
+        assert row["status"] in line
+        assert f"| {row['candidate']} | {row['kind']} | {row['status']} |" in md
+    assert summary["significant"] == diag.claims == ["tyre_impulse"]
+    assert {r["name"] for r in summary["rejected"]} == {"restitution_speed", "body_friction"}
     assert (tmp_path / "diag" / "figures" / "ranking.png").is_file()
     assert len(list((tmp_path / "diag" / "figures").glob("case_*.png"))) == 2
     strata = pd.read_csv(paths["strata"])
@@ -326,6 +336,9 @@ def test_each_builtin_effect_is_found_and_lowers_its_outputs_error(effect):
     best = diag.candidates[0]
     assert best.significant
     assert best.affected.estimate >= 0.30
+    # the answer read first names it, and nothing absent is claimed beside it
+    assert diag.verdict[0].startswith(f"Most likely missing effect: {effect} ")
+    assert diag.claims == [effect], diag.verdict
 
 
 @pytest.mark.slow
@@ -333,6 +346,7 @@ def test_noise_only_no_candidate_is_significant_full():
     db, _ = generate_database("default", n_cases=_n_cases(), seed=22, hidden=())
     diag = diagnose(db, effects=list(BUILTIN_EFFECTS), worst=0, **_slow_options())
     assert not [c.name for c in diag.candidates if c.significant]
+    assert diag.claims == [] and summary_dict(diag)["significant"] == []
 
 
 @pytest.mark.slow

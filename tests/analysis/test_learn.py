@@ -295,7 +295,8 @@ def test_diagnose_names_channel_and_feature():
     assert top.significant and top.channel == channel
     assert top.learned.law["feature"] == feature
     assert top.outcome.estimate > diag.candidates[0].overall.estimate
-    assert any(f"identified {channel} follows f({feature})" in v for v in diag.verdict)
+    assert diag.verdict[0].startswith(f"Most likely missing physics: a law of {channel} over "
+                                      f"{feature}"), diag.verdict
 
 
 def test_identification_table_has_units_and_flags(tmp_path):

@@ -1,13 +1,14 @@
-"""Claims of the diagnosis: the significance rules and the stepwise claims of learned laws.
+"""Claims of the diagnosis: the significance rules and the evaluator of its one selection.
 
 :func:`helps` is the one significance rule of :func:`vfs.analysis.diagnose.diagnose`
 (its table, JSON and text): the simultaneous bootstrap CI of a CV RMSE reduction
 (:class:`Reduction`) lies above 0 and the estimate reaches ``min_reduction``.
-:func:`stepwise_helps` is the rule of a further effect or law (ranks 2...).
-:func:`learn_laws` identifies every channel per case, learns its law, cross-validates
-it as an effect in outcome space and claims laws forward stepwise, each further one
-learned from the identification with the claimed laws applied (docs/diagnosis.md,
-"Beyond the library").
+:func:`stepwise_helps` is the rule of a further claim (on top of the claims, and with them
+refitted together).  :func:`first_laws` identifies every channel per case, learns its law
+and cross-validates it as an effect in outcome space; :class:`ModelEvaluator` gives
+:func:`vfs.analysis.selection.select` the cross-validated reductions of library effects and
+learned laws alone, on top of claims (laws re-learned from their channels re-identified
+with the claims applied) and in joint models (docs/diagnosis.md, "One selection").
 """
 
 from __future__ import annotations
@@ -26,12 +27,7 @@ from vfs.analysis.calibrate import (
     CVResult,
     FitSpace,
     VariantSimulator,
-    cross_validate,
-    reduction_ci,
 )
-
-#: Most stepwise rounds of the law claims of :func:`learn_laws` (after the first law).
-LAW_ROUNDS = 3
 
 
 @dataclass
@@ -118,12 +114,18 @@ class LawFinding:
     round: int = 0
     table: pd.DataFrame | None = field(default=None, repr=False)
     note: str = ""
+    reason: str = ""
+    share: Reduction | None = None
 
     @property
     def status(self) -> str:
-        """"claimed", "not confirmed on top of <claimed channels>" or "not significant"."""
+        """"claimed", the selection's reason, "not confirmed on top of <claims>" or "not
+        significant".
+        """
         if self.significant:
             return "claimed"
+        if self.reason:
+            return self.reason
         if self.on_top_of:
             return f"not confirmed on top of {', '.join(self.on_top_of)}"
         return "not significant"
@@ -221,22 +223,239 @@ def refit_all(table: pd.DataFrame, law: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
-                channels: str | Iterable[str], grid: int, seed: int,
-                level: float, n_boot: int, min_reduction: float, reliable: bool,
-                rng: np.random.Generator, say: Callable[[str], None], rounds: int
-                ) -> tuple[list[LawFinding], pd.DataFrame, dict[str, float]]:
-    """Identify, learn, cross-validate and claim the laws stepwise.
+def law_key(channel: str) -> str:
+    """The selection's name of the learned law of ``channel`` (``"<channel> law"``)."""
+    return f"{channel} law"
 
-    See :func:`vfs.analysis.diagnose.diagnose` (``laws``, ``law_rounds``).
 
-    Returns the findings (claimed first, in the order claimed), the first
-    identification table and timings [s].
+def _named(law: Mapping[str, Any]) -> dict[str, Any]:
+    """A table law named by its values (the simulator's cache knows a model by names)."""
+    out = dict(law)
+    if out.get("form") == "table":
+        import hashlib
+
+        digest = hashlib.sha1(np.asarray(out["table"]["y"], float).tobytes()).hexdigest()
+        out["name"] = f"{str(out['name']).split('_t')[0]}_t{digest[:10]}"
+    return out
+
+
+class ModelEvaluator:
+    """The :class:`vfs.analysis.selection.Evaluator` of the diagnosis: cross-validated outcome
+    errors of library effects and learned laws, alone, on top of claims and jointly.
+
+    Library effects are fitted per fold (:func:`vfs.analysis.calibrate.cross_validate_many`;
+    alone and on top: "the effect, or no effect"); learned laws are refitted per fold to the
+    training cases' identified values (:func:`vfs.analysis.learn.fold_law_effects`).  On top of
+    claims, the claims (fitted on all cases) form the base model of a simulator, effects are
+    fitted on it and the laws' channels are **re-identified** with it and their laws learned
+    again (a law missing on one channel leaks into the identification of the others).  A joint
+    model refits everything per fold: the laws from their identification tables, the effects'
+    parameters by one search per fold with the fold's laws applied.  Joint models and
+    simulators on top of a claim set are cached (the same model is never simulated twice).
+
+    Parameters
+    ----------
+    sim : VariantSimulator
+    held : sequence of int arrays
+        Held-out rows of each fold.
+    base : CVResult
+        The default model.
+    effects : mapping of str to effect class
+        The library candidates.
+    alone : mapping of str to ndarray
+        Held-out per-case errors of each candidate alone (library effects from the ranking,
+        laws from the first identification).
+    alone_reductions : mapping of str to Reduction, optional
+        Their reductions against the default model as reported (else bootstrapped here).
+    alone_cv : mapping of str to CVResult, optional
+        The library candidates' cross-validations alone (a joint model of one effect).
+    laws : mapping of str to LawFinding
+        The law candidates (key :func:`law_key`) of the first identification.
+    ident, learned : callables
+        Identify channels with a simulator (table joined with the features); learn laws.
+    ci : callable
+        (errors, reference errors) -> Reduction.
+    parameters : str
+        ``"primary"`` or ``"all"`` (:meth:`FitSpace.alternatives`).
+    fit_options : mapping
+        ``grid_points``, ``zoom_rounds`` of the searches.
+    say : callable
+    """
+
+    def __init__(self, sim: VariantSimulator, held: Sequence[np.ndarray], base: CVResult,
+                 effects: Mapping[str, Any], alone: Mapping[str, np.ndarray],
+                 laws: Mapping[str, LawFinding],
+                 ident: Callable[[VariantSimulator, Sequence[str]], pd.DataFrame],
+                 learned: Callable[[pd.DataFrame], list[Any]],
+                 ci: Callable[[np.ndarray, np.ndarray], Reduction], parameters: str,
+                 fit_options: Mapping[str, Any], say: Callable[[str], None],
+                 alone_reductions: Mapping[str, Reduction] | None = None,
+                 alone_cv: Mapping[str, CVResult] | None = None) -> None:
+        self.sim, self.held, self.base = sim, list(held), base
+        self.alone_reductions = dict(alone_reductions or {})
+        self.alone_cv = dict(alone_cv or {})
+        self.effects = dict(effects)
+        self.alone = dict(alone)
+        self.laws = dict(laws)
+        self.ident, self.learned, self.ci = ident, learned, ci
+        self.parameters, self.fit_options, self.say = parameters, dict(fit_options), say
+        self._version = dict.fromkeys(self.laws, 0)
+        self._joint: dict[tuple[Any, ...], tuple[np.ndarray, tuple[Any, ...]]] = {}
+        self._sims: dict[tuple[Any, ...], VariantSimulator] = {}
+        self._residuals: dict[tuple[Any, ...], np.ndarray] = {}
+        self.on_top_errors: dict[tuple[str, tuple[str, ...]], np.ndarray] = {}
+        self.stepwise_seconds = 0.0
+
+    # -- models ---------------------------------------------------------------------------
+
+    def _key(self, model: Sequence[str]) -> tuple[Any, ...]:
+        return tuple(sorted((m, self._version.get(m, 0)) for m in model))
+
+    def joint(self, model: Sequence[str]) -> tuple[np.ndarray, tuple[Any, ...]]:
+        """Held-out per-case errors of the joint model (all refitted per fold) and its
+        effects fitted on all cases.
+        """
+        if not model:
+            return self.base.errors, ()
+        key = self._key(model)
+        if key in self._joint:
+            return self._joint[key]
+        if len(model) == 1 and model[0] in self.alone_cv:  # one effect: its CV alone
+            cv = self.alone_cv[model[0]]
+            self._joint[key] = (cv.errors, tuple(cv.fitted_model()))
+            self._residuals[key] = cv.residuals
+            return self._joint[key]
+        from vfs.analysis.calibrate import fit_steps, run_fits
+        from vfs.analysis.learn import fold_law_effects
+
+        sim, data = self.sim, self.sim.data
+        laws = [(self.laws[m].table, self.laws[m].learned.law) for m in model
+                if m in self.laws]
+        classes = [self.effects[m] for m in model if m not in self.laws]
+        folds = fold_law_effects(data, laws, self.held)
+        every = law_effects(_named(refit_all(t, law)) for t, law in laws)
+        if not classes:
+            models: list[tuple[Any, ...]] = list(folds)
+            fitted: tuple[Any, ...] = every
+        else:
+            alts = FitSpace.alternatives(classes, self.parameters)
+            rows = [np.setdiff1d(np.arange(data.n), h) for h in self.held] + [np.arange(data.n)]
+            spaces = []
+            for lk in [*folds, every]:
+                spaces.append([FitSpace(tuple(lk) + a.effects,
+                                        tuple((i + len(lk), j) for i, j in a.free))
+                               for a in alts])
+            gens = [fit_steps(data, sp, [r], **self.fit_options)
+                    for group, r in zip(spaces, rows, strict=True) for sp in group]
+            fits = run_fits(sim, gens)
+            models = []
+            for k, group in enumerate(spaces):
+                part = fits[k * len(alts):(k + 1) * len(alts)]
+                a = int(np.argmin([f.train_mse[0] if np.isfinite(f.train_mse[0]) else np.inf
+                                   for f in part]))
+                models.append(group[a].model(part[a].x[0]))
+            fitted = models.pop()
+        res = sim.residuals(models)
+        residuals = np.full_like(data.observed, np.nan)
+        for h, r in zip(self.held, res, strict=True):
+            residuals[h] = r[h]
+        out = (data.case_errors(residuals), tuple(fitted))
+        self._joint[key] = out
+        self._residuals[key] = residuals
+        return out
+
+    def joint_residuals(self, model: Sequence[str]) -> np.ndarray:
+        """Held-out residuals of the joint model (:meth:`joint`)."""
+        if not model:
+            return self.base.residuals
+        self.joint(model)
+        return self._residuals[self._key(model)]
+
+    def _on(self, claimed: tuple[str, ...]) -> VariantSimulator:
+        key = self._key(claimed)
+        if key not in self._sims:
+            self._sims[key] = with_effects(self.sim, self.joint(claimed)[1])
+        return self._sims[key]
+
+    # -- the Evaluator protocol -----------------------------------------------------------
+
+    def rmse(self, model: tuple[str, ...]) -> float:
+        """Cross-validated overall RMSE (standardised) of the joint model."""
+        from vfs.analysis.calibrate import overall_mse
+
+        return math.sqrt(overall_mse(self.joint(model)[0]))
+
+    def joint_gain(self, name: str, model: tuple[str, ...]) -> Reduction:
+        """The joint model against it without ``name``."""
+        return self.ci(self.joint(model)[0],
+                       self.joint(tuple(m for m in model if m != name))[0])
+
+    def on_top(self, names: Sequence[str], claimed: tuple[str, ...]) -> dict[str, Reduction]:
+        """Each candidate on top of the claims (fitted on all cases), against them."""
+        if not claimed:
+            return {n: self.alone_reductions[n] if n in self.alone_reductions
+                    else self.ci(self.alone[n], self.base.errors) for n in names}
+        from vfs.analysis.calibrate import cross_validate_many
+
+        t0 = time.perf_counter()
+        sim_c = self._on(claimed)
+        n_before = (sim_c.n_variants, sim_c.n_case_runs, sim_c.n_calls, sim_c.seconds)
+        ref = sim_c.data.case_errors(sim_c.residuals([()])[0])
+        out: dict[str, Reduction] = {}
+        eff = [n for n in names if n not in self.laws]
+        if eff:
+            self.say(f"  fitting {len(eff)} library effect(s) on top of {', '.join(claimed)} ...")
+        cvs = cross_validate_many(
+            sim_c, [FitSpace.alternatives([self.effects[n]], self.parameters) for n in eff],
+            self.held, [f"{'+'.join(claimed)}+{n}" for n in eff], fit_all=False,
+            allow_off=True, **self.fit_options) if eff else []
+        for n, cv in zip(eff, cvs, strict=True):
+            self.on_top_errors[(n, claimed)] = cv.errors
+            out[n] = self.ci(cv.errors, ref)
+        laws = [n for n in names if n in self.laws]
+        if laws:
+            on = ", ".join(claimed)
+            self.say(f"  re-identifying {len(laws)} channel(s) with {on} applied ...")
+            table = self.ident(sim_c, [self.laws[n].channel for n in laws])
+            found = {r.channel: r for r in self.learned(table)}
+            for n in laws:
+                f = self.laws[n]
+                r = found.get(f.channel)
+                if r is None or not r.significant or r.law is None:
+                    f.note = f"no structure in its identification with {on} applied"
+                    out[n] = Reduction(math.nan, math.nan, math.nan)
+                    continue
+                err = outcome_law(sim_c, table, r, self.held, self.say)
+                self.laws[n] = LawFinding(f.channel, r, f.outcome, f.errors,
+                                          given_claimed=self.ci(err, ref), on_top_of=claimed,
+                                          round=len(claimed), table=table)
+                self._version[n] = self._version.get(n, 0) + 1
+                self.on_top_errors[(n, claimed)] = err
+                out[n] = self.laws[n].given_claimed  # type: ignore[assignment]
+                self.say(f"  on top of {on}: {r.text()}")
+        # the simulator on top of the claims is kept (cache); count its new work once
+        self.sim.n_variants += sim_c.n_variants - n_before[0]
+        self.sim.n_case_runs += sim_c.n_case_runs - n_before[1]
+        self.sim.n_calls += sim_c.n_calls - n_before[2]
+        self.sim.seconds += sim_c.seconds - n_before[3]
+        self.stepwise_seconds += time.perf_counter() - t0
+        return out
+
+
+def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
+               channels: str | Iterable[str], grid: int, seed: int, n_boot: int,
+               say: Callable[[str], None]
+               ) -> tuple[pd.DataFrame, list[tuple[Any, np.ndarray]], Callable[..., Any],
+                          Callable[..., Any]]:
+    """Identify every channel per case with the default model, learn its law and
+    cross-validate each law with structure as an effect (the laws' step 0).
+
+    Returns the identification table, (ChannelLaw, held-out errors) of each law with
+    structure, and the identify and learn functions the selection uses again.
     """
     from vfs.analysis.identify import identification_features, identify, parse_channels
-    from vfs.analysis.learn import cross_validate_law, cross_validate_laws, learn
+    from vfs.analysis.learn import learn
 
-    t0 = time.perf_counter()
     data = sim.data
     feats = identification_features(data)
 
@@ -245,108 +464,22 @@ def learn_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
         return t.merge(feats, on="case_id", how="left")
 
     def learned(table: pd.DataFrame) -> list[Any]:
-        return learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000),
-                     band_boot=50)
+        return learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000), band_boot=50)
 
-    def ci(err: np.ndarray, ref: np.ndarray) -> Reduction:
-        return Reduction(*reduction_ci(err, ref, rng, confidence=level, n_boot=n_boot))
-
-    order = parse_channels(channels)
-    table = ident(sim, order)
+    t0 = time.perf_counter()
+    names = parse_channels(channels)
+    say(f"identifying {len(names)} channels per case ({grid} values each, {data.n} cases) ...")
+    table = ident(sim, names)
     say(f"identified {table['channel'].nunique()} channels per case in "
-        f"{time.perf_counter() - t0:.1f} s")
+        f"{time.perf_counter() - t0:.1f} s; learning their laws ...")
     out = []
     for r in learned(table):
         say(r.text())
-        if not r.significant or r.law is None:
-            continue
-        err = outcome_law(sim, table, r, held, say)
-        red = ci(err, base.errors)
-        out.append(LawFinding(r.channel, r, red, err,
-                              significant=reliable and helps(red, min_reduction), table=table))
-    out.sort(key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
-    stats = {"law_seconds": round(time.perf_counter() - t0, 2), "law_stepwise_seconds": 0.0}
-    first = next((f for f in out if f.significant), None)
-    for f in out:
-        f.significant = f is first
-    if first is None:
-        return out, table, stats
-    # forward stepwise: the other channels with structure, re-identified with the claimed
-    # laws applied (a missing law on one channel leaks into the identification of others)
-    t1 = time.perf_counter()
-    claimed = [first]
-    model: list[tuple[pd.DataFrame, dict[str, Any]]] = [(table, dict(first.learned.law))]
-    model_err = first.errors
-    latest = {f.channel: f for f in out if f is not first}
-    pending = [c for c in order if c in latest]
-    for rnd in range(1, rounds + 1):
-        if not pending:
-            break
-        on_top = tuple(f.channel for f in claimed)
-        sim_c = with_effects(sim, law_effects(law for _, law in model))
-        base_c = cross_validate(sim_c, FitSpace((), ()), held, "+".join(on_top),
-                                fit_all=False)
-        table_c = ident(sim_c, pending)
-        cands: list[LawFinding] = []
-        for r in learned(table_c):
-            say(f"round {rnd}, with the law(s) of {', '.join(on_top)} applied: {r.text()}")
-            prev = latest[r.channel]
-            if not r.significant or r.law is None:
-                if not prev.round:
-                    prev.on_top_of = on_top
-                prev.note = ("no structure in its identification with the law(s) of "
-                             f"{', '.join(on_top)} applied")
-                continue
-            err_g = outcome_law(sim_c, table_c, r, held, say)
-            _, err_a = cross_validate_law(sim, table_c, r.law, held)
-            f = LawFinding(r.channel, r, ci(err_a, base.errors), err_a,
-                           given_claimed=ci(err_g, base_c.errors), on_top_of=on_top,
-                           round=rnd, table=table_c)
-            latest[r.channel] = f
-            cands.append(f)
-        absorb_counters(sim, sim_c)
-        cands.sort(key=lambda f: -np.nan_to_num(
-            f.given_claimed.estimate if f.given_claimed else math.nan, nan=-np.inf))
-        new = None
-        for f in cands:
-            if not helps(f.given_claimed, min_reduction):
-                continue
-            # the claimed laws refitted with it present: their channels re-identified with
-            # it (and the other claimed laws) applied, all laws refitted per fold together
-            law_f = f.learned.law
-            refit_model = []
-            for k, (_, law) in enumerate(model):
-                others = [m for j, (_, m) in enumerate(model) if j != k] + [law_f]
-                sim_r = with_effects(sim, law_effects(others))
-                refit_model.append((ident(sim_r, [law["channel"]]), law))
-                absorb_counters(sim, sim_r)
-            _, err_r = cross_validate_laws(sim, [*refit_model, (table_c, law_f)], held)
-            f.refit = ci(err_r, model_err)
-            f.kept = ci(err_r, f.errors)
-            f.significant = stepwise_helps(f.given_claimed, f.refit, min_reduction,
-                                           also=(f.kept,))
-            say(f"round {rnd}: {f.text()}{' (claimed)' if f.significant else ''}")
-            if f.significant:
-                new = f
-                model = [(t, refit_all(t, law)) for t, law in refit_model] + [(table_c, law_f)]
-                model_err = err_r
-                break
-        if new is None:
-            break
-        claimed.append(new)
-        pending = [c for c in pending if c != new.channel and latest[c].round == rnd]
-        if rnd == rounds:
-            for c in pending:
-                latest[c].note = f"stepwise rounds capped at {rounds}"
-    stats["law_stepwise_seconds"] = round(time.perf_counter() - t1, 2)
-    stats["law_seconds"] = round(time.perf_counter() - t0, 2)
-    say(f"stepwise law claims: {', '.join(f.channel for f in claimed)} "
-        f"({stats['law_stepwise_seconds']:.1f} s)")
-    rest = sorted((f for f in latest.values() if not f.significant),
-                  key=lambda f: -np.nan_to_num(f.outcome.estimate, nan=-np.inf))
-    return claimed + rest, table, stats
+        if r.significant and r.law is not None:
+            out.append((r, outcome_law(sim, table, r, held, say)))
+    return table, out, ident, learned
 
 
-__all__ = ["LAW_ROUNDS", "LawFinding", "Reduction", "absorb_counters", "closed_alternative",
-           "format_reduction", "helps", "law_effects", "learn_laws", "outcome_law", "refit_all",
-           "stepwise_helps", "with_effects"]
+__all__ = ["LawFinding", "ModelEvaluator", "Reduction", "absorb_counters",
+           "closed_alternative", "first_laws", "format_reduction", "helps", "law_effects",
+           "law_key", "outcome_law", "refit_all", "stepwise_helps", "with_effects"]

@@ -16,34 +16,21 @@ database (never with a ground-truth file):
    on the held-out fold (k-fold cross-validation by case, seeded;
    :func:`vfs.analysis.calibrate.cross_validate`); the reduction of the CV RMSE of the
    standardised residuals, overall, over the effect's own outputs and per
-   output, gets a bootstrap CI over cases; the candidates are ranked by the
-   overall reduction.  A candidate *helps significantly* if the lower bound
-   of its CI (simultaneous over the candidates, Bonferroni) is above zero
-   and the reduction reaches ``min_reduction`` (:func:`helps`, the one rule
-   of the table and the text); a further effect (stepwise) also needs the
-   CI of its reduction on top of the first effect, and of its reduction
-   when the first effect is refitted together with it, above zero.  Below
-   ``min_cases`` cases (or with held-out folds of fewer than
-   :data:`MIN_FOLD_CASES` cases) nothing is claimed: the result is reported as
-   unreliable.  With ``parameters="primary"`` the parameters that are not
-   fitted sit at their neutral values (that part of the effect off) or at
-   their nominal strengths, whichever fits each fold's training cases better
-   (:meth:`vfs.analysis.calibrate.FitSpace.alternatives`).  Residual structure left
-   after the best effect (significant associations of its held-out
-   residuals) is reported with the strata it points to.
+   output, gets a bootstrap CI over cases (simultaneous over all candidates, Bonferroni).
+   With ``parameters="primary"`` the parameters that are not fitted sit at their neutral
+   values or at their nominal strengths, whichever fits each fold's training cases better
+   (:meth:`vfs.analysis.calibrate.FitSpace.alternatives`).
 3. **Beyond the library** (``laws``).  Each channel is identified per case
-   (:mod:`vfs.analysis.identify`) and its law learned
-   (:mod:`vfs.analysis.learn`); every law with structure is
-   cross-validated as an effect in outcome space.  The best is claimed if
-   it helps; then, forward stepwise (at most ``law_rounds`` rounds), the
-   other channels with structure are re-identified with the claimed laws
-   applied (a law missing on one channel leaks into the identification of
-   the others), their laws learned anew, and the best of them on top of the
-   claimed laws is claimed if :func:`stepwise_helps` (the same rule as for
-   the effects: on top of the claimed laws, and with them refitted on their
-   channels re-identified with it applied; and the claimed laws still help
-   with it).  The others are reported as not confirmed on top of the
-   claimed laws.
+   (:mod:`vfs.analysis.identify`) and its law learned (:mod:`vfs.analysis.learn`); every
+   law with structure is cross-validated as an effect in outcome space.
+4. **One selection** over the library effects and the learned laws
+   (:func:`vfs.analysis.selection.select` with :class:`vfs.analysis.claims.ModelEvaluator`):
+   forward stepwise on top of the claims (laws learned again from their channels
+   re-identified with the claims applied), each claim under :func:`helps` on top and
+   refitted together, with backward checks after each addition; the rejected candidates
+   carry their reason ("mimics X", ...).  Below ``min_cases`` cases (or with held-out folds
+   of fewer than :data:`MIN_FOLD_CASES` cases) nothing is claimed.  Residual structure
+   left after the claims is reported with the strata it points to.
 
 :func:`vfs.report.diagnose.write_diagnosis_report` writes the ranked table (CSV), a
 JSON summary, and Markdown and HTML reports with figures.  Reports show km/h and degrees
@@ -52,6 +39,7 @@ JSON summary, and Markdown and HTML reports with figures.  Reports show km/h and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -76,19 +64,24 @@ from vfs.analysis.calibrate import (
     rmse_reduction,
 )
 from vfs.analysis.claims import (
-    LAW_ROUNDS,
     LawFinding,
+    ModelEvaluator,
     Reduction,
-    absorb_counters,
-    helps,
-    learn_laws,
-    stepwise_helps,
-    with_effects,
+    first_laws,
+    law_key,
 )
 from vfs.analysis.claims import (
     format_reduction as fr,
 )
+from vfs.analysis.diagnose_spec import (
+    MIN_CASES,
+    MIN_FOLD_CASES,
+    Correction,
+    DiagnoseSpec,
+    Parameters,
+)
 from vfs.analysis.features import case_features
+from vfs.analysis.selection import Selection, select
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
@@ -106,11 +99,6 @@ NUMERIC_FEATURES: Mapping[str, Quantity] = MappingProxyType({
     "restitution": QUANTITIES["dimensionless"],
     "contact_friction": QUANTITIES["dimensionless"],
 })
-#: Fewest cases for which the diagnosis claims anything (below: unreliable, nothing
-#: significant).
-MIN_CASES = 30
-#: Fewest held-out cases per fold for which the diagnosis claims anything.
-MIN_FOLD_CASES = 5
 
 
 #: Categorical case features.
@@ -287,18 +275,21 @@ class CandidateResult:
         are compared (all outputs if it declares none).
     per_output : dict of Reduction
     given_best : Reduction or None
-        Stepwise (ranks 2...): overall reduction when added to the model with
-        the rank-1 effect, against that model; None for rank 1 or when no
-        effect helps.
+        Reduction on top of the claims of ``on_top_of`` (fitted on all cases), against
+        them: for a claim, at the step it joined; else at the last step it was tried; None
+        when it was only tried alone.
     refit : Reduction or None
-        Stepwise, for candidates that help on top of rank 1: overall
-        reduction of the model with both effects fitted together (rank 1
-        refitted) against rank 1 alone (both cross-validated).
+        For a candidate that helped on top: the claims refitted together with it against
+        the claims alone.
     significant : bool
-        :func:`helps` for the overall reduction; ranks 2... (if rank 1
-        helps) also for ``given_best`` and ``refit``; always False when the
-        sample is too small (:attr:`Diagnosis.reliable`).
+        Claimed by the selection (:func:`vfs.analysis.selection.select`); always False
+        when the sample is too small (:attr:`Diagnosis.reliable`).
+    status : str
+        "claimed" or the reason it is not ("mimics X", "not significant", ...).
+    share : Reduction or None
+        A claim's share in the final joint model (it against the model without it).
     rank : int
+        Verdict order: the claims first (leading explanation first), then the rejected.
     variants : int
         Model variants its search asked for (shared simulation calls; the
         time is reported for all candidates together).
@@ -315,10 +306,16 @@ class CandidateResult:
     variants: int = 0
     given_best: Reduction | None = None
     refit: Reduction | None = None
+    status: str = ""
+    on_top_of: tuple[str, ...] = ()
+    share: Reduction | None = None
+    fitted_joint: list[dict[str, Any]] | None = None
 
     def fitted(self) -> list[dict[str, Any]]:
-        """Parameters fitted on all cases (empty if the default model fits better)."""
-        return self.cv.fitted_parameters()
+        """Parameters fitted on all cases: in the selected joint model when claimed, else
+        alone (empty if the default model fits better).
+        """
+        return self.fitted_joint if self.fitted_joint else self.cv.fitted_parameters()
 
 
 @dataclass
@@ -344,6 +341,72 @@ class Diagnosis:
     reliable: bool = True
     laws: list[LawFinding] = field(default_factory=list)
     identification: pd.DataFrame | None = None
+    selection: Selection | None = None
+    spec: DiagnoseSpec | None = None
+    selected_residuals: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def claims(self) -> list[str]:
+        """The final claims (library effect names, ``"<channel> law"``), verdict order."""
+        return list(self.selection.claims) if self.selection else \
+            [c.name for c in self.candidates if c.significant]
+
+    def selection_table(self) -> pd.DataFrame:
+        """One row per candidate of the selection, library effects and learned laws, in
+        verdict order: status, reduction alone, on top of the claims, refitted with them,
+        share in the final model (each with its simultaneous CI), formula or parameters.
+        The console and the reports show this table (one source).
+        """
+        laws = {law_key(f.channel): f for f in self.laws}
+        effects = {c.name: c for c in self.candidates}
+        sel = self.selection
+        names = [*sel.claims, *sel.rejected] if sel else list(effects)
+        rows = []
+        for n in names:
+            c, f = effects.get(n), laws.get(n)
+            if c is None and f is None:
+                continue
+            alone = c.overall if c is not None else f.outcome  # type: ignore[union-attr]
+            top = c.given_best if c is not None else f.given_claimed  # type: ignore[union-attr]
+            on = (c.on_top_of if c is not None else f.on_top_of)  # type: ignore[union-attr]
+            refit = sel.refit.get(n) if sel else None
+            share = sel.share.get(n) if sel else None
+            rows.append({
+                "candidate": n, "kind": "effect" if c is not None else "law",
+                "status": ("claimed" if n in self.claims else
+                           (sel.reasons.get(n, "") if sel else "")),
+                "alone": alone.estimate, "alone_low": alone.low, "alone_high": alone.high,
+                "on_top_of": "+".join(on),
+                "on_top": top.estimate if top else np.nan,
+                "on_top_low": top.low if top else np.nan,
+                "on_top_high": top.high if top else np.nan,
+                "refit": refit.estimate if refit else np.nan,
+                "refit_low": refit.low if refit else np.nan,
+                "refit_high": refit.high if refit else np.nan,
+                "share": share.estimate if share else np.nan,
+                "share_low": share.low if share else np.nan,
+                "share_high": share.high if share else np.nan,
+                "model": (_format_params(c.fitted()) if c is not None
+                          else f.learned.law["formula"]),  # type: ignore[union-attr]
+            })
+        return pd.DataFrame(rows)
+
+    def selection_residuals(self) -> np.ndarray:
+        """Held-out residuals of the selected joint model (the default model's if nothing
+        is claimed).
+        """
+        return self.selected_residuals if self.selected_residuals is not None \
+            else self.default.residuals
+
+    def ledger_steps(self) -> pd.DataFrame:
+        """The selection's steps: action, candidate, CV RMSE of the joint model after it."""
+        steps = self.selection.steps if self.selection else []
+        return pd.DataFrame([{"step": i, "action": s.action, "candidate": s.name,
+                              "model": "+".join(s.model) or "default", "cv_rmse": s.rmse,
+                              "reduction": s.reduction.estimate if s.reduction else np.nan,
+                              "low": s.reduction.low if s.reduction else np.nan,
+                              "high": s.reduction.high if s.reduction else np.nan}
+                             for i, s in enumerate(steps)])
 
     @property
     def ranking(self) -> list[str]:
@@ -352,7 +415,7 @@ class Diagnosis:
 
     @property
     def best(self) -> CandidateResult | None:
-        """The best candidate if it helps significantly, else None."""
+        """The leading claimed library effect, else None."""
         return self.candidates[0] if self.candidates and self.candidates[0].significant \
             else None
 
@@ -362,6 +425,7 @@ class Diagnosis:
         for c in self.candidates:
             row: dict[str, Any] = {
                 "rank": c.rank, "effect": c.name, "significant": c.significant,
+                "status": c.status,
                 "reduction": c.overall.estimate, "ci_low": c.overall.low,
                 "ci_high": c.overall.high, "reduction_affected": c.affected.estimate,
                 "affected_ci_low": c.affected.low, "affected_ci_high": c.affected.high,
@@ -400,197 +464,191 @@ def resolve_candidates(effects: str | Iterable[str] | None) -> list[str]:
     return list(dict.fromkeys(names))
 
 
-def diagnose(db: Any, outputs: str | Iterable[str] | None = None,
-             effects: str | Iterable[str] | None = "all", folds: int = 5, seed: int = 0,
-             parameters: str = "primary", grid_points: int = 9, zoom_rounds: int = 3,
-             confidence: float = 0.95, n_boot: int = 2000, correction: str = "bh",
-             alpha: float = 0.05, min_reduction: float = 0.01, worst: int = 6,
-             params: SimulationParams | None = None, database: str = "",
-             stepwise: bool = True, min_cases: int = MIN_CASES,
-             laws: str | Iterable[str] | None = None, law_grid: int = 13,
-             law_rounds: int = LAW_ROUNDS,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
+             params: SimulationParams | None = None,
+             progress: Callable[[str], None] | None = None, **settings: Any) -> Diagnosis:
     """Diagnose the default model against the reconstructions of ``db``.
 
     Parameters
     ----------
     db : Database
         Analysed blind: only its tables (never a ground-truth file).
-    outputs : str or list, optional
-        Compared outputs (names of :data:`vfs.outcomes.OUTPUT_GROUPS`;
-        default all available).
-    effects : "all" or names
-        Candidate effects (default every registered effect).
-    folds, seed : int
-        k-fold cross-validation by case; seed of the fold assignment and the
-        bootstrap.
-    parameters : {"primary", "all"}
-        Fit only each effect's primary parameter (the others at their neutral
-        values or their nominal strengths, per fold whichever fits the
-        training cases better) or all its
-        parameters (coordinate search, slower).
-    grid_points, zoom_rounds : int
-        Coarse grid and refinement rounds of :func:`vfs.analysis.calibrate.fit_folds`.
-    confidence : float
-        Simultaneous level of the CIs of the overall reductions (Bonferroni
-        over the candidates); per-output CIs are pointwise at this level.
-    n_boot : int
-        Bootstrap samples.
-    correction : {"bh", "holm"}
-        Multiplicity control of the residual-feature associations.
-    alpha : float
-        Level of the association tests.
-    min_reduction : float
-        Smallest overall reduction that counts as "helps" (besides the CI).
-    worst : int
-        Number of worst cases listed (and sketched by
-        :func:`vfs.report.diagnose.write_diagnosis_report`).
+    spec : DiagnoseSpec, optional
+        What to do (:class:`vfs.analysis.diagnose_spec.DiagnoseSpec`); or its fields as
+        keyword arguments (``settings``; with a spec they replace its fields).
     params : SimulationParams, optional
         Base model (default: the default model).
-    database : str
-        Name or path for the reports.
-    stepwise : bool
-        If the best candidate helps, cross-validate every other candidate
-        added to the model with the best one (fitted on all cases) and rank
-        them by that conditional reduction: a weaker effect masked by a
-        dominant one is found second.  It is claimed only if it also helps
-        when the first effect is refitted together with it.
-    laws : str or list, optional
-        Channels to identify per case and learn laws for
-        (:mod:`vfs.analysis.identify`, :mod:`vfs.analysis.learn`; "all" for
-        every channel; default None: skipped).  Each law whose identified
-        values show structure is cross-validated as an effect (refitted on
-        the training folds) and compared with the library ranking.  The
-        best law is claimed if it helps (:func:`helps`); then, forward
-        stepwise, the other channels with structure are re-identified with
-        the claimed laws applied and their laws learned anew; the law that
-        lowers the error most on top of the claimed ones is claimed if it
-        passes :func:`stepwise_helps` (on top of the claimed laws; with them
-        refitted on their channels re-identified with it applied, against
-        them alone; and they still help with it present); the others are
-        "not confirmed on top of" the claimed laws.
-    law_grid : int
-        Grid values per channel of the identification.
-    law_rounds : int
-        Most stepwise rounds after the first claimed law (each one more
-        identification of the candidate channels).
-    min_cases : int
-        Fewest cases (and :data:`MIN_FOLD_CASES` held-out cases per fold)
-        for which anything is claimed; below, the verdict says the result is
-        unreliable and no candidate is significant.
     progress : callable, optional
         Called with one line per finished step.
+
+    Steps: where the model fails (:func:`_where_it_fails`), every library candidate alone
+    (:func:`_library_alone`), every channel identified and its law learned
+    (:func:`vfs.analysis.claims.first_laws`), then **one selection** over both
+    (:func:`vfs.analysis.selection.select`: forward stepwise on top of the claims, with
+    refits and backward checks), and the verdict from the final claims.
     """
+    if spec is None:
+        spec = DiagnoseSpec.from_kwargs(**settings)
+    elif settings:
+        spec = dataclasses.replace(spec, **settings)
     t0 = time.perf_counter()
     say = progress or (lambda _msg: None)
-    data = CalibrationData.from_database(db, outputs)
-    names = resolve_candidates(effects)
+    data = CalibrationData.from_database(db, spec.outputs)
+    spec.check_cases(data.n)
+    names = resolve_candidates(spec.effects)
     sim = VariantSimulator(data, params)
-    held = kfold_indices(data.n, folds, seed)
-    reliable = data.n >= min_cases and min(len(h) for h in held) >= MIN_FOLD_CASES
-    rng = np.random.default_rng(seed)
+    held = kfold_indices(data.n, spec.folds, spec.seed)
+    reliable = spec.reliable(data.n) and min(len(h) for h in held) >= MIN_FOLD_CASES
+    rng = np.random.default_rng(spec.seed)
     features = case_features(data)
     base = cross_validate(sim, FitSpace((), ()), held, "default", fit_all=False)
     say(f"default model: CV RMSE {base.overall_rmse():.3f} (standardised) over "
         f"{data.n} cases, {len(data.groups)} outputs")
-    strata = stratified_residuals(data, base.residuals, features)
-    assoc = residual_associations(residual_variables(data, base.residuals), features,
-                                  correction, alpha)
-    level = 1.0 - (1.0 - confidence) / max(len(names), 1)
-    cands: list[CandidateResult] = []
-    fit_opts: dict[str, Any] = {"grid_points": grid_points, "zoom_rounds": zoom_rounds}
-    classes = [get_effect(name) for name in names]
-    t1, v1 = time.perf_counter(), sim.n_variants
-    spaces = [FitSpace.alternatives([cls], parameters) for cls in classes]
-    cvs = cross_validate_many(sim, spaces, held, names, allow_off=True,
-                              **fit_opts) if classes else []
-    fit_seconds = time.perf_counter() - t1
-    say(f"fitted {len(classes)} candidates: {sim.n_variants - v1} model variants in "
-        f"{fit_seconds:.1f} s")
-    for name, cls, cv in zip(names, classes, cvs, strict=True):
-        affected = tuple(o for o in cls.outputs if o in data.group_names) or data.group_names
-        w = np.array([1.0 if g in affected else 0.0 for g in data.group_names])
-        est, lo, hi = reduction_ci(cv.errors, base.errors, rng, confidence=level,
-                                   n_boot=n_boot)
-        a_est, a_lo, a_hi = reduction_ci(cv.errors, base.errors, rng, confidence=confidence,
-                                         n_boot=n_boot, weights=w)
-        per = {}
-        for k, g in enumerate(data.group_names):
-            per[g] = Reduction(*reduction_ci(cv.errors, base.errors, rng, group=k,
-                                             confidence=confidence, n_boot=n_boot))
-        c = CandidateResult(name, cv, Reduction(est, lo, hi), Reduction(a_est, a_lo, a_hi),
-                            per, affected,
-                            significant=reliable and helps(Reduction(est, lo, hi),
-                                                           min_reduction),
-                            variants=cv.variants)
-        cands.append(c)
-        say(f"candidate {name}: CV RMSE reduction {100 * est:.1f} % "
-            f"[{100 * lo:.1f}, {100 * hi:.1f}] ({c.variants} variants)")
-    cands.sort(key=lambda c: (-np.nan_to_num(c.overall.estimate, nan=-np.inf), c.name))
-    best = cands[0] if cands and cands[0].significant else None
-    best_model = best.cv.fitted_model() if best is not None else ()
-    if stepwise and best is not None and best_model and len(cands) > 1:
-        rest = cands[1:]
-        sim2 = with_effects(sim, best_model)
-        base2 = cross_validate(sim2, FitSpace((), ()), held, best.name, fit_all=False)
-        cvs2 = cross_validate_many(
-            sim2, [FitSpace.alternatives([get_effect(c.name)], parameters) for c in rest], held,
-            [f"{best.name}+{c.name}" for c in rest], allow_off=True, **fit_opts)
-        for c, cv2 in zip(rest, cvs2, strict=True):
-            c.given_best = Reduction(*reduction_ci(cv2.errors, base2.errors, rng,
-                                                   confidence=level, n_boot=n_boot))
-        # survive a refit of the first effect: both fitted together, against the first alone
-        keep = [c for c in rest
-                if helps(c.overall, min_reduction) and helps(c.given_best, min_reduction)]
-        best_cls = get_effect(best.name)
-        cvs3 = cross_validate_many(
-            sim, [FitSpace.alternatives([best_cls, get_effect(c.name)], parameters) for c in keep],
-            held, [f"{best.name}+{c.name} (refit)" for c in keep], allow_off=True,
-            **fit_opts) if keep else []
-        for c, cv3 in zip(keep, cvs3, strict=True):
-            c.refit = Reduction(*reduction_ci(cv3.errors, best.cv.errors, rng,
-                                              confidence=level, n_boot=n_boot))
-        for c in rest:
-            c.significant = reliable and stepwise_helps(c.given_best, c.refit, min_reduction,
-                                                        also=(c.overall,))
-        rest.sort(key=lambda c: (-np.nan_to_num(c.given_best.estimate, nan=-np.inf)
-                                 if c.given_best else np.inf, c.name))
-        cands = [cands[0], *rest]
-        say(f"stepwise: {len(rest)} candidates added to {best.name} "
-            f"({sim2.n_variants} variants, {sim2.seconds:.1f} s)")
-        absorb_counters(sim, sim2)
-    for i, c in enumerate(cands, 1):
-        c.rank = i
-    findings: list[LawFinding] = []
-    ident = None
-    law_stats: dict[str, Any] = {}
-    if laws is not None:
-        findings, ident, law_stats = learn_laws(sim, base, held, laws, law_grid, seed, level,
-                                                 n_boot, min_reduction, reliable, rng, say,
-                                                 law_rounds)
-    after = best.cv if best is not None else base
-    remaining = residual_associations(residual_variables(data, after.residuals), features,
-                                      correction, alpha)
-    worst_df = worst_cases(data, base.residuals, features, worst)
-    settings = {"outputs": list(data.group_names), "folds": folds, "seed": seed,
-                "parameters": parameters, "grid_points": grid_points,
-                "zoom_rounds": zoom_rounds, "confidence": confidence,
-                "simultaneous_confidence": level, "n_boot": n_boot,
-                "correction": correction, "alpha": alpha, "min_reduction": min_reduction,
-                "candidates": names, "min_cases": min_cases, "reliable": reliable,
-                "law_rounds": law_rounds,
-                "fixed_parameters": ("neutral or nominal, per fold the better on the "
-                                     "training cases" if parameters == "primary" else
-                                     "none (all fitted)"),
-                "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
-                "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
+    strata, assoc, worst_df = _where_it_fails(data, base, features, spec)
+    cvs = _library_alone(sim, held, names, spec, say)
+    table: pd.DataFrame | None = None
+    law_alone: list[tuple[Any, np.ndarray]] = []
+    ident: Callable[..., Any] | None = None
+    learned: Callable[..., Any] | None = None
+    t_law = time.perf_counter()
+    if spec.laws:
+        table, law_alone, ident, learned = first_laws(sim, base, held, spec.laws,
+                                                      spec.law_grid, spec.seed, spec.n_boot,
+                                                      say)
+    law_seconds = time.perf_counter() - t_law
+    level = 1.0 - (1.0 - spec.confidence) / max(len(names) + len(law_alone), 1)
+    cands = _candidate_results(data, base, names, cvs, rng, level, spec)
+    for c in cands:
+        say(f"candidate {c.name}: CV RMSE reduction {fr(c.overall)} ({c.variants} variants)")
+
+    def ci(err: np.ndarray, ref: np.ndarray) -> Reduction:
+        return Reduction(*reduction_ci(err, ref, rng, confidence=level, n_boot=spec.n_boot))
+
+    findings = {law_key(r.channel): LawFinding(r.channel, r, ci(err, base.errors), err,
+                                               table=table)
+                for r, err in law_alone}
+    ev = ModelEvaluator(
+        sim, held, base, {n: get_effect(n) for n in names},
+        {**{c.name: c.cv.errors for c in cands}, **{k: f.errors for k, f in findings.items()}},
+        findings, ident or (lambda _s, _n: pd.DataFrame()),
+        learned or (lambda _t: []), ci, str(spec.parameters),
+        {"grid_points": spec.grid_points, "zoom_rounds": spec.zoom_rounds}, say,
+        alone_reductions={**{c.name: c.overall for c in cands},
+                          **{k: f.outcome for k, f in findings.items()}},
+        alone_cv={c.name: c.cv for c in cands})
+    t_sel = time.perf_counter()
+    sel = select([*names, *findings], ev, spec.min_reduction,
+                 max_steps=spec.max_steps if spec.stepwise else 1, reliable=reliable,
+                 worth_trying=lambda r: bool(np.isfinite(r.high)
+                                             and r.high >= spec.min_reduction), say=say)
+    say(f"selection: {', '.join(sel.claims) or 'nothing claimed'} "
+        f"({time.perf_counter() - t_sel:.1f} s)")
+    cands, laws = _apply_selection(sel, cands, ev)
+    final = tuple(sel.claims)
+    after_res = ev.joint_residuals(final) if final else base.residuals
+    remaining = residual_associations(residual_variables(data, after_res), features,
+                                      str(spec.correction), spec.alpha)
+    settings_out = {
+        "outputs": list(data.group_names), "folds": spec.folds, "seed": spec.seed,
+        "parameters": str(spec.parameters), "grid_points": spec.grid_points,
+        "zoom_rounds": spec.zoom_rounds, "confidence": spec.confidence,
+        "simultaneous_confidence": level, "n_boot": spec.n_boot,
+        "correction": str(spec.correction), "alpha": spec.alpha,
+        "min_reduction": spec.min_reduction, "candidates": names,
+        "laws": list(spec.laws), "min_cases": spec.min_cases, "reliable": reliable,
+        "max_steps": spec.max_steps, "law_rounds": spec.max_steps - 1,
+        "fixed_parameters": ("neutral or nominal, per fold the better on the training cases"
+                             if spec.parameters == Parameters.PRIMARY else "none (all fitted)"),
+        "scales": dict(zip(data.group_names, data.scales.tolist(), strict=True)),
+        "scale_source": dict(zip(data.group_names, data.scale_source, strict=True))}
     diag = Diagnosis(data, features, base, cands, strata, assoc, remaining,
-                     after.label, worst_df, [], settings, database=database,
-                     reliable=reliable, laws=findings, identification=ident)
+                     "+".join(final) or "default", worst_df, [], settings_out,
+                     database=spec.database, reliable=reliable, laws=laws,
+                     identification=table, selection=sel, spec=spec,
+                     selected_residuals=after_res)
     diag.verdict = _verdict(diag)
     diag.stats = {**sim.stats(), "total_seconds": round(time.perf_counter() - t0, 2),
-                  "n_cases": data.n, **law_stats}
+                  "n_cases": data.n, "law_seconds": round(law_seconds, 2),
+                  "selection_seconds": round(time.perf_counter() - t_sel, 2)}
     return diag
+
+
+def _where_it_fails(data: CalibrationData, base: CVResult, features: pd.DataFrame,
+                    spec: DiagnoseSpec) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Residuals by stratum, residual-feature associations and worst cases of the default
+    model.
+    """
+    strata = stratified_residuals(data, base.residuals, features)
+    assoc = residual_associations(residual_variables(data, base.residuals), features,
+                                  str(spec.correction), spec.alpha)
+    return strata, assoc, worst_cases(data, base.residuals, features, spec.worst)
+
+
+def _library_alone(sim: VariantSimulator, held: Sequence[np.ndarray], names: Sequence[str],
+                   spec: DiagnoseSpec, say: Callable[[str], None]) -> list[CVResult]:
+    """Every library candidate alone, fitted per fold (one shared search)."""
+    t1, v1 = time.perf_counter(), sim.n_variants
+    spaces = [FitSpace.alternatives([get_effect(n)], str(spec.parameters)) for n in names]
+    cvs = cross_validate_many(sim, spaces, held, list(names), allow_off=True,
+                              grid_points=spec.grid_points,
+                              zoom_rounds=spec.zoom_rounds) if names else []
+    say(f"fitted {len(names)} candidates: {sim.n_variants - v1} model variants in "
+        f"{time.perf_counter() - t1:.1f} s")
+    return cvs
+
+
+def _candidate_results(data: CalibrationData, base: CVResult, names: Sequence[str],
+                       cvs: Sequence[CVResult], rng: np.random.Generator, level: float,
+                       spec: DiagnoseSpec) -> list[CandidateResult]:
+    """The reductions alone of each library candidate with their CIs."""
+    out = []
+    for name, cv in zip(names, cvs, strict=True):
+        cls = get_effect(name)
+        affected = tuple(o for o in cls.outputs if o in data.group_names) or data.group_names
+        w = np.array([1.0 if g in affected else 0.0 for g in data.group_names])
+        overall = Reduction(*reduction_ci(cv.errors, base.errors, rng, confidence=level,
+                                          n_boot=spec.n_boot))
+        own = Reduction(*reduction_ci(cv.errors, base.errors, rng, confidence=spec.confidence,
+                                      n_boot=spec.n_boot, weights=w))
+        per = {g: Reduction(*reduction_ci(cv.errors, base.errors, rng, group=k,
+                                          confidence=spec.confidence, n_boot=spec.n_boot))
+               for k, g in enumerate(data.group_names)}
+        out.append(CandidateResult(name, cv, overall, own, per, affected, variants=cv.variants))
+    return out
+
+
+def _apply_selection(sel: Selection, cands: list[CandidateResult], ev: ModelEvaluator
+                     ) -> tuple[list[CandidateResult], list[LawFinding]]:
+    """Claims, reasons and conditional reductions onto the library candidates and laws;
+    both in verdict order (claims first, the leading explanation first).
+    """
+    order = {n: i for i, n in enumerate([*sel.claims, *sel.rejected])}
+    for c in cands:
+        c.significant = c.name in sel.claims
+        c.status = "claimed" if c.significant else sel.reasons.get(c.name, "")
+        if sel.on_top_of.get(c.name):
+            c.given_best = sel.on_top.get(c.name)
+            c.on_top_of = sel.on_top_of[c.name]
+        c.refit = sel.refit.get(c.name)
+        c.share = sel.share.get(c.name)
+        if c.significant:
+            c.fitted_joint = [e.to_dict() for e in ev.joint(tuple(sel.claims))[1]
+                              if e.name == c.name]
+    cands.sort(key=lambda c: (order.get(c.name, len(order)), c.name))
+    for i, c in enumerate(cands, 1):
+        c.rank = i
+    laws = []
+    for key, f in ev.laws.items():
+        f.significant = key in sel.claims
+        f.reason = "claimed" if f.significant else sel.reasons.get(key, "")
+        f.refit = sel.refit.get(key)
+        f.share = sel.share.get(key)
+        if sel.on_top_of.get(key) and f.given_claimed is None:
+            f.given_claimed = sel.on_top.get(key)
+            f.on_top_of = sel.on_top_of[key]
+        laws.append(f)
+    laws.sort(key=lambda f: (order.get(law_key(f.channel), len(order)), f.channel))
+    return cands, laws
 
 
 def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.ndarray
@@ -626,83 +684,99 @@ def _strata_hint(diag: Diagnosis, residual: str, feature: str, residuals: np.nda
     return f"largest bias in {feature} {best}: {best_bias:+.3g} {unit} (n = {best_n})"
 
 
+def claim_label(diag: Diagnosis, name: str, formula: bool = True) -> str:
+    """How a claim or candidate is named in the verdict and the reports: a library effect
+    by its name, a learned law as "the law of <channel>: <formula>".
+    """
+    for f in diag.laws:
+        if law_key(f.channel) == name:
+            law = f.learned.law
+            return (f"a law of {f.channel} over {law['feature']}: {law['formula']}" if formula
+                    else f"the {f.channel} law (f({law['feature']}))")
+    return name
+
+
 def _verdict(diag: Diagnosis) -> list[str]:
     out: list[str] = []
-    sig = [c for c in diag.candidates if c.significant]
-    if not diag.candidates:
+    table = diag.selection_table()
+    if not len(table):
         return ["No candidate effect was tested."]
+    s = diag.settings
+    level = f"{100 * s['confidence']:.0f} %"
+    has_laws = bool((table["kind"] == "law").any())
+    what = "candidate effect or learned law" if has_laws else "candidate effect"
+    top = table.sort_values("alone", ascending=False, kind="stable").iloc[0]
+    top_text = (f"{claim_label(diag, top['candidate'], False)}, {100 * top['alone']:.1f} % "
+                f"[{100 * top['alone_low']:.1f}, {100 * top['alone_high']:.1f}]")
+    claims = diag.claims
     if not diag.reliable:
-        n, k = diag.data.n, diag.settings["folds"]
+        n, k = diag.data.n, s["folds"]
         out.append(
-            f"UNRELIABLE: {n} cases in {k} folds (fewer than "
-            f"{diag.settings['min_cases']} cases or fewer than {MIN_FOLD_CASES} held-out cases "
-            "per fold): the cross-validated reductions and their CIs below are not "
-            "trustworthy and no candidate is claimed to help significantly.")
-    if not sig:
-        top = diag.candidates[0]
+            f"UNRELIABLE: {n} cases in {k} folds (fewer than {s['min_cases']} cases or fewer "
+            f"than {MIN_FOLD_CASES} held-out cases per fold): nothing is claimed; the "
+            "cross-validated reductions and intervals below are shown, not concluded from.")
+        out.append(f"Nothing is claimed with so few cases (the largest reduction alone: "
+                   f"{top_text}, an interval that is not trustworthy at this size).")
+    elif not claims:
         out.append(
-            "No candidate effect helps significantly: every simultaneous "
-            f"{100 * diag.settings['confidence']:.0f} % CI of the cross-validated RMSE "
-            "reduction includes 0 or the reduction is below "
-            f"{100 * diag.settings['min_reduction']:.0f} % (best: {top.name}, "
-            f"{100 * top.overall.estimate:.1f} % [{100 * top.overall.low:.1f}, "
-            f"{100 * top.overall.high:.1f}])."
-        )
+            f"No {what} helps significantly: every simultaneous {level} CI of the "
+            "cross-validated RMSE reduction includes 0 or the reduction is below "
+            f"{100 * s['min_reduction']:.0f} % (best: {top_text}).")
     else:
-        b = sig[0]
-        out.append(
-            f"Most likely missing effect: {b.name} (rank 1). Added to the model it lowers "
-            f"the cross-validated RMSE by {100 * b.overall.estimate:.1f} % "
-            f"[{100 * b.overall.low:.1f}, {100 * b.overall.high:.1f}] over all outputs and by "
-            f"{100 * b.affected.estimate:.1f} % [{100 * b.affected.low:.1f}, "
-            f"{100 * b.affected.high:.1f}] over its own outputs "
-            f"({', '.join(b.affected_outputs)}); fitted on all cases: "
-            f"{_format_params(b.fitted())}."
-        )
-        if len(sig) > 1:
-            out.append(f"Added to the model with {b.name}, these effects lower the "
-                       "cross-validated RMSE further (significantly; calibrate them together "
-                       f"with vfs calibrate --effects {b.name},...): "
-                       + ", ".join(f"{c.name} ({100 * c.given_best.estimate:.1f} % "
-                                   f"[{100 * c.given_best.low:.1f}, "
-                                   f"{100 * c.given_best.high:.1f}]; refitted together "
-                                   f"{100 * c.refit.estimate:.1f} % [{100 * c.refit.low:.1f}, "
-                                   f"{100 * c.refit.high:.1f}])"
-                                   for c in sig[1:] if c.given_best and c.refit) + ".")
-    law_sig = [f for f in diag.laws if f.significant]
-    if law_sig:
-        top = diag.candidates[0]
-        lib = (f"{100 * top.overall.estimate:.1f} % [{100 * top.overall.low:.1f}, "
-               f"{100 * top.overall.high:.1f}] for the best library effect ({top.name})")
-        f = law_sig[0]
-        out.append(f"Beyond the library: {f.text()}, against {lib}. Add it with "
-                   "vfs learn --out law.json and --plugin law.json (or --export-plugin "
-                   "law.py to edit it).")
-        if len(law_sig) > 1:
-            out.append("Claimed stepwise on top of it (each channel re-identified with the "
-                       "laws claimed before applied; the law helps on top of them and with them "
-                       "refitted together, and they still help with it; add them together): "
-                       + "; ".join(x.text() for x in law_sig[1:]) + ".")
-        rest = [x for x in diag.laws if not x.significant]
-        if rest:
-            out.append(
-                "Not claimed (structure in the identified values that the claimed laws "
-                "explain or that does not lower the outcome error on top of them): "
-                + "; ".join(f"{x.channel} ~ {x.learned.law['feature']} (alone "
-                            f"{fr(x.outcome)}"
-                            + (f", on top {fr(x.given_claimed)}" if x.given_claimed else "")
-                            + (f", refitted together {fr(x.refit)}" if x.refit else "")
-                            + f"; {x.status}{'; ' + x.note if x.note else ''})"
-                            for x in rest[:6]) + ".")
-    elif diag.identification is not None:
-        out.append("The per-case identification shows no channel law that lowers the "
-                   "cross-validated error significantly.")
+        lead = claims[0]
+        sel = diag.selection
+        row = table.set_index("candidate").loc[lead]
+        alone = (f"{100 * row['alone']:.1f} % [{100 * row['alone_low']:.1f}, "
+                 f"{100 * row['alone_high']:.1f}]")
+        others = [c for c in claims if c != lead]
+        if row["kind"] == "law":
+            first = (f"Most likely missing physics: {claim_label(diag, lead)} (learned from "
+                     f"the per-case identification). Added to the model it lowers the "
+                     f"cross-validated RMSE of all outputs by {alone}")
+        else:
+            c = next(x for x in diag.candidates if x.name == lead)
+            first = (f"Most likely missing effect: {lead} (library effect). Added to the "
+                     f"model it lowers the cross-validated RMSE of all outputs by {alone} "
+                     f"and of its own outputs ({', '.join(c.affected_outputs)}) by "
+                     f"{fr(c.affected)}; fitted: {_format_params(c.fitted())}")
+        if others and sel is not None:
+            first += (f"; in the selected model it carries {fr(sel.share[lead])} of the error "
+                      f"left without it")
+        out.append(first + ".")
+        if others:
+            items = []
+            for name in others:
+                r = table.set_index("candidate").loc[name]
+                items.append(
+                    f"{claim_label(diag, name)} ({100 * r['on_top']:.1f} % "
+                    f"[{100 * r['on_top_low']:.1f}, {100 * r['on_top_high']:.1f}] on top of "
+                    f"{r['on_top_of'] or 'the default model'}; in the selected model "
+                    f"{100 * r['share']:.1f} % [{100 * r['share_low']:.1f}, "
+                    f"{100 * r['share_high']:.1f}])")
+            out.append("Also claimed (each on top of the claims before it, with them refitted "
+                       "together, and kept when every claim was re-tested given the others): "
+                       + "; ".join(items) + f". Add them together: {'+'.join(claims)}.")
+        steps = diag.ledger_steps()
+        out.append("Cross-validated RMSE (standardised) step by step: " + " -> ".join(
+            ("default" if a == "start" else f"{'+' if a == 'add' else '-'}{n}") + f" {v:.3g}"
+            for a, n, v in zip(steps["action"], steps["candidate"], steps["cv_rmse"],
+                               strict=True)) + ".")
+    rej = table[(table["status"] != "claimed") & (table["status"] != "not significant")
+                & (table["status"] != "too few cases for any claim")]
+    if len(rej):
+        out.append("Tried and rejected: " + "; ".join(
+            f"{claim_label(diag, r['candidate'], False)} ({r['status']}; alone "
+            f"{100 * r['alone']:.1f} % [{100 * r['alone_low']:.1f}, "
+            f"{100 * r['alone_high']:.1f}]"
+            + (f", on top of {r['on_top_of']} {100 * r['on_top']:.1f} % "
+               f"[{100 * r['on_top_low']:.1f}, {100 * r['on_top_high']:.1f}]"
+               if r["on_top_of"] and np.isfinite(r["on_top"]) else "") + ")"
+            for _, r in rej.head(8).iterrows()) + ".")
     rem = diag.remaining[diag.remaining["significant"]] if len(diag.remaining) else \
         diag.remaining
     after = diag.remaining_model
-    res = (diag.candidates[0].cv.residuals if diag.best is not None
-           else diag.default.residuals)
     if len(rem):
+        res = diag.selection_residuals()
         items = []
         for _, r in rem.head(5).iterrows():
             hint = _strata_hint(diag, r["residual"], r["feature"], res)
@@ -710,14 +784,13 @@ def _verdict(diag: Diagnosis) -> list[str]:
             items.append(f"{r['residual']} ~ {r['feature']} ({stat} = {r['statistic']:+.2f}, "
                          f"p_adj = {r['p_adj']:.2g}{'; ' + hint if hint else ''})")
         who = "the default model" if after == "default" else f"adding {after}"
-        out.append(f"Residual structure remains after {who} that no tested candidate "
-                   f"explains alone: {len(rem)} significant residual-feature association(s), "
+        out.append(f"Residual structure remains after {who} that no claim explains: "
+                   f"{len(rem)} significant residual-feature association(s), "
                    "strongest: " + "; ".join(items) + ".")
     else:
         who = "the default model" if after == "default" else after
         out.append(f"No significant residual-feature association remains with {who} "
-                   f"({diag.settings['correction'].upper()} at alpha = "
-                   f"{diag.settings['alpha']:g}).")
+                   f"({s['correction'].upper()} at alpha = {s['alpha']:g}).")
     return out
 
 
@@ -740,11 +813,21 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
                                         strict=True)),
                     "cv_rmse_overall": diag.default.overall_rmse()},
         "ranking": diag.ranking,
-        "significant": [c.name for c in diag.candidates if c.significant],
+        "claims": [{"name": n, "kind": "law" if n.endswith(" law") and n not in diag.ranking
+                    else "effect", "text": claim_label(diag, n),
+                    "share": diag.selection.share[n].as_dict() if diag.selection else None}
+                   for n in diag.claims],
+        "significant": [n for n in diag.claims if n in diag.ranking],
+        "rejected": [{"name": r["candidate"], "kind": r["kind"], "reason": r["status"],
+                      "alone": {"estimate": r["alone"], "low": r["alone_low"],
+                                "high": r["alone_high"]}}
+                     for _, r in diag.selection_table().iterrows()
+                     if r["status"] != "claimed"],
+        "steps": diag.ledger_steps().to_dict(orient="records"),
         "candidates": [
             {
                 "rank": c.rank, "name": c.name, "significant": c.significant,
-                "fitted": c.fitted(),
+                "status": c.status, "fitted": c.fitted(),
                 "fold_parameters": c.cv.fold_x.tolist(),
                 "parameters_fitted": c.cv.space.names(),
                 "reduction": c.overall.as_dict(),
@@ -766,7 +849,8 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
             .to_dict(orient="records") if len(diag.remaining) else [],
         },
         "worst_cases": diag.worst.to_dict(orient="records"),
-        "claimed_laws": [f.channel for f in diag.laws if f.significant],
+        "claimed_laws": [f.channel for n in diag.claims for f in diag.laws
+                         if law_key(f.channel) == n],
         "laws": [{"channel": f.channel, "significant": f.significant, "status": f.status,
                   "round": f.round, "on_top_of": list(f.on_top_of), "note": f.note,
                   "law": f.learned.law, "text": f.text(),
@@ -774,7 +858,7 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
                   "reduction_given_claimed": f.given_claimed.as_dict()
                   if f.given_claimed else None,
                   "reduction_refit": f.refit.as_dict() if f.refit else None,
-                  "reduction_claimed_kept": f.kept.as_dict() if f.kept else None,
+                  "share": f.share.as_dict() if f.share else None,
                   "identified_reduction": {"estimate": f.learned.reduction,
                                            "low": f.learned.low, "high": f.learned.high,
                                            "null": f.learned.null}}
@@ -789,8 +873,9 @@ def output_names() -> list[str]:
 
 
 __all__ = [
-    "CATEGORICAL_FEATURES", "NUMERIC_FEATURES", "STRATA_FEATURES", "CandidateResult",
-    "MIN_CASES", "MIN_FOLD_CASES", "Diagnosis", "case_features", "diagnose", "output_names",
-    "residual_associations", "residual_variables", "resolve_candidates",
-    "rmse_reduction", "stratified_residuals", "summary_dict", "worst_cases",
+    "CATEGORICAL_FEATURES", "MIN_CASES", "MIN_FOLD_CASES", "NUMERIC_FEATURES",
+    "STRATA_FEATURES", "CandidateResult", "Correction", "DiagnoseSpec", "Diagnosis",
+    "Parameters", "case_features", "claim_label", "diagnose", "output_names",
+    "residual_associations", "residual_variables", "resolve_candidates", "rmse_reduction",
+    "stratified_residuals", "summary_dict", "worst_cases",
 ]

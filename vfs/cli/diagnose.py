@@ -5,13 +5,17 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vfs.cli.common import add_figure_options, load_plugins, out_folder, out_option, say
+from vfs.analysis.diagnose_spec import Correction, Parameters
+from vfs.cli.common import add_figure_options, load_plugins, out_folder, out_option
 from vfs.errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from vfs.analysis.diagnose import Diagnosis
+    from vfs.analysis.diagnose_spec import DiagnoseSpec
     from vfs.database import Database
 
 #: Settings of ``--quick`` (small grids, 3 folds, fewer bootstrap samples).
@@ -34,6 +38,64 @@ def _settings(args: argparse.Namespace) -> dict[str, int]:
     return {k: (defaults[k] if v is None else int(v)) for k, v in s.items()}
 
 
+def diagnose_spec(args: argparse.Namespace, database: str = "") -> DiagnoseSpec:
+    """The :class:`vfs.analysis.diagnose_spec.DiagnoseSpec` of the flags of ``vfs diagnose``."""
+    from vfs.analysis.diagnose_spec import MAX_STEPS, DiagnoseSpec
+
+    s = _settings(args)
+    steps = args.max_steps if args.max_steps is not None else (
+        args.law_rounds + 1 if args.law_rounds is not None else MAX_STEPS)
+    return DiagnoseSpec(outputs=args.outputs, effects=args.effects, laws=args.laws,
+                        folds=s["folds"], seed=args.seed, parameters=args.parameters,
+                        grid_points=s["grid"], zoom_rounds=s["zoom"], n_boot=s["n_boot"],
+                        correction=args.correction, alpha=args.alpha,
+                        min_reduction=args.min_reduction, worst=args.worst, max_steps=steps,
+                        database=database)
+
+
+def _progress(quiet: bool) -> Callable[[str], None]:
+    """Progress lines with the elapsed time on stderr; silent with --quiet or when stderr
+    is not a terminal (the lines then go nowhere: the summary is printed at the end).
+    """
+    import sys
+    import time
+
+    if quiet or not sys.stderr.isatty():
+        return lambda _msg: None
+    t0 = time.perf_counter()
+
+    def tell(msg: str) -> None:
+        print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    return tell
+
+
+def format_selection(diag: Diagnosis) -> str:
+    """The console's table of the selection (:meth:`Diagnosis.selection_table`, the table
+    of the report).
+    """
+    t = diag.selection_table()
+    if not len(t):
+        return "(no candidate)"
+
+    def ci(v: float, lo: float, hi: float) -> str:
+        return "" if v != v else f"{100 * v:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+    import pandas as pd
+
+    show = pd.DataFrame({
+        "candidate": t["candidate"], "kind": t["kind"], "status": t["status"],
+        "alone %": [ci(*r) for r in zip(t["alone"], t["alone_low"], t["alone_high"],
+                                         strict=True)],
+        "on top %": [ci(*r) for r in zip(t["on_top"], t["on_top_low"], t["on_top_high"],
+                                          strict=True)],
+        "on top of": t["on_top_of"],
+        "share %": [ci(*r) for r in zip(t["share"], t["share_low"], t["share_high"],
+                                         strict=True)],
+    })
+    return show.to_string(index=False)
+
+
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run the diagnosis, write the reports and append the ledger."""
     from vfs.analysis.diagnose import diagnose
@@ -43,19 +105,11 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     load_plugins(args.plugin)
     out_folder(args, "diagnose", args.db)
     db, path = _load_db(args.db)
-    s = _settings(args)
-    diag = diagnose(db, outputs=args.outputs, effects=args.effects, folds=s["folds"],
-                    seed=args.seed, parameters=args.parameters, grid_points=s["grid"],
-                    zoom_rounds=s["zoom"], n_boot=s["n_boot"], correction=args.correction,
-                    alpha=args.alpha, min_reduction=args.min_reduction, worst=args.worst,
-                    database=str(path), progress=say,
-                    laws=None if args.laws in ("", "none") else args.laws,
-                    **({} if args.law_rounds is None else {"law_rounds": args.law_rounds}))
+    spec = diagnose_spec(args, str(path))
+    diag = diagnose(db, spec, progress=_progress(args.quiet))
     paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
-    print(diag.ranked_table()[["rank", "effect", "significant", "reduction", "ci_low",
-                               "ci_high", "reduction_affected", "fitted"]]
-          .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    print(format_selection(diag))
     print()
     for line in diag.verdict:
         print(f"- {line}")
@@ -63,11 +117,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print(f"\n{st['variants']} model variants simulated ({st['case_runs']} case runs, "
           f"{st['seconds']:.1f} s); total {st['total_seconds']:.1f} s")
     ledger_dir = Path(args.ledger) if args.ledger else Path(args.out).resolve().parent
-    records = [make_record(diag.default, diag.data, "default", "diagnose", s["folds"],
+    records = [make_record(diag.default, diag.data, "default", "diagnose", spec.folds,
                            args.seed, str(path))]
-    records += [make_record(c.cv, diag.data, "candidate", "diagnose", s["folds"], args.seed,
-                            str(path), note=f"rank {c.rank}; "
-                            f"{'significant' if c.significant else 'not significant'}")
+    records += [make_record(c.cv, diag.data, "candidate", "diagnose", spec.folds, args.seed,
+                            str(path), note=f"rank {c.rank}; {c.status or 'not significant'}")
                 for c in diag.candidates]
     lp = append_records(ledger_dir, records)
     print(f"report -> {paths['html']} and {paths['markdown']}; ranking -> {paths['ranking']}; "
@@ -170,7 +223,7 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="compared outputs, comma separated (default: all available): "
                    "delta_v, ees, energy_loss, post_speed, velocity_angle_change, pdof, "
                    "rest_position, rest_yaw, runout_distance, impact_type")
-    p.add_argument("--parameters", choices=("primary", "all"), default="primary",
+    p.add_argument("--parameters", choices=[m.value for m in Parameters], default="primary",
                    help="fit each effect's primary parameter (diagnose: others at their "
                    "neutral values, calibrate: at their defaults) or all")
     p.add_argument("--folds", type=int, default=None, help="k of the k-fold CV (default 5)")
@@ -208,7 +261,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     out_option(p, "report folder", "diagnose-<db>")
     p.add_argument("--n-boot", dest="n_boot", type=int, default=None,
                    help="bootstrap samples (default 2000)")
-    p.add_argument("--correction", choices=("bh", "holm"), default="bh",
+    p.add_argument("--correction", choices=[m.value for m in Correction], default="bh",
                    help="multiplicity control of the associations (default bh)")
     p.add_argument("--alpha", type=float, default=0.05, help="test level (default 0.05)")
     p.add_argument("--min-reduction", dest="min_reduction", type=float, default=0.01,
@@ -216,13 +269,17 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--worst", type=int, default=6,
                    help="worst cases listed and sketched (default 6)")
     p.add_argument("--laws", default="all",
-                   help="channels identified per case and learned (vfs identify / learn) "
-                   "after the ranking: 'all' (default), a list, or 'none'; the best law "
-                   "is claimed if it helps, further laws stepwise on channels re-identified "
-                   "with the claimed laws applied")
+                   help="channels identified per case and learned (vfs identify / learn): "
+                   "'all' (default), a list, or 'none'; their laws are candidates of the "
+                   "one selection with the library effects")
+    p.add_argument("--max-steps", dest="max_steps", type=int, default=None,
+                   help="most claims of the selection (default "
+                   "vfs.analysis.diagnose_spec.MAX_STEPS)")
     p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
-                   help="most stepwise rounds of the law claims after the first (default "
-                   "vfs.analysis.claims.LAW_ROUNDS)")
+                   help=argparse.SUPPRESS)
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines on stderr (they are off when stderr is not a "
+                   "terminal)")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

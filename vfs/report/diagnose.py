@@ -19,7 +19,7 @@ import pandas as pd
 
 from vfs.accident_types import accident_type_label
 from vfs.analysis.claims import LawFinding
-from vfs.analysis.diagnose import Diagnosis, summary_dict
+from vfs.analysis.diagnose import Diagnosis, claim_label, summary_dict
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import (
     new_figure,
@@ -94,25 +94,32 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
     figs: dict[str, str] = {}
     d = diag.data
     cands = diag.candidates
-    if cands:
-        fig = new_figure((7, 0.45 * len(cands) + 1.5))
+    table = diag.selection_table()
+    if len(table):
+        fig = new_figure((7.5, 0.45 * len(table) + 1.5))
         ax = fig.subplots()
-        y = np.arange(len(cands))[::-1]
-        est = np.array([100 * c.overall.estimate for c in cands])
-        lo = np.array([100 * c.overall.low for c in cands])
-        hi = np.array([100 * c.overall.high for c in cands])
-        colors = ["#2ca02c" if c.significant else "#999999" for c in cands]
+        y = np.arange(len(table))[::-1]
+        est = 100 * table["alone"].to_numpy(float)
+        lo = 100 * table["alone_low"].to_numpy(float)
+        hi = 100 * table["alone_high"].to_numpy(float)
+        colors = ["#2ca02c" if st == "claimed" else "#999999" for st in table["status"]]
         ax.barh(y, est, color=colors)
         ax.errorbar(est, y, xerr=[np.maximum(est - lo, 0), np.maximum(hi - est, 0)], fmt="none",
                     ecolor="k", capsize=3, lw=1)
-        ax.set_yticks(y, [c.name for c in cands])
+        ax.set_yticks(y, [f"{n} ({st})" if st != "claimed" else n
+                          for n, st in zip(table["candidate"], table["status"], strict=True)],
+                      fontsize=7)
         ax.axvline(0, color="k", lw=0.8)
-        ax.set_xlabel("cross-validated RMSE reduction [%] (green: helps significantly)")
-        ax.set_title("Which effect is missing", fontsize=10)
+        ax.set_xlabel("cross-validated RMSE reduction alone [%] (green: claimed)")
+        ax.set_title("Library effects and learned laws", fontsize=10)
         save_figure(fig, out / "ranking.png", dpi=110, tight=True)
         figs["ranking"] = f"{rel}/ranking.png"
+    steps = diag.ledger_steps()
+    if len(steps):
+        figs["steps"] = f"{rel}/{_plot_steps(steps, out / 'selection_steps.png').name}"
     for k, f in enumerate(diag.laws[:3]):
         figs[f"law_{k}"] = f"{rel}/{_plot_law(diag, f, out / f'law_{f.channel}.png').name}"
+    if cands:
 
         mat = np.array([[100 * c.per_output[g].estimate for g in d.group_names] for c in cands])
         fig = new_figure((1.0 + 0.8 * len(d.group_names), 0.45 * len(cands) + 2.0))
@@ -179,6 +186,27 @@ def diagnosis_figures(diag: Diagnosis, folder: str | Path,
     return figs
 
 
+def _plot_steps(steps: pd.DataFrame, path: Path) -> Path:
+    """The cross-validated RMSE of the joint model after each step of the selection."""
+    fig = new_figure((max(4.0, 1.3 * len(steps) + 2), 3.6))
+    ax = fig.subplots()
+    x = np.arange(len(steps))
+    v = steps["cv_rmse"].to_numpy(float)
+    colors = ["#777777" if a == "start" else "#2ca02c" if a == "add" else "#d62728"
+              for a in steps["action"]]
+    ax.bar(x, v, color=colors)
+    for i, val in enumerate(v):
+        ax.text(i, val, f"{val:.3g}", ha="center", va="bottom", fontsize=8)
+    labels = ["default" if a == "start" else f"{'+' if a == 'add' else '-'} {n}"
+              for a, n in zip(steps["action"], steps["candidate"], strict=True)]
+    ax.set_xticks(x, labels, rotation=20, ha="right", fontsize=8)
+    ax.set_ylabel("CV RMSE (standardised)")
+    ax.set_title("The error step by step within the selection (green: claimed, red: dropped)",
+                 fontsize=9)
+    save_figure(fig, path, dpi=110, tight=True)
+    return path
+
+
 def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
     """Identified values of a channel over the law's feature, the law and the spline band."""
     from vfs.analysis.learn import law_rows
@@ -225,47 +253,62 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
     level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', 0.95)):.1f} %"
     items: list[str] = []
     cands = diag.candidates
-    top = cands[0] if cands else None
 
     def red(r: Any) -> str:
         return f"{100 * r.estimate:.1f} % [{100 * r.low:.1f}, {100 * r.high:.1f}]"
 
+    table = diag.selection_table()
+    rows = table.set_index("candidate") if len(table) else table
+    claims = diag.claims
     if not diag.reliable:
         items.append(f"Unreliable: {diag.data.n} cases in {s.get('folds', '?')} folds are too "
                      "few for any claim; the figures below are shown, not concluded from.")
-    if top is None:
+    if not len(table):
         items.append("Unsure: no candidate effect was tested.")
-    elif diag.best is None:
-        items.append(f"Unsure: no candidate effect helps significantly. The best, `{top.name}`, "
-                     f"lowers the cross-validated RMSE by {red(top.overall)} (simultaneous "
-                     f"{level} interval): its interval includes 0 or the reduction stays below "
-                     f"{100 * s.get('min_reduction', 0):.0f} %.")
+    elif not claims:
+        best = table.sort_values("alone", ascending=False, kind="stable").iloc[0]
+        what = "candidate effect" if not (table["kind"] == "law").any() \
+            else "candidate effect or learned law"
+        shown = (f"`{best['candidate']}`, lowers the cross-validated RMSE by "
+                 f"{100 * best['alone']:.1f} % [{100 * best['alone_low']:.1f}, "
+                 f"{100 * best['alone_high']:.1f}] (simultaneous {level} interval)")
+        items.append(
+            f"Unsure: no {what} helps significantly. The best alone, {shown}: its interval "
+            f"includes 0 or the reduction stays below {100 * s.get('min_reduction', 0):.0f} %."
+            if diag.reliable else
+            f"Unsure: nothing is claimed with so few cases. The best alone, {shown}, is not "
+            "trustworthy at this size.")
     else:
-        b = diag.best
-        items.append(f"Most likely missing effect: `{b.name}`. It lowers the cross-validated "
-                     f"RMSE of all outputs by {red(b.overall)} (simultaneous {level} "
-                     f"interval) and of its own outputs by {red(b.affected)}.")
-        more = [c for c in cands[1:] if c.significant and c.given_best is not None]
-        if more:
-            items.append("On top of it also: " + ", ".join(
-                f"`{c.name}` {red(c.given_best)}" for c in more[:3]) + ".")
-    laws = [f for f in diag.laws if f.significant]
-    if laws:
-        f = laws[0]
-        items.append(f"Beyond the library: the identified {f.channel} follows "
-                     f"{f.learned.law['formula']}, lowering the outcome error by "
-                     f"{red(f.outcome)}.")
-        if len(laws) > 1:
-            items.append("Claimed stepwise on top of it (re-identified with the laws claimed "
-                         "before applied): " + ", ".join(
-                             f"`{x.channel}` ~ {x.learned.law['feature']} "
-                             f"{red(x.given_claimed)}" for x in laws[1:]
-                             if x.given_claimed is not None) + ".")
-        others = [x for x in diag.laws if not x.significant]
-        if others:
-            items.append("Not claimed: " + ", ".join(
-                f"`{x.channel}` ~ {x.learned.law['feature']} ({x.status})"
-                for x in others[:4]) + ".")
+        lead = claims[0]
+        r = rows.loc[lead]
+        alone = (f"{100 * r['alone']:.1f} % [{100 * r['alone_low']:.1f}, "
+                 f"{100 * r['alone_high']:.1f}]")
+        if r["kind"] == "law":
+            items.append(f"Most likely missing physics: {claim_label(diag, lead)} (learned). "
+                         f"It lowers the cross-validated RMSE of all outputs by {alone} "
+                         f"(simultaneous {level} interval).")
+        else:
+            b = next(c for c in cands if c.name == lead)
+            items.append(f"Most likely missing effect: `{lead}`. It lowers the cross-validated "
+                         f"RMSE of all outputs by {red(b.overall)} (simultaneous {level} "
+                         f"interval) and of its own outputs by {red(b.affected)}.")
+        for n in claims[1:]:
+            x = rows.loc[n]
+            items.append(f"Also claimed: {claim_label(diag, n)}, {100 * x['on_top']:.1f} % "
+                         f"[{100 * x['on_top_low']:.1f}, {100 * x['on_top_high']:.1f}] on top "
+                         f"of {x['on_top_of']}.")
+        steps = diag.ledger_steps()
+        items.append("Error step by step (CV RMSE, standardised): " + " -> ".join(
+            ("default" if a == "start" else f"{'+' if a == 'add' else '-'}{n}") + f" {v:.3g}"
+            for a, n, v in zip(steps["action"], steps["candidate"], steps["cv_rmse"],
+                               strict=True)) + ".")
+    rejected = table[~table["status"].isin(("claimed", "not significant",
+                                            "too few cases for any claim"))] \
+        if len(table) else table
+    if len(rejected):
+        items.append("Tried and rejected: " + ", ".join(
+            f"`{n}` ({st})" for n, st in zip(rejected["candidate"].head(5),
+                                             rejected["status"].head(5), strict=True)) + ".")
     d = diag.data
     rmse = np.asarray(diag.default.rmse(), float)
     if rmse.size and np.isfinite(rmse).any():
@@ -288,6 +331,20 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
                       "cross-validation by case; details and the full verdict below.")]
 
 
+def _answer_figures(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
+    """The figures of the one screen: the error step by step within the selection and the
+    learned law of each claimed channel (curve, identified values, spline band).
+    """
+    out: list[Block] = []
+    if "steps" in figures and len(diag.ledger_steps()) > 1:
+        out.append(Figure(figures["steps"], "The cross-validated RMSE of the selected model "
+                          "after each step of the selection (default model first)"))
+    for k, f in enumerate(diag.laws[:3]):
+        if f.significant and f"law_{k}" in figures:
+            out.append(Figure(figures[f"law_{k}"], f"Claimed: {f.learned.law['formula']}"))
+    return out
+
+
 def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     """The blocks of the diagnosis report (``figures``: key -> path relative to the report)."""
     d = diag.data
@@ -295,6 +352,7 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
     doc: list[Block] = [
         Heading("Model diagnosis", 1),
         *summary_blocks(diag),
+        *_answer_figures(diag, figures),
         Paragraph(f"Database: {diag.database or '(in memory)'}; {d.n} cases with a "
                   f"reconstruction; {s['folds']}-fold cross-validation by case (seed "
                   f"{s['seed']}); outputs: {', '.join(d.group_names)}. Errors are RMSEs of "
@@ -304,38 +362,40 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
                   "never read."),
         Heading("Verdict", 2),
         BulletList(tuple(diag.verdict)),
-        Heading("Which effect is missing: candidates ranked by the cross-validated RMSE "
-                "reduction", 2),
+        Heading("Which effect is missing: one selection over library effects and learned "
+                "laws", 2),
     ]
-    rt = diag.ranked_table()
-    if len(rt):
+    st_ = diag.ledger_steps()
+    if len(st_):
         doc.append(_table(pd.DataFrame({
-            "rank": rt["rank"], "effect": rt["effect"],
-            "helps": rt["significant"],
-            "reduction [%]": [_pct(v) for v in rt["reduction"]],
-            f"{100 * s['simultaneous_confidence']:.2f} % CI [%]": [
-                f"{_pct(lo)} .. {_pct(hi)}" for lo, hi in zip(rt["ci_low"], rt["ci_high"],
-                                                              strict=True)],
-            "own outputs [%]": [_pct(v) for v in rt["reduction_affected"]],
-            "added to rank 1 [%]": [
-                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
-                for v, lo, hi in zip(rt["reduction_given_best"], rt["given_best_ci_low"],
-                                     rt["given_best_ci_high"], strict=True)],
-            "rank 1 refitted with it [%]": [
-                f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else _pct(v)
-                for v, lo, hi in zip(rt["reduction_refit"], rt["refit_ci_low"],
-                                     rt["refit_ci_high"], strict=True)],
-            "CV RMSE": rt["cv_rmse"], "fitted on all cases": rt["fitted"],
-            "variants": rt["variants"],
-        })))
+            "step": st_["step"], "action": st_["action"], "candidate": st_["candidate"],
+            "model": st_["model"], "CV RMSE": st_["cv_rmse"],
+            "reduction [%]": [f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else ""
+                              for v, lo, hi in zip(st_["reduction"], st_["low"], st_["high"],
+                                                   strict=True)]})))
+    t = diag.selection_table()
+
+    def cis(prefix: str) -> list[str]:
+        return [f"{_pct(v)} ({_pct(lo)} .. {_pct(hi)})" if np.isfinite(v) else ""
+                for v, lo, hi in zip(t[prefix], t[f"{prefix}_low"], t[f"{prefix}_high"],
+                                     strict=True)]
+
+    if len(t):
+        doc.append(_table(pd.DataFrame({
+            "candidate": t["candidate"], "kind": t["kind"], "status": t["status"],
+            "alone [%]": cis("alone"), "on top [%]": cis("on_top"),
+            "on top of": t["on_top_of"], "claims refitted with it [%]": cis("refit"),
+            "share in the selected model [%]": cis("share"), "model": t["model"]})))
     doc.append(Paragraph(
         f"Default model: CV RMSE {diag.default.overall_rmse():.3g} (standardised, all "
-        f"outputs). Simultaneous CIs: Bonferroni over {len(diag.candidates)} candidates; a "
-        "candidate helps if the CI lies above 0 and the reduction reaches "
-        f"{100 * s['min_reduction']:.0f} %. Ranks 2 and below are ordered by the reduction "
-        "they add to the model with the rank-1 effect (stepwise) when that one helps; "
-        "'helps' then means: its own CI, the CI on top of rank 1 and the CI with rank 1 "
-        "refitted together with it all lie above 0."
+        f"outputs). Simultaneous "
+        f"{100 * s['simultaneous_confidence']:.2f} % CIs (Bonferroni over all {len(t)} "
+        "candidates). One forward stepwise selection: each step adds the candidate with the "
+        "largest reduction on top of the claims if its CI lies above 0 and the reduction "
+        f"reaches {100 * s['min_reduction']:.0f} %, and the claims refitted together with it "
+        "still help; after each addition every earlier claim is re-tested given the others "
+        "and dropped if it no longer helps. 'share': the selected model against it without "
+        "the claim. 'mimics X': helped alone, not on top of X."
         + ("" if diag.reliable else " UNRELIABLE: too few cases or folds, nothing is "
            "claimed.")))
     if diag.candidates:
@@ -358,30 +418,20 @@ def report_blocks(diag: Diagnosis, figures: dict[str, str]) -> list[Block]:
             doc.append(_table(pd.DataFrame({
                 "channel": [f.channel for f in diag.laws],
                 "law": [f.learned.law["formula"] for f in diag.laws],
+                "identified with": ["+".join(f.on_top_of) or "the default model"
+                                    for f in diag.laws],
                 "vs null on identified values [%]": [_pct(f.learned.reduction)
                                                      for f in diag.laws],
-                "outcome CV reduction [%]": [
-                    f"{_pct(f.outcome.estimate)} ({_pct(f.outcome.low)} .. "
-                    f"{_pct(f.outcome.high)})" for f in diag.laws],
-                "on top of the claimed laws [%]": [
-                    f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})" if r else ""
-                    for r in (f.given_claimed for f in diag.laws)],
-                "claimed laws refitted with it [%]": [
-                    f"{_pct(r.estimate)} ({_pct(r.low)} .. {_pct(r.high)})" if r else ""
-                    for r in (f.refit for f in diag.laws)],
                 "status": [f.status for f in diag.laws]})))
             doc.append(Paragraph(
-                "The best law is claimed if its outcome CV reduction helps; the other "
-                "channels are then re-identified with the claimed laws applied (a missing "
-                "law on one channel leaks into the identification of the others), their "
-                "laws learned anew, and a law is claimed on top only if it helps on top of "
-                "the claimed laws and with them refitted together, and they still help with "
-                "it (at most "
-                f"{diag.settings.get('law_rounds', '?')} stepwise rounds)."))
+                "Each law is a candidate of the one selection above (its outcome reductions "
+                "are in that table); on top of claims its channel is re-identified with the "
+                "claims applied and its law learned anew. The figures show the law with the "
+                "identified values and the smoothing spline's bootstrap band."))
         else:
             doc.append(Paragraph("No identified channel shows a law."))
         for k, f in enumerate(diag.laws[:3]):
-            if f"law_{k}" in figures:
+            if f"law_{k}" in figures and not f.significant:
                 doc.append(Figure(figures[f"law_{k}"], f.text()))
     doc += [
         Heading("Where the model fails", 2),

@@ -1,0 +1,83 @@
+"""The one model selection of the diagnosis (vfs.analysis.selection) on synthetic reductions.
+
+A :class:`TableEvaluator` model: error components with known squared errors; each candidate
+explains a share of some components, a model the largest share any of its candidates has.
+The reductions follow from that exactly, so each expected claim is derived, not tuned.
+"""
+
+from __future__ import annotations
+
+from vfs.analysis.claims import Reduction
+from vfs.analysis.selection import TableEvaluator, select
+
+
+def test_proxy_claimed_first_is_dropped_after_the_true_ones_join():
+    # the proxy explains 70 % of both components (alone 1 - sqrt(0.3) = 45 %), each true
+    # law one component fully (1 - sqrt(0.5) = 29 %): the proxy leads step 1; with both true
+    # laws in, the proxy explains nothing more and the backward check drops it
+    ev = TableEvaluator({"proxy": {"A": 0.7, "B": 0.7}, "law_a": {"A": 1.0},
+                         "law_b": {"B": 1.0}}, {"A": 1.0, "B": 1.0, "noise": 0.5},
+                        half_width=0.01)
+    sel = select(["proxy", "law_a", "law_b"], ev, 0.01)
+    assert sel.steps[1].name == "proxy"
+    assert sorted(sel.claims) == ["law_a", "law_b"]
+    assert sel.reasons == {"proxy": "dropped after law_b joined"}
+    assert [s.action for s in sel.steps] == ["start", "add", "add", "add", "drop"]
+    # the ledger's error falls with every addition; the drop leaves it unchanged
+    rmse = [s.rmse for s in sel.steps]
+    assert rmse[1] < rmse[0] and rmse[2] < rmse[1]
+    assert rmse[-1] == rmse[-2] == ev.rmse(("law_a", "law_b"))
+
+
+def test_a_mimic_is_labelled_with_the_claim_that_absorbs_it():
+    # the library effect explains 60 % of the law's component: helps alone, nothing on top
+    ev = TableEvaluator({"effect": {"A": 0.6}, "law": {"A": 1.0}}, {"A": 1.0, "noise": 1.0})
+    sel = select(["effect", "law"], ev, 0.01)
+    assert sel.claims == ["law"]
+    assert sel.reasons == {"effect": "mimics law"}
+    assert sel.alone["effect"].low > 0 and sel.on_top["effect"].estimate == 0.0
+
+
+def test_noise_claims_nothing():
+    ev = TableEvaluator({"a": {}, "b": {"A": 0.005}}, {"A": 1.0})
+    sel = select(["a", "b"], ev, 0.01)
+    assert sel.claims == [] and set(sel.reasons.values()) == {"not significant"}
+    assert [s.action for s in sel.steps] == ["start"]
+
+
+def test_too_few_cases_claims_nothing_but_reports_the_reductions():
+    ev = TableEvaluator({"a": {"A": 1.0}}, {"A": 1.0, "B": 1.0})
+    sel = select(["a"], ev, 0.01, reliable=False)
+    assert sel.claims == [] and sel.alone["a"].estimate > 0.2
+    assert sel.reasons["a"] == "too few cases for any claim"
+
+
+def test_claims_are_ordered_by_their_share_in_the_joint_model():
+    # the verdict order is by the share in the final model: 'big' explains the larger part
+    ev = TableEvaluator({"big": {"A": 1.0}, "small": {"B": 1.0}},
+                        {"A": 3.0, "B": 1.0, "noise": 1.0})
+    sel = select(["small", "big"], ev, 0.01)
+    assert sel.claims == ["big", "small"]
+    assert sel.removed["big"] > sel.removed["small"] > 0
+    assert sel.share["big"].estimate > sel.share["small"].estimate > 0
+
+
+def test_failed_refit_is_not_confirmed_and_the_next_best_is_tried():
+    class Refit(TableEvaluator):
+        def joint_gain(self, name, model):
+            if name == "fake" and len(model) > 1:
+                return Reduction(0.0, -0.05, 0.05)
+            return super().joint_gain(name, model)
+
+    ev = Refit({"a": {"A": 1.0}, "fake": {"B": 1.0}, "b": {"C": 1.0}},
+               {"A": 4.0, "B": 2.0, "C": 1.0, "noise": 1.0})
+    sel = select(["a", "fake", "b"], ev, 0.01)
+    assert sorted(sel.claims) == ["a", "b"]
+    assert sel.reasons["fake"] == "not confirmed on top of a, b"
+
+
+def test_step_cap():
+    ev = TableEvaluator({n: {n: 1.0} for n in "abc"}, {"a": 3.0, "b": 2.0, "c": 1.0,
+                                                        "noise": 1.0})
+    sel = select(list("abc"), ev, 0.01, max_steps=2)
+    assert sel.claims == ["a", "b"] and sel.reasons["c"] == "not tried: at most 2 claims"

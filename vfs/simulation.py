@@ -406,10 +406,12 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     result = solve_impact(config, restitution_mode=params.impact.restitution_mode)
     impulse_hooks = hooks(effects, "contact_impulse")
     split_hooks = hooks(effects, "energy_split")
-    if impulse_hooks or split_hooks:
-        change = VelocityChange.zeros(config.size)
-        for hook in impulse_hooks:
-            change = change + hook(ctx, config, result)
+    change = VelocityChange.zeros(config.size)
+    for hook in impulse_hooks:
+        change = change + hook(ctx, config, result)
+    # no impulse and no split (e.g. an impulse law at its neutral value): the result as
+    # solved, bit for bit
+    if split_hooks or any(np.any(a != 0.0) for a in change):
         e1, e2 = deformation_energies(config, result)
         for hook in split_hooks:
             e1, e2 = hook(ctx, config, result, e1, e2)

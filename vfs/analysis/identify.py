@@ -178,6 +178,9 @@ def noise_factors(data: CalibrationData, residuals: np.ndarray) -> np.ndarray:
     return out
 
 
+#: Probability of a standard normal within one standard deviation.
+_ONE_SIGMA = 0.6826894921370859
+
 #: Fewest identifiable cases for :func:`consistency_factor` (below: 1).
 MIN_CONSISTENCY_CASES = 12
 
@@ -191,9 +194,12 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
     values over the root sum of squares of their half widths (each on the side
     facing the other value) are standard normal if the intervals are right
     and the channel's true value varies slowly with the feature (von Neumann's
-    successive differences); their robust standard deviation (MAD / 0.6745)
-    is the factor.  The smallest factor over the features is taken (the
-    feature the true value follows best), never below 1.
+    successive differences); their spread is the factor.  The smallest
+    factor over the features is taken (the feature the true value follows
+    best), never below 1.  The spread is
+    measured by the 68.27 % quantile of |z| (1 for a standard normal), which is
+    what the coverage of a one-sigma interval asks for also when the errors
+    have heavier tails than normal ones (cases at a neighbouring minimum).
 
     Parameters
     ----------
@@ -222,7 +228,7 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
         if ok.sum() < MIN_CONSISTENCY_CASES:
             continue
         z = d[ok] / se[ok]
-        best = min(best, float(np.median(np.abs(z - np.median(z)))) / 0.6745)
+        best = min(best, float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA)))
     return max(best, 1.0) if math.isfinite(best) else 1.0
 
 

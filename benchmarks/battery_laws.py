@@ -73,9 +73,12 @@ def hidden_effect(law: HiddenLaw, strength: float = 1.0) -> Any:
     def value(self: ChannelLaw, ctx: Any, config: Any, base_value: np.ndarray) -> np.ndarray:
         xs = [feature_values(ctx, config, f) for f in law.features]
         with np.errstate(all="ignore"):
-            v = np.clip(np.asarray(law.formula(*xs), float), ch.lo, ch.hi)
+            v = np.asarray(law.formula(*xs), float)
         s = self["strength"]
-        v = base_value + s * v if ch.mode == "shift" else base_value + s * (v - base_value)
+        if ch.mode == "shift":
+            v = base_value + np.clip(s * v, ch.lo, ch.hi)
+        else:
+            v = np.clip(base_value + s * (v - base_value), ch.lo, ch.hi)
         return np.where(np.isfinite(v), v, base_value)
 
     cls = type(f"Hidden_{law.name}", (base,), {

@@ -378,8 +378,8 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
             h = 2.0 * h / (points + 1)
             cand = spread(us[ib, np.arange(n)], h)
         c = np.stack(cand)
-        r = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
-        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, r]))
+        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
         fs = chi2(data, rs)
     # 3. parabola through the best value and its neighbours, then ``POLISH_ROUNDS``
     # rounds that halve the bracket around the best value (values half-way to its
@@ -403,8 +403,8 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
             right = us[np.minimum(ib + 1, m - 1), cols]
             vals += [0.5 * (best + left), 0.5 * (best + right)]
         c = np.stack(vals)
-        r = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
-        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, r]))
+        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
         fs = chi2(data, rs)
     return to_value(us), rs
 

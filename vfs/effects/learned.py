@@ -268,8 +268,8 @@ class ChannelLaw(Effect):
         if ch == "cp_angle":
             return config._replace(cp_angle=self.value(ctx, config, config.cp_angle))
         if ch == "yaw_inertia_factor":
-            f = self.value(ctx, config, np.ones(ctx.size))
-            return config._replace(izz1=config.izz1 * f, izz2=config.izz2 * f)
+            factor = self.value(ctx, config, np.ones(ctx.size))
+            return config._replace(izz1=config.izz1 * factor, izz2=config.izz2 * factor)
         return config
 
     def impact_parameters(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:

@@ -220,6 +220,10 @@ def run_entry(entry: Mapping[str, Any], cases: int, quick: bool) -> dict[str, An
         "claims": [{k: v for k, v in c.items() if k in ("kind", "name", "channel", "feature",
                                                           "text")} for c in claims],
         "leading": claims[lead]["name"] if lead is not None else None,
+        "laws_tried": [{"channel": f["channel"], "feature": f["law"].get("feature"),
+                        "status": f.get("status"),
+                        "outcome": (f.get("outcome_reduction") or {}).get("estimate")}
+                       for f in summary.get("laws", [])],
         "first_right": right if entry["kind"] != "null" else not claims,
         "all_named": named, "absent_claimed": absent,
         "truth_reduction": truth_red, "claimed_reduction": claimed_red,

@@ -66,6 +66,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=31)
     ap.add_argument("--channels", default=",".join(VALUES))
     ap.add_argument("--out", default="coverage_out")
+    ap.add_argument("--modes", default="before,after", help="before, after or both")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -75,6 +76,9 @@ def main() -> None:
     for i, ch in enumerate(a.channels.split(",")):
         rec: dict[str, object] = {"channel": ch, "value": VALUES[ch], "cases": a.cases}
         for mode in ("before", "after"):
+            if mode not in a.modes.split(","):
+                rec[mode] = [0, 0]
+                continue
             t0 = time.perf_counter()
             c, k = coverage(ch, VALUES[ch], a.cases, a.seed + i, mode == "before")
             rec[mode] = [c, k]

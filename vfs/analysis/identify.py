@@ -194,12 +194,14 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
     values over the root sum of squares of their half widths (each on the side
     facing the other value) are standard normal if the intervals are right
     and the channel's true value varies slowly with the feature (von Neumann's
-    successive differences); their spread is the factor.  The smallest
-    factor over the features is taken (the feature the true value follows
-    best), never below 1.  The spread is
-    measured by the 68.27 % quantile of |z| (1 for a standard normal), which is
-    what the coverage of a one-sigma interval asks for also when the errors
-    have heavier tails than normal ones (cases at a neighbouring minimum).
+    successive differences).  Their spread, the 68.27 % quantile of |z| about
+    its median (1 for a standard normal; what the coverage of a one-sigma
+    interval asks for also where the errors have heavier tails than normal
+    ones), is the factor.  The feature is the one the true value follows best,
+    the one with the smallest spread of the even-numbered differences; the
+    factor is the spread of its odd-numbered differences (a choice made on
+    one half and measured on the other is not biased low by the choice).
+    Never below 1.
 
     Parameters
     ----------
@@ -212,7 +214,11 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
     n = values.shape[0]
     if n < MIN_CONSISTENCY_CASES:
         return 1.0
-    best = math.inf
+
+    def spread(z: np.ndarray) -> float:
+        return float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA)) if z.size else math.inf
+
+    choice: tuple[float, float] | None = None
     for j in range(features.shape[1]):
         f = features[:, j]
         if not np.isfinite(f).all() or np.ptp(f) == 0:
@@ -224,12 +230,16 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
         h_a = np.where(d > 0, hi[:-1] - v[:-1], v[:-1] - lo[:-1])
         h_b = np.where(d > 0, v[1:] - lo[1:], hi[1:] - v[1:])
         se = np.hypot(h_a, h_b)
-        ok = se > 0
-        if ok.sum() < MIN_CONSISTENCY_CASES:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.where(se > 0, d / se, np.nan)
+        even, odd = z[0::2], z[1::2]
+        even, odd = even[np.isfinite(even)], odd[np.isfinite(odd)]
+        if min(even.size, odd.size) < MIN_CONSISTENCY_CASES // 2:
             continue
-        z = d[ok] / se[ok]
-        best = min(best, float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA)))
-    return max(best, 1.0) if math.isfinite(best) else 1.0
+        score = spread(even)
+        if choice is None or score < choice[0]:
+            choice = (score, spread(odd))
+    return max(choice[1], 1.0) if choice is not None else 1.0
 
 
 def _local_minima(prof: np.ndarray) -> np.ndarray:

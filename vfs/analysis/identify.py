@@ -2,7 +2,8 @@
 
 For every case and every channel of :data:`vfs.effects.learned.CHANNELS`
 (restitution, contact friction, POI shifts along / across the contact
-plane, contact-plane turn, penetration time, EES stiffness ratio), the
+plane, contact-plane turn, penetration time, EES stiffness ratio, yaw-inertia
+factor, contact-phase tyre impulse, run-out brake factor per vehicle), the
 value that best reproduces the case's reconstruction:
 
 1. a grid of ``grid_points`` candidate values over the channel's range
@@ -19,10 +20,13 @@ value that best reproduces the case's reconstruction:
    grid in the most sensitive cases);
 4. per case, a parabola through the best value tried and its neighbours
    gives the refined value, simulated once more for all cases together
-   (each case at its own value) and kept where it is better;
+   (each case at its own value) and kept where it is better; then
+   :data:`POLISH_ROUNDS` rounds halve the bracket around the best value;
 5. the uncertainty interval is the profile interval chi^2 <= min + 1
    (between the values tried, sqrt(chi^2 - min) interpolated linearly: exact
-   for a parabolic profile); flags: ``flat`` (the objective
+   for a parabolic profile), by default with each output's scale times its
+   estimated noise factor (:func:`noise_factors`) and widened by the cases'
+   consistency (:func:`consistency_factor`); flags: ``flat`` (the objective
    varies by less than 1 over the whole range), ``multimodal`` (another
    local minimum within min + 1 separated by a rise above it),
    ``at_bound`` (the interval reaches a bound of the range).  A value is

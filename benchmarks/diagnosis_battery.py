@@ -40,7 +40,7 @@ import json
 import sys
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -185,11 +185,20 @@ def run_entry(entry: Mapping[str, Any], cases: int, quick: bool) -> dict[str, An
     """Generate, diagnose and judge one battery entry; a JSON-ready record."""
     from vfs.analysis.calibrate import CalibrationData, VariantSimulator, kfold_indices
     from vfs.analysis.diagnose import diagnose, summary_dict
+    from vfs.errors import ParameterError
     from vfs.scenarios.generator import generate_database
 
     laws = [law_by_name(n) for n in entry["laws"]]
     hidden = [hidden_effect(law) for law in laws]
-    db, _ = generate_database("default", n_cases=cases, seed=int(entry["seed"]), hidden=hidden)
+    seed = int(entry["seed"])
+    for attempt in range(4):  # a seed may draw too few usable scenes at a small size
+        try:
+            db, _ = generate_database("default", n_cases=cases, seed=seed, hidden=hidden)
+            break
+        except ParameterError:
+            if attempt == 3:
+                raise
+            seed += 1000
     opts = diagnose_options(quick)
     t0, c0 = time.perf_counter(), time.process_time()
     diag = diagnose(db, **opts)
@@ -207,7 +216,7 @@ def run_entry(entry: Mapping[str, Any], cases: int, quick: bool) -> dict[str, An
     claimed_red = _cv_reduction(sim, claimed_effects(claims), folds, base)
     record = {
         "id": entry["id"], "kind": entry["kind"], "hidden": entry["laws"],
-        "hidden_text": [law.text for law in laws], "seed": entry["seed"], "cases": data.n,
+        "hidden_text": [law.text for law in laws], "seed": seed, "cases": data.n,
         "settings": {k: v for k, v in opts.items()},
         "first_sentence": sentence,
         "claims": [{k: v for k, v in c.items() if k in ("kind", "name", "channel", "feature",
@@ -312,14 +321,20 @@ def main(argv: Sequence[str] | None = None) -> None:
                 done[r["id"]] = r
     todo = [e for e in entries(a.held_out) if e["id"] not in done
             and (not a.only or e["id"] in a.only.split(","))]
+    if a.only:  # in the order given
+        rank = {name: i for i, name in enumerate(a.only.split(","))}
+        todo.sort(key=lambda e: rank[e["id"]])
     cases = max(20, round(a.cases * a.scale))
     if not a.table_only and todo:
         work = [(e, cases, a.quick) for e in todo]
         if a.jobs > 1:
             with ProcessPoolExecutor(a.jobs) as pool:
-                results: Iterable[dict[str, Any]] = pool.map(_run, work)
-                for r in results:
-                    _append(jsonl, r, done)
+                futures = {pool.submit(_run, w): w[0]["id"] for w in work}
+                for fut in as_completed(futures):
+                    try:
+                        _append(jsonl, fut.result(), done)
+                    except Exception as exc:  # one database failing does not stop the rest
+                        print(f"{futures[fut]}: failed: {exc}", flush=True)
         else:
             for w in work:
                 _append(jsonl, _run(w), done)

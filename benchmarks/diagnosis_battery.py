@@ -260,7 +260,7 @@ def _pct(x: float | None) -> str:
 def table(records: Sequence[Mapping[str, Any]]) -> str:
     """Markdown table of the records and the counts against the targets."""
     lines = ["| entry | hidden | truth CV red. | first sentence names | right | claimed | "
-             "absent claimed | claimed red. (share of truth) | diagnose [s] |",
+             "absent claimed | claimed red. (share of truth) | diagnose wall (CPU) [s] |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in records:
         claimed = ", ".join(c["name"] + (f" ({c['channel']} ~ {c['feature']})"
@@ -270,7 +270,8 @@ def table(records: Sequence[Mapping[str, Any]]) -> str:
             f"{_pct(r['truth_reduction']) if r['hidden'] else '-'} | {r['leading'] or 'nothing'} | "
             f"{'yes' if r['first_right'] else '**no**'} | {claimed or '-'} | "
             f"{', '.join(r['absent_claimed']) or '-'} | {_pct(r['claimed_reduction'])} "
-            f"({_pct(r['share_of_truth'])}) | {r['diagnose_wall_s']:.0f} |")
+            f"({_pct(r['share_of_truth'])}) | {r['diagnose_wall_s']:.0f} "
+            f"({r['diagnose_cpu_s']:.0f}) |")
     singles = [r for r in records if r["kind"] == "single"]
     pairs = [r for r in records if r["kind"] == "pair"]
     nulls = [r for r in records if r["kind"] == "null"]

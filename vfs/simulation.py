@@ -408,10 +408,12 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     result = solve_impact(config, restitution_mode=params.impact.restitution_mode)
     impulse_hooks = hooks(effects, "contact_impulse")
     split_hooks = hooks(effects, "energy_split")
-    if impulse_hooks or split_hooks:
-        change = VelocityChange.zeros(config.size)
-        for hook in impulse_hooks:
-            change = change + hook(ctx, config, result)
+    change = VelocityChange.zeros(config.size)
+    for hook in impulse_hooks:
+        change = change + hook(ctx, config, result)
+    # no impulse and no split (e.g. an impulse law at its neutral value): the result as
+    # solved, bit for bit
+    if split_hooks or any(np.any(a != 0.0) for a in change):
         e1, e2 = deformation_energies(config, result)
         for hook in split_hooks:
             e1, e2 = hook(ctx, config, result, e1, e2)
@@ -525,14 +527,26 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         b1 = b2 = np.zeros((0, 4))
     impact = _scatter_impact(n, hit, part)
     # run-out from the post-impact state (all cases; non-colliding ones are at
-    # the pose where the pre-crash phase left them and are not run)
+    # the pose where the pre-crash phase left them and are not run), with the yaw
+    # inertias the impact used (an effect may have changed them at the impact stages)
     runout = _scatter_runout(
         n, hit,
-        runout_stage(batch.vehicle1.take(hit), batch.vehicle2.take(hit), _take_rows(st, hit),
-                     part, batch.road_friction[hit], params.runout, b1, b2)
+        runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz1),
+                     _with_inertia(batch.vehicle2.take(hit), config.izz2),
+                     _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2)
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
+
+
+def _with_inertia(vehicles: VehicleArrays, izz: np.ndarray) -> VehicleArrays:
+    """Vehicles with the yaw inertias [kg m^2] of the impact (fixed objects, whose
+    impact inertia is infinite, keep theirs).
+    """
+    izz = np.asarray(izz, float)
+    if np.array_equal(izz, vehicles.yaw_inertia):
+        return vehicles
+    return vehicles._replace(yaw_inertia=np.where(np.isfinite(izz), izz, vehicles.yaw_inertia))
 
 
 def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state: KinematicState,

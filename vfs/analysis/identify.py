@@ -2,7 +2,8 @@
 
 For every case and every channel of :data:`vfs.effects.learned.CHANNELS`
 (restitution, contact friction, POI shifts along / across the contact
-plane, contact-plane turn, penetration time, EES stiffness ratio), the
+plane, contact-plane turn, penetration time, EES stiffness ratio, yaw-inertia
+factor, contact-phase tyre impulse, run-out brake factor per vehicle), the
 value that best reproduces the case's reconstruction:
 
 1. a grid of ``grid_points`` candidate values over the channel's range
@@ -19,10 +20,13 @@ value that best reproduces the case's reconstruction:
    grid in the most sensitive cases);
 4. per case, a parabola through the best value tried and its neighbours
    gives the refined value, simulated once more for all cases together
-   (each case at its own value) and kept where it is better;
+   (each case at its own value) and kept where it is better; then
+   :data:`POLISH_ROUNDS` rounds halve the bracket around the best value;
 5. the uncertainty interval is the profile interval chi^2 <= min + 1
    (between the values tried, sqrt(chi^2 - min) interpolated linearly: exact
-   for a parabolic profile); flags: ``flat`` (the objective
+   for a parabolic profile), by default with each output's scale times its
+   estimated noise factor (:func:`noise_factors`) and widened by the cases'
+   consistency (:func:`consistency_factor`); flags: ``flat`` (the objective
    varies by less than 1 over the whole range), ``multimodal`` (another
    local minimum within min + 1 separated by a rise above it),
    ``at_bound`` (the interval reaches a bound of the range).  A value is
@@ -35,6 +39,7 @@ Units: SI (the channel's unit column).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -50,6 +55,12 @@ from vfs.effects.context import ContactContext, ImpactContext
 from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig
+
+#: Rounds of bracket halving after the first parabolic step (:func:`identify`): the
+#: chi^2 well of a case can be narrower than the grid spacing and far from a parabola
+#: over it (run-out brake factors: chi^2 rising by hundreds within 0.05), where one
+#: parabola through grid values misses the minimum by many interval widths.
+POLISH_ROUNDS = 3
 
 #: Channels identified by default (all).
 DEFAULT_CHANNELS: tuple[str, ...] = tuple(CHANNELS)
@@ -132,10 +143,107 @@ def model_values(sim: VariantSimulator, channel: str) -> np.ndarray:
     return np.asarray(getattr(probe, "seen"), float)  # noqa: B009
 
 
-def chi2(data: CalibrationData, residuals: np.ndarray) -> np.ndarray:
-    """Per-case chi^2 = sum of squared standardised residuals (n,); NaN columns skipped."""
-    z = residuals / data.scales[data.column_group][None, :]
-    return np.nansum(z ** 2, axis=1)
+def chi2(data: CalibrationData, residuals: np.ndarray,
+         factors: np.ndarray | None = None) -> np.ndarray:
+    """Per-case chi^2 = sum of squared standardised residuals (..., n); NaN columns skipped.
+
+    ``residuals`` (..., n, n_columns) [SI]; ``factors`` (n_groups,) multiply the
+    scale of each output (:func:`noise_factors`; default 1).
+    """
+    scale = data.scales if factors is None else data.scales * factors
+    z = residuals / scale[data.column_group]
+    return np.nansum(z ** 2, axis=-1)
+
+
+#: Median of the chi^2 distribution with one degree of freedom (a squared standard
+#: normal): median(z^2) / this is a robust estimate of the variance of z.
+_CHI2_1_MEDIAN = 0.454936423119572
+
+
+def noise_factors(data: CalibrationData, residuals: np.ndarray) -> np.ndarray:
+    """Robust noise scale of each output relative to its recorded scale (n_groups,) [-].
+
+    ``residuals`` (n, n_columns) [SI] at the identified values.  Per group,
+    sqrt(median(z^2) / 0.4549) over its cases and columns (z: residual over the
+    recorded scale; 0.4549 the median of chi^2 with one degree of freedom), which
+    is 1 for normal residuals at the recorded scale and is not moved by a few
+    cases far off.  The recorded scale describes the measurement noise of the
+    outputs only; the reconstruction's other inputs (positions, speeds, vehicle
+    data at impact) are noisy too and their errors reach the outputs through
+    the simulation, most of all the rest positions.  Groups without values: 1.
+    """
+    z2 = (residuals / data.scales[data.column_group]) ** 2
+    out = np.ones(len(data.groups))
+    for k in range(len(data.groups)):
+        block = z2[:, data.column_group == k]
+        block = block[np.isfinite(block)]
+        if block.size >= 3:
+            out[k] = max(math.sqrt(float(np.median(block)) / _CHI2_1_MEDIAN), 1.0)
+    return out
+
+
+#: Probability of a standard normal within one standard deviation.
+_ONE_SIGMA = 0.6826894921370859
+
+#: Fewest identifiable cases for :func:`consistency_factor` (below: 1).
+MIN_CONSISTENCY_CASES = 12
+
+
+def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
+                       features: np.ndarray) -> float:
+    """Factor (>= 1) [-] by which the profile intervals of one channel are too narrow,
+    from the agreement of cases with similar features.
+
+    For the cases sorted by one feature, the successive differences of the
+    values over the root sum of squares of their half widths (each on the side
+    facing the other value) are standard normal if the intervals are right
+    and the channel's true value varies slowly with the feature (von Neumann's
+    successive differences).  Their spread, the 68.27 % quantile of |z| about
+    its median (1 for a standard normal; what the coverage of a one-sigma
+    interval asks for also where the errors have heavier tails than normal
+    ones), is the factor.  The feature is the one the true value follows best,
+    the one with the smallest spread of the even-numbered differences; the
+    factor is the spread of its odd-numbered differences (a choice made on
+    one half and measured on the other is not biased low by the choice).
+    Never below 1.
+
+    Parameters
+    ----------
+    values, low, high : ndarray (n,)
+        Identified values and interval edges of the identifiable cases (the
+        channel's unit; geometric channels in the logarithm).
+    features : ndarray (n, k)
+        Case features (any unit; only their order is used).
+    """
+    n = values.shape[0]
+    if n < MIN_CONSISTENCY_CASES:
+        return 1.0
+
+    def spread(z: np.ndarray) -> float:
+        return float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA)) if z.size else math.inf
+
+    choice: tuple[float, float] | None = None
+    for j in range(features.shape[1]):
+        f = features[:, j]
+        if not np.isfinite(f).all() or np.ptp(f) == 0:
+            continue
+        o = np.argsort(f, kind="stable")
+        v, lo, hi = values[o], low[o], high[o]
+        d = v[1:] - v[:-1]
+        # half widths facing each other: the upper one of the lower value
+        h_a = np.where(d > 0, hi[:-1] - v[:-1], v[:-1] - lo[:-1])
+        h_b = np.where(d > 0, v[1:] - lo[1:], hi[1:] - v[1:])
+        se = np.hypot(h_a, h_b)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.where(se > 0, d / se, np.nan)
+        even, odd = z[0::2], z[1::2]
+        even, odd = even[np.isfinite(even)], odd[np.isfinite(odd)]
+        if min(even.size, odd.size) < MIN_CONSISTENCY_CASES // 2:
+            continue
+        score = spread(even)
+        if choice is None or score < choice[0]:
+            choice = (score, spread(odd))
+    return max(choice[1], 1.0) if choice is not None else 1.0
 
 
 def _local_minima(prof: np.ndarray) -> np.ndarray:
@@ -207,25 +315,28 @@ def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
     return low, high, flat, multimodal, at_bound
 
 
-def _per_case_chi2(data: CalibrationData, sim: VariantSimulator, channel: str,
-                   values: Sequence[np.ndarray]) -> np.ndarray:
-    """chi^2 (k, n) of k variants that set the channel to per-case values (k arrays (n,))."""
+def _per_case_residuals(data: CalibrationData, sim: VariantSimulator, channel: str,
+                        values: Sequence[np.ndarray]) -> np.ndarray:
+    """Residuals (k, n, n_columns) of k variants that set the channel to per-case values
+    (k arrays (n,)).
+    """
     models = []
     for v in values:
         per = _per_case_class(channel, data.n)
         setattr(per, "values_per_case", np.asarray(v, float))  # noqa: B010
         models.append((per(),))
-    return np.stack([chi2(data, r) for r in sim.uncached_residuals(models)])
+    return np.stack(sim.uncached_residuals(models))
 
 
-def _sorted_profile(xs: np.ndarray, prof: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-case profile sorted by value (columns are cases)."""
+def _sorted_profile(xs: np.ndarray, res: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-case profile sorted by value (columns are cases); ``res`` (m, n, n_columns)."""
     order = np.argsort(xs, axis=0, kind="stable")
-    return np.take_along_axis(xs, order, axis=0), np.take_along_axis(prof, order, axis=0)
+    return (np.take_along_axis(xs, order, axis=0),
+            np.take_along_axis(res, order[:, :, None], axis=0))
 
 
 def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
-                    grid: np.ndarray, prof: np.ndarray, starts: int, points: int
+                    grid: np.ndarray, res: np.ndarray, starts: int, points: int
                     ) -> tuple[np.ndarray, np.ndarray]:
     """The grid profile refined per case.
 
@@ -245,11 +356,12 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
 
     Returns
     -------
-    (xs, prof)
+    (xs, res)
         Values tried per case (m, n), increasing along the first axis, and
-        their chi^2 (the grid's included).
+        their residuals (m, n, n_columns) (the grid's included).
     """
     ch = CHANNELS[channel]
+    prof = chi2(data, res)
     n = prof.shape[1]
     u = np.log(grid) if ch.log_grid else np.asarray(grid, float)
     ulo, uhi = float(u[0]), float(u[-1])
@@ -262,6 +374,7 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
     to_value = np.exp if ch.log_grid else np.asarray
     us = np.broadcast_to(u[:, None], prof.shape)
     fs = prof
+    rs = res
     # 1. the best local minima of the grid profile
     score = np.where(_local_minima(prof), prof, np.inf)
     rank = np.argsort(score, axis=0, kind="stable")[:max(starts, 1)]  # (starts, n)
@@ -279,29 +392,53 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
             h = 2.0 * h / (points + 1)
             cand = spread(us[ib, np.arange(n)], h)
         c = np.stack(cand)
-        f = _per_case_chi2(data, sim, channel, [to_value(v) for v in c])
-        us, fs = _sorted_profile(np.concatenate([us, c]), np.concatenate([fs, f]))
-    # 3. parabola through the best value and its neighbours
-    m = us.shape[0]
+        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
+        fs = chi2(data, rs)
+    # 3. parabola through the best value and its neighbours, then ``POLISH_ROUNDS``
+    # rounds that halve the bracket around the best value (values half-way to its
+    # neighbours) together with the new parabola's vertex
     cols = np.arange(n)
-    i0 = np.clip(np.argmin(fs, axis=0), 1, m - 2)
-    xa, xb, xc = us[i0 - 1, cols], us[i0, cols], us[i0 + 1, cols]
-    ya, yb, yc = fs[i0 - 1, cols], fs[i0, cols], fs[i0 + 1, cols]
-    num = (xb - xa) ** 2 * (yb - yc) - (xb - xc) ** 2 * (yb - ya)
-    den = (xb - xa) * (yb - yc) - (xb - xc) * (yb - ya)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        vx = xb - 0.5 * num / den
-    ok = np.isfinite(vx) & (den != 0) & (vx > xa) & (vx < xc)
-    vx = np.where(ok, vx, xb)
-    f = _per_case_chi2(data, sim, channel, [to_value(vx)])
-    us, fs = _sorted_profile(np.concatenate([us, vx[None]]), np.concatenate([fs, f]))
-    return to_value(us), fs
+    for rnd in range(POLISH_ROUNDS + 1):
+        m = us.shape[0]
+        i0 = np.clip(np.argmin(fs, axis=0), 1, m - 2)
+        xa, xb, xc = us[i0 - 1, cols], us[i0, cols], us[i0 + 1, cols]
+        ya, yb, yc = fs[i0 - 1, cols], fs[i0, cols], fs[i0 + 1, cols]
+        num = (xb - xa) ** 2 * (yb - yc) - (xb - xc) ** 2 * (yb - ya)
+        den = (xb - xa) * (yb - yc) - (xb - xc) * (yb - ya)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            vx = xb - 0.5 * num / den
+        ok = np.isfinite(vx) & (den != 0) & (vx > xa) & (vx < xc)
+        vals = [np.where(ok, vx, xb)]
+        if rnd > 0:
+            ib = np.argmin(fs, axis=0)
+            best = us[ib, cols]
+            left = us[np.maximum(ib - 1, 0), cols]
+            right = us[np.minimum(ib + 1, m - 1), cols]
+            vals += [0.5 * (best + left), 0.5 * (best + right)]
+        c = np.stack(vals)
+        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
+        fs = chi2(data, rs)
+    return to_value(us), rs
+
+
+def _widen(best: np.ndarray, edge: np.ndarray, k: float, channel: str) -> np.ndarray:
+    """Interval edge k times as far from the value, within the channel's range
+    (geometric channels: in the logarithm); ``best``, ``edge`` in the channel's unit.
+    """
+    ch = CHANNELS[channel]
+    if ch.log_grid:
+        e = np.exp(np.log(best) + k * (np.log(edge) - np.log(best)))
+    else:
+        e = best + k * (edge - best)
+    return np.clip(e, ch.lo, ch.hi)
 
 
 def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
              grid_points: int = 21, sim: VariantSimulator | None = None,
              refine: bool = True, zoom_starts: int = 0,
-             zoom_points: int = 8) -> pd.DataFrame:
+             zoom_points: int = 8, noise: str = "estimated") -> pd.DataFrame:
     """Identify each channel per case (see the module docstring).
 
     Parameters
@@ -323,6 +460,13 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         channels whose outcomes react on a scale finer than the grid.
     zoom_points : int
         Values per zoomed minimum and per zoom step (>= 2).
+    noise : {"estimated", "recorded"}
+        Scale of each output in the chi^2 of the value and its interval:
+        "recorded" = the RMS of its ``_sd`` columns; "estimated" (default) =
+        that times the output's robust noise factor (:func:`noise_factors`) of
+        the channel's residuals at the values found with the recorded scales,
+        so that the interval chi^2 <= min + 1 covers the true value about 68 %
+        of the time (docs/diagnosis.md, "Interval coverage").
 
     Returns
     -------
@@ -331,32 +475,49 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         model_value (the model's own value; 0 for shift channels), low, high
         (interval chi^2 <= min + 1), chi2 (at the value), chi2_model
         (the model's own value), chi2_span, n_columns, flat, multimodal,
-        at_bound, identifiable.
+        at_bound, identifiable, noise_factor (the RMS of the channel's
+        output noise factors, 1 for "recorded"); chi2, chi2_model and
+        chi2_span are at the scales used.
     """
     names = parse_channels(channels)
+    if noise not in ("estimated", "recorded"):
+        raise ParameterError(f"noise = {noise!r}; use 'estimated' or 'recorded'")
     if zoom_starts < 0 or zoom_points < 2:
         raise ParameterError(f"zoom_starts = {zoom_starts} must be >= 0 and "
                              f"zoom_points = {zoom_points} >= 2")
     sim = sim or VariantSimulator(data)
     n = data.n
     ncol = np.isfinite(data.observed).sum(axis=1)
-    base_chi2 = chi2(data, sim.residuals([()])[0])
+    base_res = sim.residuals([()])[0]
+    if noise == "estimated":
+        ft = identification_features(data)
+        feats = ft[list(LAW_FEATURES)].to_numpy(float)
     frames = []
     for name in names:
         ch = CHANNELS[name]
         grid = channel_grid(name, grid_points)
         cls = _constant_class(name)
-        res = sim.residuals([(cls(a=float(v)),) for v in grid])
-        prof = np.stack([chi2(data, r) for r in res])  # (g, n)
+        res = np.stack(sim.residuals([(cls(a=float(v)),) for v in grid]))  # (g, n, c)
         if refine or zoom_starts > 0:
-            xs, prof = _refine_profile(data, sim, name, grid, prof, zoom_starts,
-                                       zoom_points)
+            xs, res = _refine_profile(data, sim, name, grid, res, zoom_starts, zoom_points)
         else:
-            xs = np.broadcast_to(grid[:, None], prof.shape)
+            xs = np.broadcast_to(grid[:, None], res.shape[:2])
+        factors = np.ones(len(data.groups))
+        if noise == "estimated":
+            ib = np.argmin(chi2(data, res), axis=0)
+            factors = noise_factors(data, res[ib, np.arange(n)])
+        prof = chi2(data, res, factors)  # (m, n)
+        base_chi2 = chi2(data, base_res, factors)
         ib = np.argmin(prof, axis=0)
         best = xs[ib, np.arange(n)].astype(float)
         fmin = prof[ib, np.arange(n)]
         low, high, flat, multi, at_b = _profile_interval(xs, prof, best, fmin)
+        k = 1.0
+        ok = ~(flat | multi | at_b)
+        if noise == "estimated" and ok.any():
+            tr = np.log if ch.log_grid else np.asarray
+            k = consistency_factor(tr(best[ok]), tr(low[ok]), tr(high[ok]), feats[ok])
+            low, high = _widen(best, low, k, name), _widen(best, high, k, name)
         frames.append(pd.DataFrame({
             "case_id": data.case_ids, "channel": name, "unit": ch.unit, "mode": ch.mode,
             "value": best, "model_value": model_values(sim, name), "low": low, "high": high,
@@ -364,6 +525,8 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
             "chi2_model": base_chi2, "chi2_span": np.ptp(prof, axis=0),
             "n_columns": ncol, "flat": flat, "multimodal": multi, "at_bound": at_b,
             "identifiable": ~(flat | multi | at_b),
+            "noise_factor": float(np.sqrt(np.mean(factors ** 2))),
+            "interval_factor": k,
         }))
     return pd.concat(frames, ignore_index=True)
 
@@ -424,5 +587,6 @@ def timed_identify(data: CalibrationData, channels: Sequence[str] | str | None =
 
 
 __all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "identification_features", "identify",
+           "noise_factors",
            "parse_channels",
            "timed_identify", "write_identification"]

@@ -23,7 +23,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     db = open_database(args.db)
     data = CalibrationData.from_database(db, args.outputs)
     t0 = time.perf_counter()
-    table = identify(data, args.parameters, grid_points=args.grid, zoom_starts=args.zoom)
+    table = identify(data, args.parameters, grid_points=args.grid, zoom_starts=args.zoom,
+                     noise=getattr(args, "noise", "estimated"))
     seconds = time.perf_counter() - t0
     paths = write_identification(table, identification_features(data), args.out,
                                  {"database": str(resolve_database_path(args.db)),
@@ -34,7 +35,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"{ch} [{g['unit'].iloc[0]}]: median {g['value'].median():.4g}, identifiable "
             f"{100 * g['identifiable'].mean():.0f} % of {len(g)} cases (flat "
             f"{100 * g['flat'].mean():.0f} %, multimodal {100 * g['multimodal'].mean():.0f} %,"
-            f" at a bound {100 * g['at_bound'].mean():.0f} %)")
+            f" at a bound {100 * g['at_bound'].mean():.0f} %; interval widened "
+            f"x{g['interval_factor'].iloc[0]:.2f} by the cases' consistency)")
     say(f"identified {table['channel'].nunique()} channels on {data.n} cases in "
         f"{seconds:.1f} s -> {paths['parquet']}, {paths['csv']}")
     return 0
@@ -92,9 +94,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "identify", help="per-case values of model channels that reproduce the reconstruction",
         description=(
             "For every case and channel (restitution, contact_friction, poi_along, "
-            "poi_across, cp_angle, penetration_time, ees_stiffness_ratio) the value that "
+            "poi_across, cp_angle, penetration_time, ees_stiffness_ratio, yaw_inertia_factor, "
+            "tyre_impulse, runout_brake1, runout_brake2) the value that "
             "best reproduces the reconstruction outcomes (chi^2 of the residuals standardised "
-            "by the _sd scales), a chi^2 + 1 interval and identifiability flags. Writes "
+            "by the _sd scales), a chi^2 + 1 interval (noise scale estimated, --noise) and "
+            "identifiability flags. Writes "
             "identified.parquet, identified.csv and units.json into --out."))
     p.add_argument("--db", required=True, help="database folder, or 'default'")
     p.add_argument("--parameters", default="all",
@@ -104,6 +108,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--zoom", type=int, default=0, metavar="N",
                    help="zoom per case into the N lowest minima of its grid profile (finer "
                         "than the grid; two more simulations per channel; default 0 = off)")
+    p.add_argument("--noise", choices=("estimated", "recorded"), default="estimated",
+                   help="output scales of the chi^2 and its interval: the recorded _sd scales "
+                        "times each output's robust noise factor, intervals widened by the "
+                        "cases' consistency (estimated, default), or the recorded ones")
     out_option(p, "output folder", "identify-<db>")
     p.set_defaults(func=cmd_identify)
 

@@ -1,9 +1,12 @@
 """Channel laws: a model channel set by a formula of a case feature.
 
-A *channel* is a quantity of the impact model that an effect can move
+A *channel* is a quantity of the model that an effect can move
 (:data:`CHANNELS`): the restitution, the contact friction, the POI shift
 along / across the contact plane, the turn of the contact plane, the
-penetration time and the EES stiffness ratio.  A *law* sets a channel per
+penetration time, the EES stiffness ratio, a factor on the yaw inertias,
+the speed the tyres take from each vehicle during the contact phase, and
+the run-out brake factor of each vehicle (:data:`CHANNEL_OUTPUTS`: the
+outcomes each moves).  A *law* sets a channel per
 case from a *feature* of the case at impact (:data:`LAW_FEATURES`) by a
 closed form (:data:`FORMS`) or a tabulated curve (linear interpolation,
 held constant outside the table).
@@ -27,8 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from vfs.effects.base import Effect, EffectParameter
+from vfs.effects.base import Effect, EffectParameter, VelocityChange
 from vfs.effects.context import ContactContext, ImpactContext
+from vfs.effects.library import braking_impulse
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, ImpactResult, contact_frame, energy_split
 from vfs.physics.precrash import PrecrashParams
@@ -80,7 +84,29 @@ CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
             "time from first contact to the impact configuration"),
     Channel("ees_stiffness_ratio", "-", 0.2, 5.0, "set", "energy_split",
             "stiffness ratio k1 / k2 of the energy split E1 / E2 = k2 / k1", log_grid=True),
+    Channel("yaw_inertia_factor", "-", 0.4, 2.5, "set", "impact_configuration",
+            "factor on both yaw inertias (impact and run-out); model 1", log_grid=True),
+    Channel("tyre_impulse", "m/s", 0.0, 3.0, "shift", "contact_impulse",
+            "speed each vehicle loses along its pre-impact motion to its tyres during "
+            "the contact phase (b mu g T of :class:`vfs.effects.library.TyreImpulse`)"),
+    Channel("runout_brake1", "-", 0.0, 1.0, "set", "post_impact",
+            "brake factor of all four wheels of vehicle 1 in the run-out (1 = locked)"),
+    Channel("runout_brake2", "-", 0.0, 1.0, "set", "post_impact",
+            "brake factor of all four wheels of vehicle 2 in the run-out (1 = locked)"),
 )}
+
+#: Outcome columns each channel moves (the others stay as the default model has them).
+CHANNEL_OUTPUTS: Mapping[str, tuple[str, ...]] = {
+    **{name: ("delta_v", "ees", "energy_loss", "post_speed", "velocity_angle_change", "pdof",
+              "rest_position", "rest_yaw", "runout_distance", "impact_type")
+       for name in ("restitution", "contact_friction", "poi_along", "poi_across", "cp_angle",
+                    "penetration_time", "yaw_inertia_factor")},
+    "ees_stiffness_ratio": ("ees",),
+    "tyre_impulse": ("delta_v", "post_speed", "velocity_angle_change", "rest_position",
+                     "rest_yaw", "runout_distance"),
+    "runout_brake1": ("rest_position", "rest_yaw", "runout_distance"),
+    "runout_brake2": ("rest_position", "rest_yaw", "runout_distance"),
+}
 
 
 def _pair_feature(ctx: ContactContext | ImpactContext, name: str) -> np.ndarray:
@@ -244,6 +270,9 @@ class ChannelLaw(Effect):
             return config._replace(poi_x=config.poi_x + d * ex, poi_y=config.poi_y + d * ey)
         if ch == "cp_angle":
             return config._replace(cp_angle=self.value(ctx, config, config.cp_angle))
+        if ch == "yaw_inertia_factor":
+            factor = self.value(ctx, config, np.ones(ctx.size))
+            return config._replace(izz1=config.izz1 * factor, izz2=config.izz2 * factor)
         return config
 
     def impact_parameters(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
@@ -265,10 +294,30 @@ class ChannelLaw(Effect):
         return energy_split(e1 + e2, config.m1, config.m2, stiffness_ratio=ratio)
 
 
+    def contact_impulse(self, ctx: ImpactContext, config: ImpactConfig,
+                        result: ImpactResult) -> VelocityChange:
+        """Speed loss [m/s] of each vehicle along its pre-impact motion from the law."""
+        if self.law["channel"] != "tyre_impulse":
+            return VelocityChange.zeros(config.size)
+        return braking_impulse(config, result, self.value(ctx, config, np.zeros(ctx.size)))
+
+    def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
+                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Brake factor [-] of all wheels of one vehicle in the run-out from the law."""
+        ch = self.law["channel"]
+        if ch not in ("runout_brake1", "runout_brake2"):
+            return brake1, brake2
+        old = brake1 if ch == "runout_brake1" else brake2
+        b = self.value(ctx, config, np.asarray(old, float).mean(axis=1))
+        new = np.repeat(b[:, None], 4, axis=1)
+        return (new, brake2) if ch == "runout_brake1" else (brake1, new)
+
+
 #: Hooks of each channel (the others are dropped from the class so that the simulation
 #: takes the same paths as without the law).
 _HOOKS = {"penetration": "penetration", "impact_configuration": "impact_configuration",
-          "impact_parameters": "impact_parameters", "energy_split": "energy_split"}
+          "impact_parameters": "impact_parameters", "contact_impulse": "contact_impulse",
+          "energy_split": "energy_split", "post_impact": "post_impact"}
 
 
 def law_effect_class(law: Mapping[str, Any], bounds: Mapping[str, tuple[float, float]]
@@ -313,6 +362,7 @@ def law_effect_class(law: Mapping[str, Any], bounds: Mapping[str, tuple[float, f
     stage = ch.stage
     ns: dict[str, Any] = {
         "name": law["name"], "law": law, "parameters": tuple(params),
+        "outputs": CHANNEL_OUTPUTS[law["channel"]],
         "summary": law.get("summary", f"{law['channel']} = f({law['feature']})"),
         "__doc__": f"Learned law: {law['channel']} as a function of {law['feature']}.",
     }
@@ -338,6 +388,6 @@ def finite(x: float) -> bool:
     return math.isfinite(x)
 
 
-__all__ = ["CHANNELS", "FORMS", "LAW_FEATURES", "Channel", "ChannelLaw", "check_law",
-           "evaluate_law", "feature_values", "law_effect_class", "law_text",
+__all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "Channel", "ChannelLaw",
+           "check_law", "evaluate_law", "feature_values", "law_effect_class", "law_text",
            "normal_closing_speed"]

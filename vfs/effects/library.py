@@ -90,17 +90,28 @@ class TyreImpulse(Effect):
                         result: ImpactResult) -> VelocityChange:
         """Velocity change -b mu g T along each vehicle's pre-impact motion."""
         dv = self["brake_factor"] * ctx.road_friction * G * self["duration"]
-        out = []
-        for vx, vy, vxp, vyp in ((config.vx1, config.vy1, result.vx1_post, result.vy1_post),
-                                 (config.vx2, config.vy2, result.vx2_post, result.vy2_post)):
-            speed = np.hypot(vx, vy)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
-            # no more than the post-impact velocity component along u
-            along = np.maximum(vxp * ux + vyp * uy, 0.0)
-            mag = np.minimum(dv, along)
-            out += [-mag * ux, -mag * uy, np.zeros_like(mag)]
-        return VelocityChange(*out)
+        return braking_impulse(config, result, dv)
+
+
+def braking_impulse(config: ImpactConfig, result: ImpactResult,
+                    speed_loss: np.ndarray) -> VelocityChange:
+    """Velocity change of tyres braking during the contact phase.
+
+    Each vehicle loses ``speed_loss`` [m/s] (n,) along its pre-impact motion
+    u / |u|, never more than its post-impact velocity component along u (the
+    tyres stop, they do not reverse the motion); no yaw change.
+    """
+    out = []
+    for vx, vy, vxp, vyp in ((config.vx1, config.vy1, result.vx1_post, result.vy1_post),
+                             (config.vx2, config.vy2, result.vx2_post, result.vy2_post)):
+        speed = np.hypot(vx, vy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
+        # no more than the post-impact velocity component along u
+        along = np.maximum(vxp * ux + vyp * uy, 0.0)
+        mag = np.minimum(speed_loss, along)
+        out += [-mag * ux, -mag * uy, np.zeros_like(mag)]
+    return VelocityChange(*out)
 
 
 @register_effect
@@ -388,5 +399,5 @@ BUILTIN_EFFECTS: tuple[str, ...] = (
     StructurePOI.name, WheelLock.name, EESStiffness.name, YawInertia.name,
 )
 
-__all__ = ["BUILTIN_EFFECTS", "BodyFriction", "EESStiffness", "PenetrationDepth",
+__all__ = ["BUILTIN_EFFECTS", "braking_impulse", "BodyFriction", "EESStiffness", "PenetrationDepth",
            "RestitutionSpeed", "StructurePOI", "TyreImpulse", "WheelLock", "YawInertia"]

@@ -31,7 +31,7 @@ try:  # pragma: no cover - depends on the environment
 
     AVAILABLE = True
 except ImportError:  # pragma: no cover
-    numba = None
+    numba = None  # type: ignore[assignment]
     AVAILABLE = False
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import slow_scale
+from tests.conftest import slow_scale
 
 from vfs.analysis.calibrate import CalibrationData
 from vfs.analysis.identify import consistency_factor, identify

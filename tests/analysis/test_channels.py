@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tests.conftest import slow_scale
 
+from tests.conftest import slow_scale
 from vfs.analysis.calibrate import CalibrationData
 from vfs.analysis.identify import consistency_factor, identify
 from vfs.effects.learned import CHANNEL_OUTPUTS, CHANNELS, law_effect_class

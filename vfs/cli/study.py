@@ -43,6 +43,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     """``vfs study``: run or resume a study and print its summary."""
     from vfs.cli.common import load_plugins, out_folder, path_label
     from vfs.study import StudySpec, run_study
+    from vfs.study.spec import Equip
 
     load_plugins(args.plugin)
     systems = [s.strip() for s in args.systems.split(",") if s.strip()]
@@ -60,7 +61,7 @@ def cmd_study(args: argparse.Namespace) -> int:
     spec = StudySpec(
         args.db, tuple(systems), args.out, engine=args.engine, workers=args.workers,
         scheduler=args.scheduler, chunk_size=args.chunk_size, task_cases=args.task_cases,
-        seed=args.seed, where=args.where, equip=args.equip or _default_equip(args.db),
+        seed=args.seed, where=args.where, equip=Equip(args.equip or _default_equip(args.db)),
         resume=args.resume, overwrite=args.overwrite,
         impact_parameters=args.impact_parameters, dashboard=args.dashboard)
     try:

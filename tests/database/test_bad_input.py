@@ -339,13 +339,15 @@ def _manifest(out: Path) -> dict:
 
 def test_a_case_that_fails_inside_the_simulation_makes_the_exit_code_non_zero(
         tmp_path, capsys, monkeypatch):
+    import dataclasses
+
     import vfs.study
     from tests.study.test_run import FakeSystem
 
     real = vfs.study.run_study
     broken = FakeSystem("late", 1.0, fail_case=3)
     monkeypatch.setattr(vfs.study, "run_study",
-                        lambda db, systems, out, **kw: real(db, [broken], out, **kw))
+                        lambda spec: real(dataclasses.replace(spec, systems=(broken,))))
     argv = ["study", "--db", "default", "--where", "case_id <= 6", "--systems", "late",
             "--engine", "serial"]
     code, text = _cli(capsys, *argv, "--out", str(tmp_path / "a"))

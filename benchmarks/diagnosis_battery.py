@@ -99,7 +99,15 @@ def diagnose_options(quick: bool) -> dict[str, Any]:
     opts: dict[str, Any] = {"laws": "all", "worst": 0}
     if quick:
         opts.update(folds=3, grid_points=5, zoom_rounds=2, n_boot=500)
-    accepted = inspect.signature(diagnose).parameters
+    accepted = set(inspect.signature(diagnose).parameters)
+    try:  # the settings of the spec (diagnose(db, spec=None, **settings))
+        import dataclasses
+
+        from vfs.analysis.diagnose_spec import DiagnoseSpec
+
+        accepted |= {f.name for f in dataclasses.fields(DiagnoseSpec)}
+    except ImportError:
+        pass
     return {k: v for k, v in opts.items() if k in accepted}
 
 

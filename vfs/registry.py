@@ -19,8 +19,11 @@ vfs.errors.ParameterError: unknown number 'two'; known: one
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator, Mapping
 from importlib import metadata
+from pathlib import Path
+from types import ModuleType
 from typing import Generic, TypeVar
 
 from vfs.errors import ParameterError
@@ -151,3 +154,39 @@ class Registry(Mapping[str, T], Generic[T]):
 
 
 __all__ = ["Registry"]
+
+
+def import_file(path: str | os.PathLike[str], what: str = "") -> ModuleType:
+    """Import a user's Python file once per process, as module ``vfs_plugin_<stem>``.
+
+    Importing it registers what it registers (effects, systems, executors); a second call
+    returns the module already imported.  ``what`` prefixes the error messages (e.g.
+    ``"--plugin x.py"``; default the path).
+
+    Raises
+    ------
+    ParameterError
+        A file that does not exist or cannot be imported as Python.
+    """
+    import importlib.util
+    import sys
+
+    file = Path(path)
+    label = what or str(file)
+    name = f"vfs_plugin_{file.stem}"
+    module = sys.modules.get(name)
+    if module is not None:
+        return module
+    if not file.is_file():
+        raise ParameterError(f"{label}: no such file")
+    spec = importlib.util.spec_from_file_location(name, file)
+    if spec is None or spec.loader is None:
+        raise ParameterError(f"{label}: cannot import")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception:
+        del sys.modules[name]
+        raise
+    return module

@@ -156,25 +156,10 @@ def python_system(path: str | os.PathLike[str], attribute: str = "SYSTEM") -> AE
     ParameterError
         A missing file or one without ``attribute``.
     """
-    import importlib.util
-    import sys
+    from vfs.registry import import_file
 
     file = Path(path).resolve()
-    module_name = f"vfs_plugin_{file.stem}"
-    module = sys.modules.get(module_name)
-    if module is None:
-        if not file.is_file():
-            raise ParameterError(f"{file}: no such file")
-        spec = importlib.util.spec_from_file_location(module_name, file)
-        if spec is None or spec.loader is None:
-            raise ParameterError(f"{file}: cannot import")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
-        try:
-            spec.loader.exec_module(module)
-        except Exception:
-            del sys.modules[module_name]
-            raise
+    module = import_file(file)
     system = getattr(module, attribute, None)
     if system is None or not _is_system(system):
         raise ParameterError(f"{file}: {attribute} is not an AEB system")

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from vfs.errors import ParameterError
+from vfs.registry import import_file
 
 if TYPE_CHECKING:  # pragma: no cover
     from vfs.database import Database
@@ -163,22 +164,7 @@ def load_plugins(specs: Sequence[str] | None) -> list[str]:
             loaded += _register_laws(path)
             continue
         if spec.endswith(".py"):
-            if not path.is_file():
-                raise ParameterError(f"--plugin {spec}: no such file")
-            name = f"vfs_plugin_{path.stem}"
-            if name in sys.modules:  # already imported (and registered)
-                loaded.append(name)
-                continue
-            sp = importlib.util.spec_from_file_location(name, path)
-            if sp is None or sp.loader is None:
-                raise ParameterError(f"--plugin {spec}: cannot import")
-            mod = importlib.util.module_from_spec(sp)
-            sys.modules[name] = mod
-            try:
-                sp.loader.exec_module(mod)
-            except Exception:
-                del sys.modules[name]
-                raise
+            name = import_file(path, f"--plugin {spec}").__name__
         else:
             try:
                 importlib.import_module(spec)

@@ -306,7 +306,10 @@ def table(records: Sequence[Mapping[str, Any]]) -> str:
 
 
 def _run(args: tuple[Mapping[str, Any], int, bool]) -> dict[str, Any]:
-    return run_entry(*args)
+    from vfs.blas import single_threaded_blas
+
+    with single_threaded_blas():  # one BLAS thread per job, as the command line runs
+        return run_entry(*args)
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -477,9 +477,34 @@ def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
     return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
 
 
+def precrash_stage(opened: OpenedCases, params: SimulationParams,
+                   controller: BrakeController | None = None,
+                   rng: np.random.Generator | SegmentedRandom | None = None) -> PrecrashResult:
+    """The pre-crash run of opened cases (:func:`open_cases`): along the records
+    until contact and through the penetration time (:func:`simulate_precrash`).
+
+    Parameters
+    ----------
+    opened : OpenedCases
+    params : SimulationParams
+    controller : BrakeController, optional
+        Brake demand (None: replay the record).
+    rng : numpy.random.Generator or SegmentedRandom, optional
+
+    Returns
+    -------
+    PrecrashResult
+    """
+    batch = opened.batch
+    return simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                             controller=controller, params=params.precrash, rng=rng,
+                             penetration=opened.penetration)
+
+
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
-                   rng: np.random.Generator | SegmentedRandom | None = None) -> CaseResults:
+                   rng: np.random.Generator | SegmentedRandom | None = None,
+                   precrash: PrecrashResult | None = None) -> CaseResults:
     """Simulate N cases end to end (pre-crash, impact, run-out to rest).
 
     The effects of ``params.effects`` act at their stages (:mod:`vfs.effects`):
@@ -497,6 +522,12 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         Randomness for the controller (sensor noise, reaction times); a
         :class:`vfs.physics.precrash.SegmentedRandom` gives consecutive
         segments of the batch their own streams.
+    precrash : PrecrashResult, optional
+        The pre-crash phase of exactly these cases, run earlier
+        (:func:`precrash_stage`) with the same controller, randomness,
+        ``params.precrash``, ``vehicles`` hooks and penetration rule; the run
+        is then skipped (the model-variant searches of :mod:`vfs.analysis`
+        reuse one pre-crash run for every variant that leaves it unchanged).
 
     Returns
     -------
@@ -506,10 +537,15 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     n = batch.size
     if n == 0:
         raise ParameterError("empty case batch")
-    batch, penetration, eps, mu = open_cases(batch, params)
-    pre = simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
-                            controller=controller, params=params.precrash, rng=rng,
-                            penetration=penetration)
+    opened = open_cases(batch, params)
+    batch, eps, mu = opened.batch, opened.restitution, opened.contact_friction
+    if precrash is None:
+        pre = precrash_stage(opened, params, controller, rng)
+    elif precrash.collided.shape != (n,):
+        raise ParameterError(f"precrash: a result of {precrash.collided.shape[0]} cases "
+                             f"for a batch of {n}")
+    else:
+        pre = precrash
     hit = np.flatnonzero(pre.collided)
     poi = np.full((n, 2), np.nan)
     cp = np.full(n, np.nan)

@@ -460,7 +460,7 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
     feats = identification_features(data)
 
     def ident(s: VariantSimulator, names: Sequence[str]) -> pd.DataFrame:
-        t = identify(data, names, grid_points=grid, sim=s)
+        t = identify(data, names, grid_points=grid, sim=s, progress=say)
         return t.merge(feats, on="case_id", how="left")
 
     def learned(table: pd.DataFrame) -> list[Any]:

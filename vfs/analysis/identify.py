@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -438,7 +438,8 @@ def _widen(best: np.ndarray, edge: np.ndarray, k: float, channel: str) -> np.nda
 def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
              grid_points: int = 21, sim: VariantSimulator | None = None,
              refine: bool = True, zoom_starts: int = 0,
-             zoom_points: int = 8, noise: str = "estimated") -> pd.DataFrame:
+             zoom_points: int = 8, noise: str = "estimated",
+             progress: Callable[[str], None] | None = None) -> pd.DataFrame:
     """Identify each channel per case (see the module docstring).
 
     Parameters
@@ -467,6 +468,8 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         the channel's residuals at the values found with the recorded scales,
         so that the interval chi^2 <= min + 1 covers the true value about 68 %
         of the time (docs/diagnosis.md, "Interval coverage").
+    progress : callable, optional
+        Called with a line after each channel (its count, name and seconds).
 
     Returns
     -------
@@ -493,7 +496,8 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         ft = identification_features(data)
         feats = ft[list(LAW_FEATURES)].to_numpy(float)
     frames = []
-    for name in names:
+    t0 = time.perf_counter()
+    for i, name in enumerate(names):
         ch = CHANNELS[name]
         grid = channel_grid(name, grid_points)
         cls = _constant_class(name)
@@ -528,6 +532,9 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
             "noise_factor": float(np.sqrt(np.mean(factors ** 2))),
             "interval_factor": k,
         }))
+        if progress is not None:
+            progress(f"  identified {name} ({i + 1}/{len(names)}; "
+                     f"{time.perf_counter() - t0:.0f} s so far)")
     return pd.concat(frames, ignore_index=True)
 
 

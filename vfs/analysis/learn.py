@@ -104,24 +104,39 @@ def _fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
     if form == "linear":
         return [float(v) for v in _wls([one, x], y, w)]
 
+    sw, swy = float(np.sum(w)), w * y
+    sy = float(np.sum(swy))
+
     def inner(c: float) -> tuple[float, list[float]]:
-        if form == "power":
-            basis = [np.maximum(x, 1e-9) ** c]
-        elif form == "exponential":
-            basis = [np.exp(c * x)]
-        elif form == "saturating":
-            basis = [one, 1.0 - np.exp(-np.maximum(x, 0.0) / c)]
-        else:  # step
-            basis = [one, (x >= c).astype(float)]
-        if not all(np.isfinite(b).all() for b in basis):
+        # weighted least squares of the linear coefficients for a given nonlinear one,
+        # by the normal equations of the one or two basis functions (lstsq where singular)
+        with np.errstate(over="ignore", invalid="ignore"):
+            if form == "power":
+                b = np.maximum(x, 1e-9) ** c
+            elif form == "exponential":
+                b = np.exp(c * x)
+            elif form == "saturating":
+                b = 1.0 - np.exp(-np.maximum(x, 0.0) / max(c, 1e-9))
+            else:  # step
+                b = (x >= c).astype(float)
+        if not np.isfinite(b).all():
             return math.inf, []
-        coef = [float(v) for v in _wls(basis, y, w)]
+        wb = w * b
+        sbb, sby = float(np.dot(wb, b)), float(np.dot(wb, y))
         if form in ("power", "exponential"):
-            coef = [coef[0], c]
+            if not sbb > 0:
+                return math.inf, []
+            a = sby / sbb
+            pred, coef = a * b, [a, c]
         else:
-            coef = coef + [c]
-        pred = evaluate_law({"form": form, "coefficients": coef}, x)
-        sse = float(np.sum(w * (y - pred) ** 2))
+            sb = float(np.sum(wb))
+            det = sw * sbb - sb * sb
+            if det > 1e-12 * sw * sbb:
+                a0, a1 = (sbb * sy - sb * sby) / det, (sw * sby - sb * sy) / det
+            else:  # b constant on the weighted cases: the minimum-norm solution
+                a0, a1 = (float(v) for v in _wls([one, b], y, w))
+            pred, coef = a0 + a1 * b, [a0, a1, c]
+        sse = float(np.dot(w, (y - pred) ** 2))
         return (sse if math.isfinite(sse) else math.inf), coef
 
     span = float(np.ptp(x)) or 1.0
@@ -188,7 +203,65 @@ def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
         ux = np.bincount(group, sw * ux) / gw
         my = np.bincount(group, sw * my) / gw
         sw = gw
-    return make_smoothing_spline(ux, my, w=sw / sw.mean())
+    wn = sw / sw.mean()
+    return make_smoothing_spline(ux, my, w=wn, lam=gcv_smoothing(ux, my, wn))
+
+
+def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
+    """Smoothing parameter of the cubic smoothing spline that minimises the generalised
+    cross-validation criterion: the criterion of :func:`scipy.interpolate.make_smoothing_spline`
+    (Wahba's GCV: mean squared residual over (1 - tr(A) / n)^2, the objective
+    sum w (y - f)^2 + lam int f''^2), evaluated in closed form for all lam at once.
+
+    The spline's values at the n abscissas are f = (W + lam K)^-1 W y with
+    K = Q R^-1 Q' the Reinsch penalty matrix (Green & Silverman, *Nonparametric
+    Regression and Generalized Linear Models*, sec. 2.1); with the eigenvectors U
+    and eigenvalues d of W^-1/2 K W^-1/2 the hat matrix has the eigenvalues
+    1 / (1 + lam d), so residuals and trace cost one matrix product per lam
+    (scipy's search costs O(n) Python steps per trial).  A log grid of lam over
+    (1e-12 n, n], scipy's search interval (0, n), then a bounded search in the
+    best cell.
+
+    Parameters
+    ----------
+    x : ndarray (n,)
+        Increasing abscissas (n >= 5; the feature's unit).
+    y : ndarray (n,)
+        Values (the channel's unit).
+    w : ndarray (n,)
+        Positive weights.
+
+    Returns
+    -------
+    float
+        lam (unit of y^2 x^3).
+    """
+    from scipy.optimize import minimize_scalar
+
+    n = x.size
+    h = np.diff(x)
+    i = np.arange(n - 2)
+    q = np.zeros((n, n - 2))
+    q[i, i], q[i + 1, i], q[i + 2, i] = 1.0 / h[:-1], -1.0 / h[:-1] - 1.0 / h[1:], 1.0 / h[1:]
+    r = np.diag((h[:-1] + h[1:]) / 3.0) + np.diag(h[1:-1] / 6.0, 1) + np.diag(h[1:-1] / 6.0, -1)
+    k = q @ np.linalg.solve(r, q.T)
+    root = np.sqrt(w)
+    d, u = np.linalg.eigh(k / np.outer(root, root))
+    d = np.maximum(d, 0.0)
+    z = u.T @ (root * y)
+
+    def criterion(lams: np.ndarray) -> np.ndarray:
+        f = 1.0 / (1.0 + np.asarray(lams, float).reshape(-1, 1) * d)
+        resid = (((1.0 - f) * z) @ u.T) / root  # y - f(x), unweighted as scipy's
+        return np.asarray(np.sum(resid ** 2, axis=1) / n / (1.0 - f.sum(axis=1) / n) ** 2)
+
+    grid = np.geomspace(n * 1e-12, float(n), 241)
+    values = criterion(grid)
+    j = int(np.argmin(values))
+    lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    best = minimize_scalar(lambda lam: float(criterion(np.array([lam]))[0]), bounds=(lo, hi),
+                           method="bounded")
+    return float(best.x) if best.fun <= values[j] else float(grid[j])
 
 
 def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:

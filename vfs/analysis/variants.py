@@ -19,8 +19,15 @@ import numpy as np
 
 from vfs.effects import STAGES, Effect, VelocityChange, hooks
 from vfs.errors import ParameterError
-from vfs.physics.precrash import PrecrashParams
-from vfs.simulation import CaseBatch, CaseResults, SimulationParams, simulate_cases
+from vfs.physics.precrash import PrecrashParams, PrecrashResult
+from vfs.simulation import (
+    CaseBatch,
+    CaseResults,
+    SimulationParams,
+    open_cases,
+    precrash_stage,
+    simulate_cases,
+)
 
 #: A model variant: the effects added to the base model, in order.
 Model = tuple[Effect, ...]
@@ -201,6 +208,14 @@ def stacked_effect(models: Sequence[Model], n: int,
     return eff if eff.active_stages() else None
 
 
+def leaves_precrash(model: Model) -> bool:
+    """True if the effects of ``model`` leave the pre-crash phase as it is: none has a
+    ``vehicles`` hook (vehicle data) or a ``penetration`` hook (penetration time),
+    the only stages that act before the impact configuration.
+    """
+    return not hooks(model, "vehicles") and not hooks(model, "penetration")
+
+
 class VariantData(Protocol):
     """What :class:`VariantSimulator` needs of the compared cases."""
 
@@ -245,6 +260,7 @@ class VariantSimulator:
         self.params = params or SimulationParams()
         self.max_cases = max(int(max_cases), data.n)
         self._cache: dict[tuple[Any, ...], np.ndarray] = {}
+        self._precrash: PrecrashResult | None = None
         self.n_variants = 0
         self.n_case_runs = 0
         self.n_calls = 0
@@ -258,23 +274,33 @@ class VariantSimulator:
             if k not in self._cache and k not in todo:
                 todo[k] = tuple(m)
         items = list(todo.items())
-        per_call = max(1, self.max_cases // self.data.n)
-        for start in range(0, len(items), per_call):
-            chunk = items[start:start + per_call]
+        for chunk in self._calls(items, lambda item: item[1]):
             for (k, _), r in zip(chunk, self._simulate([m for _, m in chunk]), strict=True):
                 self._cache[k] = r
         return [self._cache[k] for k in keys]
+
+    def _calls(self, items: Sequence[Any], model: Any) -> list[list[Any]]:
+        """``items`` in stacked calls of at most ``max_cases`` cases: those whose model
+        leaves the pre-crash phase as it is (:func:`leaves_precrash`) apart from the
+        others, so that their calls share the base model's pre-crash run.
+        """
+        per_call = max(1, self.max_cases // self.data.n)
+        out: list[list[Any]] = []
+        for shares in (True, False):
+            group = [it for it in items if leaves_precrash(model(it)) == shares]
+            out += [group[i:i + per_call] for i in range(0, len(group), per_call)]
+        return out
 
     def uncached_residuals(self, models: Sequence[Model]) -> list[np.ndarray]:
         """Residual arrays (n, n_columns) of each model, simulated without the cache
         (for models whose parameters do not describe them, e.g. values per case);
         stacked calls of at most ``max_cases`` cases, counted in the statistics.
         """
-        per_call = max(1, self.max_cases // self.data.n)
-        out: list[np.ndarray] = []
-        for start in range(0, len(models), per_call):
-            out += self._simulate(models[start:start + per_call])
-        return out
+        got: dict[int, np.ndarray] = {}
+        for chunk in self._calls(list(enumerate(models)), lambda item: item[1]):
+            got.update(zip((i for i, _ in chunk), self._simulate([m for _, m in chunk]),
+                           strict=True))
+        return [got[i] for i in range(len(models))]
 
     def simulate(self, models: Sequence[Model]) -> CaseResults:
         """Results of the variants, stacked (variant-major: rows g n .. (g + 1) n - 1)."""
@@ -290,7 +316,23 @@ class VariantSimulator:
             effects = () if st is None else (st,)
         params = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
                                   runout=self.params.runout, effects=effects)
-        return simulate_cases(batch, params=params)
+        pre = None
+        if all(leaves_precrash(m) for m in models):  # one pre-crash run serves them all
+            pre = self.base_precrash()
+            if g > 1:
+                pre = pre.take(np.tile(np.arange(n), g))
+        return simulate_cases(batch, params=params, precrash=pre)
+
+    def base_precrash(self) -> PrecrashResult:
+        """The pre-crash run of the cases under the base parameters (run once, kept):
+        shared by every variant whose effects leave the pre-crash phase as it is
+        (:func:`leaves_precrash`).
+        """
+        if self._precrash is None:
+            base = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
+                                    runout=self.params.runout, effects=tuple(self.params.effects))
+            self._precrash = precrash_stage(open_cases(self.data.batch, base), base)
+        return self._precrash
 
     def _simulate(self, models: Sequence[Model]) -> list[np.ndarray]:
         t0 = time.perf_counter()
@@ -313,6 +355,7 @@ __all__ = [
     "Model",
     "StackedVariants",
     "VariantSimulator",
+    "leaves_precrash",
     "merge_rows",
     "model_key",
     "stacked_effect",

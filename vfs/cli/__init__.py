@@ -90,10 +90,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
+    from vfs.blas import single_threaded_blas
     from vfs.cli.common import input_messages
 
     try:
-        with input_messages(args):  # input warnings as "warning:" lines; --strict
+        # input warnings as "warning:" lines; --strict; one BLAS thread (vfs.blas)
+        with input_messages(args), single_threaded_blas():
             return _run(args)
     except VfsError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -80,3 +80,19 @@ class PrecrashResult(NamedTuple):
     speed_reduction: np.ndarray
     end_state: KinematicState
     end_time: float
+
+    def take(self, rows: np.ndarray) -> PrecrashResult:
+        """The result of the cases ``rows`` (indices, repeats allowed), in that order.
+
+        ``end_time`` stays that of the whole batch [s].
+        """
+        rows = np.asarray(rows)
+        out: list[object] = []
+        for name, value in zip(self._fields, self, strict=True):
+            if isinstance(value, KinematicState):
+                out.append(KinematicState(*(a[rows] for a in value)))
+            elif name == "end_time":
+                out.append(value)
+            else:
+                out.append(np.asarray(value)[rows])
+        return PrecrashResult(*out)  # type: ignore[arg-type]

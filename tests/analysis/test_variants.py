@@ -1,0 +1,50 @@
+"""Model variants of a calibration (vfs.analysis.variants): the shared pre-crash run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vfs.analysis import variants
+from vfs.analysis.calibrate import CalibrationData
+from vfs.analysis.variants import VariantSimulator, leaves_precrash
+from vfs.effects.library import PenetrationDepth, RestitutionSpeed, WheelLock, YawInertia
+from vfs.scenarios.generator import generate_database
+
+
+@pytest.fixture(scope="module")
+def data() -> CalibrationData:
+    db, _ = generate_database("default", n_cases=40, seed=5)
+    return CalibrationData.from_database(db)
+
+
+def test_only_vehicle_and_penetration_hooks_change_the_precrash():
+    assert leaves_precrash(())
+    assert leaves_precrash((RestitutionSpeed(), WheelLock()))
+    assert not leaves_precrash((PenetrationDepth(),))  # penetration time
+    assert not leaves_precrash((RestitutionSpeed(), YawInertia()))  # vehicle data
+
+
+def test_shared_precrash_run_gives_the_variants_bit_for_bit(data, monkeypatch):
+    """Variants that leave the pre-crash phase as it is reuse the base model's run; their
+    residuals equal those of variants that each run their own pre-crash phase (stacked
+    the same way), to the last bit. A variant with a penetration law runs its own and
+    differs from the default model."""
+    models = [(), (RestitutionSpeed(),), (WheelLock(),), (PenetrationDepth(),)]
+    shared = VariantSimulator(data)
+    got = shared.residuals(models)
+    assert shared._precrash is not None  # noqa: SLF001 - the cache this test is about
+    monkeypatch.setattr(variants, "leaves_precrash", lambda _model: False)
+    own = VariantSimulator(data).residuals(models)
+    for a, b in zip(got, own, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(got[3], got[0], equal_nan=True)
+
+
+def test_precrash_take_repeats_cases_in_order(data):
+    pre = VariantSimulator(data).base_precrash()
+    rows = np.array([2, 0, 2])
+    sub = pre.take(rows)
+    np.testing.assert_array_equal(sub.contact_time, pre.contact_time[rows])
+    np.testing.assert_array_equal(sub.impact_state.x, pre.impact_state.x[rows])
+    assert sub.end_time == pre.end_time

@@ -67,12 +67,19 @@ class SimulationParams:
     effects : tuple of Effect
         Physical effects added to the default model (:mod:`vfs.effects`),
         applied at their stages in this order; default none.
+    secondary_collisions : bool
+        Flag pairs that touch again in the run-out (default True); False
+        skips that check, a third of the run-out's cost: the rest poses are
+        the same (secondary collisions are detected, not solved) and the
+        results report none (the model-variant searches of :mod:`vfs.analysis`,
+        whose outcomes do not include the flag).
     """
 
     precrash: PrecrashParams = field(default_factory=PrecrashParams)
     impact: ImpactParams = field(default_factory=ImpactParams)
     runout: RunoutParams = field(default_factory=RunoutParams)
     effects: tuple[Effect, ...] = ()
+    secondary_collisions: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", check_effects(self.effects))
@@ -569,7 +576,8 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         n, hit,
         runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz1),
                      _with_inertia(batch.vehicle2.take(hit), config.izz2),
-                     _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2)
+                     _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
+                     secondary_collisions=params.secondary_collisions)
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)

@@ -48,3 +48,15 @@ def test_precrash_take_repeats_cases_in_order(data):
     np.testing.assert_array_equal(sub.contact_time, pre.contact_time[rows])
     np.testing.assert_array_equal(sub.impact_state.x, pre.impact_state.x[rows])
     assert sub.end_time == pre.end_time
+
+
+def test_variants_skip_the_secondary_collision_check_without_changing_residuals(data):
+    """The variant searches run the run-out without the secondary-collision check; the
+    residuals (rest poses, run-out distances, ...) are those of the full chain."""
+    from vfs.simulation import SimulationParams, simulate_cases
+
+    sim = VariantSimulator(data)
+    got = sim.residuals([(WheelLock(),)])[0]
+    full = simulate_cases(data.batch, params=SimulationParams(effects=(WheelLock(),)))
+    assert full.runout.secondary_collision.any()  # the check has something to find here
+    np.testing.assert_array_equal(got, data.residuals(full))

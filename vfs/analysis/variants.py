@@ -314,8 +314,10 @@ class VariantSimulator:
         else:
             st = stacked_effect(full, n, self.params.precrash.penetration_time)
             effects = () if st is None else (st,)
+        # the outcomes compared do not include the secondary-collision flag: not checked
         params = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
-                                  runout=self.params.runout, effects=effects)
+                                  runout=self.params.runout, effects=effects,
+                                  secondary_collisions=False)
         pre = None
         if all(leaves_precrash(m) for m in models):  # one pre-crash run serves them all
             pre = self.base_precrash()

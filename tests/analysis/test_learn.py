@@ -346,22 +346,24 @@ def test_cli_identify_learn_calibrate_compare(tmp_path):
 
 
 def test_gcv_smoothing_matches_scipys_own_gcv_choice():
-    """The closed-form GCV search picks scipy's smoothing: the spline fitted with our lam
-    and scipy's ``make_smoothing_spline`` with its own GCV search (lam=None) agree at the
-    abscissas to a small fraction of the noise, for several sizes and weightings."""
+    """The closed-form GCV criterion with scipy's search picks scipy's smoothing: the spline
+    fitted with our lam and scipy's ``make_smoothing_spline`` with its own GCV search
+    (lam=None) agree at the abscissas, over sizes 5-80, weightings and noise levels
+    (a search that found another minimum of the criterion would differ by far more)."""
     from scipy.interpolate import make_smoothing_spline
 
     from vfs.analysis.learn import gcv_smoothing
 
     rng = np.random.default_rng(7)
-    for n in (8, 30, 80):
+    for _ in range(25):
+        n = int(rng.integers(5, 81))
         x = np.sort(rng.uniform(0.0, 30.0, n))
-        y = np.sin(x / 5.0) + 0.2 * rng.normal(size=n)
+        y = np.sin(x / 5.0) + rng.uniform(0.01, 0.5) * rng.normal(size=n)
         w = rng.uniform(0.2, 2.0, n)
         w /= w.mean()
         ours = make_smoothing_spline(x, y, w=w, lam=gcv_smoothing(x, y, w))(x)
         scipys = make_smoothing_spline(x, y, w=w)(x)
-        assert np.max(np.abs(ours - scipys)) < 0.01 * 0.2
+        assert np.max(np.abs(ours - scipys)) < 1e-4 * np.ptp(y)
 
 
 def test_gcv_smoothing_follows_the_noise():

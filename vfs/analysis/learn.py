@@ -218,9 +218,8 @@ def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
     Regression and Generalized Linear Models*, sec. 2.1); with the eigenvectors U
     and eigenvalues d of W^-1/2 K W^-1/2 the hat matrix has the eigenvalues
     1 / (1 + lam d), so residuals and trace cost one matrix product per lam
-    (scipy's search costs O(n) Python steps per trial).  A log grid of lam over
-    (1e-12 n, n], scipy's search interval (0, n), then a bounded search in the
-    best cell.
+    (scipy's search costs O(n) Python steps per trial).  The search is scipy's:
+    a bounded Brent search over (0, n).
 
     Parameters
     ----------
@@ -255,13 +254,11 @@ def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
         resid = (((1.0 - f) * z) @ u.T) / root  # y - f(x), unweighted as scipy's
         return np.asarray(np.sum(resid ** 2, axis=1) / n / (1.0 - f.sum(axis=1) / n) ** 2)
 
-    grid = np.geomspace(n * 1e-12, float(n), 241)
-    values = criterion(grid)
-    j = int(np.argmin(values))
-    lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-    best = minimize_scalar(lambda lam: float(criterion(np.array([lam]))[0]), bounds=(lo, hi),
+    # scipy's search: bounded Brent over (0, n) (a grid would find the spurious minimum
+    # near lam = 0, where residuals and 1 - tr(A) / n vanish together)
+    best = minimize_scalar(lambda lam: float(criterion(np.array([lam]))[0]), bounds=(0.0, n),
                            method="bounded")
-    return float(best.x) if best.fun <= values[j] else float(grid[j])
+    return float(best.x)
 
 
 def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:

@@ -8,20 +8,22 @@ from the start of the records through impact or avoidance to rest
 row per (case, system), ``runs.parquet``, read by the effectiveness analysis
 (:mod:`vfs.analysis.effectiveness`).
 
-Work is split into chunks of ``chunk_size`` cases in database order, and
-consecutive chunks into groups of up to ``task_cases`` cases
-(:func:`task_groups`).  Every (group, system) pair, the baseline included, is
-one task (:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the
-group's cases.  When all runs of a chunk are in, the main process writes the
-chunk atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never
-redone (``resume``).  A case that makes a batch raise is isolated by bisection
-and recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
-baseline, 1.. = the systems in the order given) draw their random numbers from
-``numpy.random.default_rng([seed, k, j])`` (also inside a group), so the
-results do not depend on the executor (:mod:`vfs.study.executors`), on the
-grouping nor on the order in which tasks finish.  The settings are one
-:class:`vfs.study.spec.StudySpec`.  The folder layout is described in
-:mod:`vfs.study.manifest`; the columns and the command line in docs/study.md.
+Work is split into chunks of ``chunk_size`` cases in database order. A task
+(:class:`vfs.study.tasks.RunTask`) runs consecutive chunks of one system (the
+baseline included) as one vectorised batch of up to ``task_cases`` cases; the
+plan (:func:`vfs.study.plan.plan_tasks`) sizes the tasks by their estimated
+cost, so that few tasks pay the fixed per-step overhead and the workers end
+together, and submits the longest first. When all runs of a chunk are in, the
+main process writes the chunk atomically to ``chunks/chunk_000123.parquet``;
+chunks on disk are never redone (``resume``). A case that makes a batch raise
+is isolated by bisection and recorded with its error message. Chunk ``k`` and
+system index ``j`` (0 = baseline, 1.. = the systems in the order given) draw
+their random numbers from ``numpy.random.default_rng([seed, k, j])`` (also
+inside a group), so the results do not depend on the executor
+(:mod:`vfs.study.executors`), on the grouping nor on the order in which tasks
+finish. The settings are one :class:`vfs.study.spec.StudySpec`. The folder
+layout is described in :mod:`vfs.study.manifest`; the columns and the command
+line in docs/study.md.
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ from vfs.study.manifest import (
     prepare_folder,
 )
 from vfs.study.orphans import pid_alive
+from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunk, error_text
@@ -334,22 +337,6 @@ def _run_locked(plan: _Plan) -> StudyResult:
         raise
 
 
-def task_groups(todo: Sequence[int], chunk_size: int, task_cases: int, runners: int,
-                workers: int) -> list[list[int]]:
-    """The chunks to do, in groups that one task each runs as one batch.
-
-    Groups of consecutive entries of ``todo`` of at most ``task_cases``
-    cases (at least one chunk), and at least ``2 workers / runners`` groups
-    while there are chunks enough (two tasks per worker keep them busy).
-    """
-    if not todo:
-        return []
-    per_task = max(1, task_cases // chunk_size)
-    wanted = -(-2 * workers // runners) if workers > 1 else 1
-    per_task = max(1, min(per_task, len(todo) // max(1, wanted)))
-    return [list(todo[i:i + per_task]) for i in range(0, len(todo), per_task)]
-
-
 def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     """Write the folder's inputs, run the chunks still to do, combine them."""
     spec, selection, chunks = plan.spec, plan.selection, plan.chunks
@@ -372,23 +359,28 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     n_tasks_max = len(todo) * len(runners)
     n_workers = 1 if spec.engine == "serial" else (
         spec.workers if spec.workers else max(1, min(cpu_count(), n_tasks_max)))
+    planned = plan_tasks(todo, [int(chunks[k].size) for k in todo],
+                         [runner_cost(r) for r in runners], n_workers, spec.chunk_size,
+                         spec.task_cases)
     tasks = []
-    for group in task_groups(todo, spec.chunk_size, spec.task_cases, len(runners), n_workers):
+    for item in planned:
+        group = list(item.chunks)
         case_ids = np.concatenate([chunks[k] for k in group])
         parts = tuple((k, int(chunks[k].size)) for k in group) if len(group) > 1 else ()
         sub = None if batch_all is None else batch_all.take(np.concatenate(
             [np.arange(k * spec.chunk_size, k * spec.chunk_size + chunks[k].size)
              for k in group]))
-        for j, system in enumerate(runners):
-            tasks.append(RunTask(
-                chunk=group[0], case_ids=case_ids, system_index=j, system=system,
-                db=selection.reference, db_format=selection.fmt, batch=sub,
-                equip=str(spec.equip), seed=spec.seed, params=spec.params,
-                impact_parameters=str(spec.impact_parameters), group=parts))
+        j = item.system_index
+        tasks.append(RunTask(
+            chunk=group[0], case_ids=case_ids, system_index=j, system=runners[j],
+            db=selection.reference, db_format=selection.fmt, batch=sub,
+            equip=str(spec.equip), seed=spec.seed, params=spec.params,
+            impact_parameters=str(spec.impact_parameters), group=parts))
     bar = _progress_bar(sum(chunks[k].size for k in todo), spec.progress)
     writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk)
-    options = ExecutorOptions(n_workers, spec.scheduler, spec.dask_processes, spec.dashboard,
-                              spec.in_flight)
+    # no more processes than tasks
+    options = ExecutorOptions(max(1, min(n_workers, len(tasks))), spec.scheduler,
+                              spec.dask_processes, spec.dashboard, spec.in_flight)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
             EXECUTORS.get(spec.engine)(tasks, writer, options)

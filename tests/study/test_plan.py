@@ -21,7 +21,14 @@ from hypothesis import strategies as st
 from vfs.physics.precrash import PrecrashParams
 from vfs.physics.runout import RunoutParams
 from vfs.simulation import SimulationParams
-from vfs.study import EXECUTORS, ExecutorOptions, register_executor, run_study, run_task
+from vfs.study import (
+    EXECUTORS,
+    ExecutorOptions,
+    read_manifest,
+    register_executor,
+    run_study,
+    run_task,
+)
 from vfs.study.plan import (
     AEB_COST,
     BASELINE_COST,
@@ -128,3 +135,23 @@ def test_results_do_not_depend_on_plan_nor_order(tmp_path) -> None:  # noqa: ANN
     assert isinstance(serial.table, pd.DataFrame) and isinstance(planned.table, pd.DataFrame)
     assert serial.table.equals(planned.table)
     assert np.unique(planned.table["case_id"]).size * 3 == len(planned.table)
+
+
+def test_deferred_validation_refuses_invalid_data_before_any_chunk(tmp_path) -> None:  # noqa: ANN001
+    """With workers the client validates while they run; no chunk of invalid data is written."""
+    from vfs.database import Database, open_database, save_database
+    from vfs.errors import DataError
+
+    if "reversed-test" not in EXECUTORS:
+        register_executor("reversed-test", _reversed)
+    db = open_database("default", where="case_id <= 30")
+    bad = db.participants.copy()
+    bad.loc[bad["case_id"] == 25, "mass"] = -1.0
+    folder = save_database(Database(db.cases, bad, db.trajectories, db.reconstruction,
+                                    meta=db.meta), tmp_path / "bad", validate=False)
+    out = tmp_path / "study"
+    with pytest.raises(DataError, match=r"case_id 25.*mass|mass.*case_id 25"):
+        run_study(folder, "three-stage", out, engine="reversed-test", workers=2, chunk_size=10,
+                  params=FAST, progress=False)
+    assert not list((out / "chunks").glob("*.parquet"))
+    assert read_manifest(out)["status"] == "failed"

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -46,7 +47,7 @@ from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
 from vfs.study.faults import record_fault
-from vfs.study.inputs import StudyInput, study_input
+from vfs.study.inputs import StudyInput, study_input, validate_selection
 from vfs.study.layout import (
     BASELINE,
     CASES_FILE,
@@ -115,6 +116,7 @@ class _ChunkWriter:
     on_chunk: Callable[[int, int], None] | None
     cases_run: int = 0
     pending: dict[int, dict[int, pd.DataFrame]] = field(default_factory=dict)
+    gate: Callable[[], None] | None = None  # called before the first chunk file is written
 
     def __call__(self, task: RunTask, table: pd.DataFrame) -> None:
         n = len(task.case_ids)
@@ -136,6 +138,9 @@ class _ChunkWriter:
         if len(parts) < self.runners:
             return
         del self.pending[chunk]
+        if self.gate is not None:
+            self.gate()
+            self.gate = None
         chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
         write_table(chunk_path(self.out, chunk), chunk_table,
                     field_metadata(chunk_table.columns))
@@ -297,7 +302,9 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     else:
         spec = StudySpec.of(db, systems, out, **options)
     system_objs = resolve_systems(list(spec.systems), spec.registry)
-    selection = study_input(spec.db, spec.where)
+    # with workers, the blocks are validated while the workers start on the tasks
+    # (validate_selection in _run_chunks); nothing is written before it has passed
+    selection = study_input(spec.db, spec.where, validate=spec.engine == "serial")
     ids = selection.case_ids  # never empty (study_input refuses)
     size = spec.chunk_size
     plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
@@ -335,6 +342,46 @@ def _run_locked(plan: _Plan) -> StudyResult:
                             else "failed", updated=now(), error=error_text(exc))
             record_fault(out_dir / MANIFEST_FILE, manifest)  # in place on a full disk
         raise
+
+
+class _Validation:
+    """:func:`validate_selection` in a thread of this process, while the workers run.
+
+    The client's validation of a Parquet selection reads and checks every case
+    (a few seconds per 10,000 cases); run before the tasks, it would keep every
+    worker waiting.  :meth:`wait` joins it and raises its :class:`DataError`; the
+    chunk writer calls it before the first chunk file is written.
+    """
+
+    def __init__(self, selection: StudyInput) -> None:
+        self.selection = selection
+        self.error: BaseException | None = None
+        self.thread: threading.Thread | None = None
+        self.done = selection.validated
+
+    def _run(self) -> None:
+        try:
+            validate_selection(self.selection)
+        except BaseException as exc:  # noqa: BLE001 - raised in the study's thread by wait()
+            self.error = exc
+
+    def start(self) -> None:
+        if not self.done and self.thread is None:
+            self.thread = threading.Thread(target=self._run, name="vfs-study-validation",
+                                           daemon=True)
+            self.thread.start()
+
+    def wait(self, cause: BaseException | None = None) -> None:
+        """Join the validation (run it here if never started); raise what it found."""
+        if self.done:
+            return
+        if self.thread is None:
+            self._run()
+        else:
+            self.thread.join()
+        self.done = True
+        if self.error is not None:
+            raise self.error from cause
 
 
 def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
@@ -377,13 +424,23 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
             equip=str(spec.equip), seed=spec.seed, params=spec.params,
             impact_parameters=str(spec.impact_parameters), group=parts))
     bar = _progress_bar(sum(chunks[k].size for k in todo), spec.progress)
-    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk)
+    validation = _Validation(selection)
+    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk,
+                          gate=validation.wait if tasks else None)
     # no more processes than tasks
     options = ExecutorOptions(max(1, min(n_workers, len(tasks))), spec.scheduler,
                               spec.dask_processes, spec.dashboard, spec.in_flight)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
-            EXECUTORS.get(spec.engine)(tasks, writer, options)
+            validation.start()
+            try:
+                EXECUTORS.get(spec.engine)(tasks, writer, options)
+            except Exception as exc:  # invalid data may be why a task failed: say so
+                validation.wait(cause=exc)
+                raise
+            validation.wait()
+        else:
+            validation.wait()
     finally:
         bar.close()
     manifest.pop("error", None)

@@ -134,6 +134,8 @@ def test_results_do_not_depend_on_plan_nor_order(tmp_path) -> None:  # noqa: ANN
                         **common)
     assert isinstance(serial.table, pd.DataFrame) and isinstance(planned.table, pd.DataFrame)
     assert serial.table.equals(planned.table)
+    # the data hash, computed while the workers ran, is the serial study's
+    assert planned.manifest["data_hash"] == serial.manifest["data_hash"] != ""
     assert np.unique(planned.table["case_id"]).size * 3 == len(planned.table)
 
 

@@ -63,7 +63,8 @@ class StudyInput:
     meta : dict
         ``meta.json`` of the database.
     data_hash : str
-        :func:`vfs.study.manifest.data_hash` of the selected cases' four tables.
+        :func:`vfs.study.manifest.data_hash` of the selected cases' four tables;
+        empty while not computed (``study_input(..., validate=False, hash=False)``).
     fmt : str
         ``"parquet"``, ``"csv"``, ``"pcm"`` or ``"memory"``.
     folder : str or None
@@ -76,7 +77,8 @@ class StudyInput:
     validated : bool
         Whether the selected cases have been validated; False after
         ``study_input(..., validate=False)``: :func:`validate_selection` must
-        pass before any result is written.
+        pass (and, with ``data_hash`` empty, :func:`selection_hash` give the
+        hash) before any result is written.
     """
 
     cases: pd.DataFrame
@@ -114,7 +116,8 @@ def streamed_data_hash(location: str, case_ids: np.ndarray) -> str:
 
 
 def study_input(source: str | os.PathLike[str] | Database, where: str | None = None,
-                *, block_cases: int = VALIDATION_BLOCK, validate: bool = True) -> StudyInput:
+                *, block_cases: int = VALIDATION_BLOCK, validate: bool = True,
+                hash: bool = True) -> StudyInput:
     """Open a study's database and select its cases (see the module's description).
 
     Parameters
@@ -131,6 +134,10 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         False the cases table is still checked, and the blocks are left to
         :func:`validate_selection` (a parallel study runs it while its workers
         start on the tasks; it is most of the client's time before them).
+    hash : bool
+        Compute the data hash of a Parquet selection now (default); with False
+        ``data_hash`` is left empty for :func:`selection_hash` (a new parallel
+        study computes it with the validation).
 
     Returns
     -------
@@ -165,12 +172,19 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         raise _nothing_selected(where)
     meta, _ = read_meta(location)
     folder = location if is_url(location) else str(Path(location).resolve())
-    selection = StudyInput(cases, meta, streamed_data_hash(location, ids), fmt, folder,
-                           reference, validated=False)
+    selection = StudyInput(cases, meta, streamed_data_hash(location, ids) if hash else "",
+                           fmt, folder, reference, validated=False)
     if validate:
         validate_selection(selection, block_cases)
         selection = dataclasses.replace(selection, validated=True)
     return selection
+
+
+def selection_hash(selection: StudyInput) -> str:
+    """The selection's data hash: ``data_hash``, computed now where left empty."""
+    if selection.data_hash or selection.folder is None:
+        return selection.data_hash
+    return streamed_data_hash(selection.folder, selection.case_ids)
 
 
 def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOCK) -> None:
@@ -198,5 +212,5 @@ def _nothing_selected(where: str | None) -> DataError:
                                  "no case selected" + (f" by {where!r}" if where else "")))
 
 
-__all__ = ["VALIDATION_BLOCK", "StudyInput", "streamed_data_hash", "study_input",
-           "validate_selection"]
+__all__ = ["VALIDATION_BLOCK", "StudyInput", "selection_hash", "streamed_data_hash",
+           "study_input", "validate_selection"]

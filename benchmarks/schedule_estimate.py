@@ -10,8 +10,9 @@ main d77c8ce planned them (groups of consecutive chunks shrunk so that every
 worker gets two tasks, every group run by every runner, group by group) and as
 :func:`vfs.study.plan.plan_tasks` plans them, and list-scheduled in submission
 order onto W workers (each task to the worker free first, as a process pool
-does).  Estimated wall = client's serial part + makespan; speed-up against the
-serial plan on one worker.  What it leaves out: memory bandwidth and clock
+does).  Estimated wall = client's serial part before the tasks + makespan +
+the chunk files completed by the last tasks + the end (combine, ``runs.parquet``);
+speed-up against the serial plan on one worker.  What it leaves out: memory bandwidth and clock
 (turbo) of W busy cores, hyper-threads, the startup of the workers, and the
 spread of the real task costs around the fit (the plan allows 25 %).
 
@@ -29,6 +30,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+import pandas as pd
 
 from vfs.bench.study import generated_database
 from vfs.simulation import SimulationParams
@@ -65,13 +68,57 @@ def measure(db: Path, small: int, large: int) -> dict[str, Any]:
         per_case = (ys[1] - ys[0]) / (xs[1] - xs[0])
         fits.append({"per_task_s": ys[0] - per_case * xs[0], "per_case_s": per_case,
                      "measured": list(zip(xs, ys, strict=True))})
+    tail = _writing_costs(db)
     t0 = time.process_time()
     validate_selection(sel)
     validation = (time.process_time() - t0) / ids.size
     t0 = time.process_time()
     streamed_data_hash(sel.folder, ids)
     hashing = (time.process_time() - t0) / ids.size
-    return {"tasks": fits, "validation_s_per_case": validation, "hash_s_per_case": hashing}
+    return {"tasks": fits, "validation_s_per_case": validation, "hash_s_per_case": hashing,
+            **tail}
+
+
+def _writing_costs(db: Path) -> dict[str, float]:
+    """Client CPU [s] per chunk file (assembled and written) and per case for the end.
+
+    The end: chunk files combined, ``runs.parquet`` written and read back; both
+    from a serial study of ``db`` (the functions :mod:`vfs.study.run` calls, timed).
+    """
+    import vfs.study.run as run_module
+
+    spent = {"chunk": 0.0, "chunks": 0, "end": 0.0}
+    originals = (run_module.assemble_chunk, run_module.write_table,
+                 run_module.combine_chunks)
+    assemble, write, combine = originals
+
+    def timed(fn: Any, key: str) -> Any:
+        def call(*args: Any) -> Any:
+            t0 = time.process_time()
+            out = fn(*args)
+            chunk_file = key == "chunk" or (key == "write" and "chunk_" in str(args[0]))
+            spent["chunk" if chunk_file else "end"] += time.process_time() - t0
+            spent["chunks"] += int(key == "write" and chunk_file)
+            return out
+        return call
+
+    run_module.assemble_chunk = timed(assemble, "chunk")
+    run_module.write_table = timed(write, "write")
+    run_module.combine_chunks = timed(combine, "end")
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            spent["end"] = 0.0
+            result = run_module.run_study(str(db), ",".join(SYSTEMS), Path(tmp) / "s",
+                                          engine="serial", progress=False)
+            t0 = time.process_time()
+            pd.read_parquet(Path(tmp) / "s" / "runs.parquet")  # the study reads it back
+            spent["end"] += time.process_time() - t0
+            n = len(result.table) // (len(SYSTEMS) + 1)
+    finally:
+        run_module.assemble_chunk, run_module.write_table, run_module.combine_chunks = originals
+    # "end" also holds cases.parquet, written before the tasks (small)
+    return {"chunk_file_s": spent["chunk"] / max(1, spent["chunks"]),
+            "end_s_per_case": spent["end"] / max(1, n)}
 
 
 def _old_groups(todo: list[int], runners: int, workers: int) -> list[list[int]]:
@@ -94,10 +141,11 @@ def estimate(costs: dict[str, Any], cases: int, workers: list[int]) -> list[dict
         return fits[j]["per_task_s"] + fits[j]["per_case_s"] * n
 
     client_old = STARTUP_S + cases * (costs["validation_s_per_case"] + costs["hash_s_per_case"])
-    client_new = STARTUP_S + cases * costs["hash_s_per_case"]  # validation overlapped
+    client_new = STARTUP_S  # validation and hash overlapped with the tasks
+    end = cases * costs["end_s_per_case"]
     serial_tasks = [cost(j, sum(sizes[k] for k in g))
                     for g in task_groups(todo, CHUNK, TASK_CASES) for j in range(3)]
-    serial = client_old + sum(serial_tasks)
+    serial = client_old + sum(serial_tasks) + end + n_chunks * costs["chunk_file_s"]
     runners = [None, *resolve_systems(SYSTEMS, None)]
     model = [runner_cost(r) for r in runners]
     rows = []
@@ -106,8 +154,11 @@ def estimate(costs: dict[str, Any], cases: int, workers: list[int]) -> list[dict
                for j in range(3)]
         plan = plan_tasks(todo, sizes, model, w, CHUNK, TASK_CASES)
         new = [cost(t.system_index, t.cases) for t in plan]
-        wall_old = client_old + schedule(old, w)
-        wall_new = client_new + schedule(new, w)
+        # after the last task: the chunk files it completes (main: its group's; the plan:
+        # all of them, every runner ends near the makespan), then the end
+        last_group = _old_groups(todo, 3, w)[-1]
+        wall_old = client_old + schedule(old, w) + len(last_group) * costs["chunk_file_s"] + end
+        wall_new = client_new + schedule(new, w) + n_chunks * costs["chunk_file_s"] + end
         rows.append({"workers": w, "old_tasks": len(old), "old_cpu_s": sum(old),
                      "old_wall_s": wall_old, "old_speedup": serial / wall_old,
                      "new_tasks": len(new), "new_cpu_s": sum(new), "new_wall_s": wall_new,

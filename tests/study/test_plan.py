@@ -157,3 +157,21 @@ def test_deferred_validation_refuses_invalid_data_before_any_chunk(tmp_path) -> 
                   params=FAST, progress=False)
     assert not list((out / "chunks").glob("*.parquet"))
     assert read_manifest(out)["status"] == "failed"
+
+
+def test_workers_get_single_threaded_pools_unless_the_user_set_them(monkeypatch) -> None:  # noqa: ANN001
+    import os
+
+    from vfs.study.executors import WORKER_THREAD_VARIABLES, single_threaded_workers
+
+    for name in WORKER_THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    with single_threaded_workers():
+        inside = {name: os.environ.get(name) for name in WORKER_THREAD_VARIABLES}
+    assert inside["OMP_NUM_THREADS"] == "3"  # the user's setting stays
+    assert all(v == "1" for k, v in inside.items() if k != "OMP_NUM_THREADS")
+    # this process's environment is as before
+    assert os.environ.get("OMP_NUM_THREADS") == "3"
+    assert all(name not in os.environ for name in WORKER_THREAD_VARIABLES
+               if name != "OMP_NUM_THREADS")

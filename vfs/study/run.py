@@ -242,8 +242,8 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
         task_cases : int
             Cases a task runs as one vectorised batch (default
             :data:`DEFAULT_TASK_CASES`; whole chunks, each with its own
-            random stream, so the results do not depend on it); fewer when
-            that would leave workers idle.
+            random stream, so the results do not depend on it); with workers
+            the tasks are sized by cost (:func:`vfs.study.plan.plan_tasks`).
         seed : int
             Seed of all random draws (systems with noise or reaction times).
         where : str, optional

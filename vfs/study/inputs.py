@@ -172,12 +172,12 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         raise _nothing_selected(where)
     meta, _ = read_meta(location)
     folder = location if is_url(location) else str(Path(location).resolve())
-    selection = StudyInput(cases, meta, streamed_data_hash(location, ids) if hash else "",
-                           fmt, folder, reference, validated=False)
+    chosen = StudyInput(cases, meta, streamed_data_hash(location, ids) if hash else "",
+                        fmt, folder, reference, validated=False)
     if validate:
-        validate_selection(selection, block_cases)
-        selection = dataclasses.replace(selection, validated=True)
-    return selection
+        validate_selection(chosen, block_cases)
+        chosen = dataclasses.replace(chosen, validated=True)
+    return chosen
 
 
 def selection_hash(selection: StudyInput) -> str:

@@ -59,7 +59,7 @@ class TaskCost:
             raise ParameterError(f"TaskCost needs per_case > 0 and per_task >= 0, got "
                                  f"{self.per_case}, {self.per_task}")
 
-    def of(self, cases: int) -> float:
+    def of(self, cases: float) -> float:
         """Estimated CPU time of a task of ``cases`` cases [baseline case runs]."""
         return self.per_task + self.per_case * cases
 

@@ -88,7 +88,7 @@ def _writing_costs(db: Path) -> dict[str, float]:
     import vfs.study.run as run_module
 
     spent = {"chunk": 0.0, "chunks": 0, "end": 0.0}
-    originals = (run_module.assemble_chunk, run_module.write_table,
+    originals = (run_module.assemble_chunks, run_module.write_table,
                  run_module.combine_chunks)
     assemble, write, combine = originals
 
@@ -102,7 +102,7 @@ def _writing_costs(db: Path) -> dict[str, float]:
             return out
         return call
 
-    run_module.assemble_chunk = timed(assemble, "chunk")
+    run_module.assemble_chunks = timed(assemble, "chunk")
     run_module.write_table = timed(write, "write")
     run_module.combine_chunks = timed(combine, "end")
     try:
@@ -115,7 +115,7 @@ def _writing_costs(db: Path) -> dict[str, float]:
             spent["end"] += time.process_time() - t0
             n = len(result.table) // (len(SYSTEMS) + 1)
     finally:
-        run_module.assemble_chunk, run_module.write_table, run_module.combine_chunks = originals
+        run_module.assemble_chunks, run_module.write_table, run_module.combine_chunks = originals
     # "end" also holds cases.parquet, written before the tasks (small)
     return {"chunk_file_s": spent["chunk"] / max(1, spent["chunks"]),
             "end_s_per_case": spent["end"] / max(1, n)}

@@ -175,3 +175,19 @@ def test_workers_get_single_threaded_pools_unless_the_user_set_them(monkeypatch)
     assert os.environ.get("OMP_NUM_THREADS") == "3"
     assert all(name not in os.environ for name in WORKER_THREAD_VARIABLES
                if name != "OMP_NUM_THREADS")
+
+
+def test_chunks_assembled_at_once_equal_chunks_assembled_alone() -> None:
+    from vfs.study import assemble_chunk
+    from vfs.study.tasks import assemble_chunks
+
+    common = dict(system=None, db="default", db_format="parquet", batch=None, equip="both",
+                  seed=1, params=FAST, impact_parameters="reconstruction")
+    tasks = [RunTask(chunk=k, case_ids=np.arange(1 + 6 * k, 7 + 6 * k), system_index=0,
+                     **common) for k in range(3)]
+    runs = [run_task(t) for t in tasks]
+    chunks = [[r, r.assign(system="again")] for r in runs]
+    together = assemble_chunks(chunks)
+    assert len(together) == 3
+    for parts, table in zip(chunks, together, strict=True):
+        assert assemble_chunk(parts).equals(table)

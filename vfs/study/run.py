@@ -72,7 +72,7 @@ from vfs.study.orphans import pid_alive
 from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
-from vfs.study.tasks import RunTask, assemble_chunk, error_text
+from vfs.study.tasks import RunTask, assemble_chunks, error_text
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
 IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
@@ -123,30 +123,40 @@ class _ChunkWriter:
         if len(table) != n:
             raise SimulationError(f"chunk {task.chunk}, system {task.system_name}: "
                                   f"{len(table)} rows for {n} cases")
+        complete: list[tuple[int, list[pd.DataFrame]]] = []
         start = 0
         for chunk, size in task.parts:  # a task's table holds its chunks' rows in order
             part = table if len(task.parts) == 1 else \
                 table.iloc[start:start + size].reset_index(drop=True)
             start += size
-            self._add(chunk, task.system_index, part)
-
-    def _add(self, chunk: int, system_index: int, table: pd.DataFrame) -> None:
-        n = len(table)
-        parts = self.pending.setdefault(chunk, {})
-        parts[system_index] = table
-        self.progress.update(n / self.runners)
-        if len(parts) < self.runners:
+            runs = self._add(chunk, task.system_index, part)
+            if runs is not None:
+                complete.append((chunk, runs))
+        if not complete:
             return
-        del self.pending[chunk]
         if self.gate is not None:
             self.gate()
             self.gate = None
-        chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
-        write_table(chunk_path(self.out, chunk), chunk_table,
-                    field_metadata(chunk_table.columns))
-        self.cases_run += n
-        if self.on_chunk is not None:
-            self.on_chunk(chunk, self.cases_run)
+        # the chunks this task completed, assembled at once (near the end of a parallel
+        # study the last tasks complete most chunks), then written one by one
+        tables = assemble_chunks([runs for _, runs in complete], self.cases)
+        for (chunk, runs), chunk_table in zip(complete, tables, strict=True):
+            write_table(chunk_path(self.out, chunk), chunk_table,
+                        field_metadata(chunk_table.columns))
+            self.cases_run += len(runs[0])
+            if self.on_chunk is not None:
+                self.on_chunk(chunk, self.cases_run)
+
+    def _add(self, chunk: int, system_index: int, table: pd.DataFrame
+             ) -> list[pd.DataFrame] | None:
+        """Keep a chunk's runs of one system; all its runs once the last is in."""
+        parts = self.pending.setdefault(chunk, {})
+        parts[system_index] = table
+        self.progress.update(len(table) / self.runners)
+        if len(parts) < self.runners:
+            return None
+        del self.pending[chunk]
+        return [parts[j] for j in range(self.runners)]
 
 
 #: Exit code of ``vfs study`` for a study that ended incomplete (resume it).

@@ -35,7 +35,6 @@ from vfs.study import (
     run_study,
     run_task,
 )
-from vfs.study.run import task_groups
 
 FAST = SimulationParams(precrash=PrecrashParams(dt=0.02, extra_time=1.0, contact_tolerance=0.001),
                         runout=RunoutParams(dt=0.025))
@@ -89,20 +88,6 @@ def test_grouped_study_equals_chunk_by_chunk(tmp_path) -> None:  # noqa: ANN001
     again = run_study("default", ["three-stage"], tmp_path / "many", task_cases=1000,
                       resume=True, **common)
     _assert_same_runs(one.table, again.table)
-
-
-@pytest.mark.parametrize(("todo", "size", "task_cases", "runners", "workers"), [
-    (list(range(15)), 200, 2000, 3, 1), (list(range(15)), 200, 2000, 3, 14),
-    ([1, 4, 5, 9], 100, 250, 2, 1), ([0], 200, 50, 3, 8), (list(range(40)), 50, 10_000, 3, 4),
-])
-def test_task_groups_cover_every_chunk_once(todo: list[int], size: int, task_cases: int,
-                                            runners: int, workers: int) -> None:
-    groups = task_groups(todo, size, task_cases, runners, workers)
-    assert [k for g in groups for k in g] == todo
-    assert all(1 <= len(g) <= max(1, task_cases // size) for g in groups)
-    if workers > 1 and len(todo) * runners >= 2 * workers:
-        # enough tasks to keep every worker busy
-        assert len(groups) * runners >= min(2 * workers, len(todo) * runners) - runners
 
 
 @pytest.mark.parametrize(("field", "value"), [

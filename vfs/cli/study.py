@@ -168,10 +168,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    f"(default {DEFAULT_CHUNK_SIZE})")
     p.add_argument("--task-cases", type=_positive_int, default=DEFAULT_TASK_CASES,
                    metavar="N",
-                   help="cases one task simulates as one batch: whole chunks, each with its "
-                   "own random stream, so results do not depend on it; larger batches share "
-                   f"the per-step cost (default {DEFAULT_TASK_CASES}; fewer when workers "
-                   "would idle)")
+                   help="most cases one task simulates as one batch: whole chunks, each with "
+                   "its own random stream, so results do not depend on it; larger batches "
+                   f"share the per-step cost (default {DEFAULT_TASK_CASES}; with workers the "
+                   "tasks are sized by their estimated cost)")
     p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
     p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
                    default=ImpactParameterSource.RECONSTRUCTION.value,

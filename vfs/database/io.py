@@ -282,10 +282,23 @@ def _selection_sql(source: str, where: str) -> str:
     return sql
 
 
+#: Environment variable with the number of threads of each duckdb connection (default: one per
+#: core); the study's worker processes set it to 1 (:mod:`vfs.study.executors`).
+THREADS_VARIABLE = "VFS_THREADS"
+
+
+def _connect() -> duckdb.DuckDBPyConnection:
+    """An in-memory duckdb connection with :data:`THREADS_VARIABLE` threads where set."""
+    threads = os.environ.get(THREADS_VARIABLE, "").strip()
+    if threads.isdigit() and int(threads) >= 1:
+        return duckdb.connect(":memory:", config={"threads": int(threads)})
+    return duckdb.connect(":memory:")
+
+
 def _select_parquet(files: dict[str, Path], where: str,
                     problems: list[DataProblem]) -> dict[str, pd.DataFrame]:
     """Read the tables restricted to the cases matching ``where`` (duckdb on Parquet)."""
-    con = duckdb.connect(":memory:")
+    con = _connect()
     try:
         cases_file = str(files["cases"])
         try:
@@ -354,7 +367,7 @@ def _read_parquet_tables_url(
     elif "cases" in present:
         cases = read("cases")
         if cases is not None:
-            con = duckdb.connect(":memory:")
+            con = _connect()
             try:
                 con.register("vfs_cases", cases)
                 selected = con.sql(_selection_sql("vfs_cases", where)).to_arrow_table()
@@ -493,7 +506,7 @@ def orphan_problems(path: str | os.PathLike[str]) -> list[DataProblem]:
         column ``case_id`` and the case id.
     """
     problems: list[DataProblem] = []
-    con = duckdb.connect(":memory:")
+    con = _connect()
     try:
         if is_url(path):
             fs, root = url_filesystem(os.fspath(path))
@@ -589,7 +602,7 @@ def select_cases(db: Database, where: str) -> Database:
     DataError
         If the predicate is not valid SQL for the cases table.
     """
-    con = duckdb.connect(":memory:")
+    con = _connect()
     try:
         con.register("cases", pa.Table.from_pandas(db.cases, preserve_index=False))
         try:

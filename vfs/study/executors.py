@@ -33,12 +33,14 @@ from __future__ import annotations
 
 import importlib.util
 import multiprocessing
+import multiprocessing.forkserver
 import os
 import sys
 import threading
 import uuid
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -153,6 +155,32 @@ def _run_serial(tasks: Sequence[RunTask], on_result: OnResult,
         on_result(task, run_task(task))
 
 
+#: Thread pools of the libraries a worker loads, one thread each in the workers of the process
+#: and local dask engines unless set by the user: a worker is one single-threaded batch, and W
+#: workers with a pool of one thread per core each would oversubscribe the machine (BLAS and
+#: OpenMP pools, Arrow's CPU pool through ``OMP_NUM_THREADS``, duckdb through ``VFS_THREADS``).
+WORKER_THREAD_VARIABLES: tuple[str, ...] = (
+    "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS", "VFS_THREADS")
+
+
+@contextmanager
+def single_threaded_workers() -> Iterator[None]:
+    """Processes started inside this block get :data:`WORKER_THREAD_VARIABLES` = 1.
+
+    Variables the user has set are left alone; those added are removed again on
+    exit, so this process's environment is unchanged afterwards.
+    """
+    added = [name for name in WORKER_THREAD_VARIABLES if name not in os.environ]
+    for name in added:
+        os.environ[name] = "1"
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
+
+
 def _mp_context() -> Any:
     # not "fork": the parent may hold threads (dask, BLAS); forkserver
     # imports vfs once in its server, workers fork from there
@@ -163,6 +191,8 @@ def _mp_context() -> Any:
         if threading.current_thread() is threading.main_thread():
             preload.append("vfs.study.forkserver_guard")  # the server dies with this process
         ctx.set_forkserver_preload(preload)
+        with single_threaded_workers():  # the server's environment is the workers'
+            multiprocessing.forkserver.ensure_running()
         return ctx
     return multiprocessing.get_context("spawn")
 
@@ -173,8 +203,9 @@ def _run_processes(tasks: Sequence[RunTask], on_result: OnResult,
     pool = ProcessPoolExecutor(max_workers=options.workers, mp_context=_mp_context(),
                                initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
-        run_windowed(lambda task: pool.submit(run_task, task), tasks, on_result,
-                     options.max_in_flight())
+        with single_threaded_workers():  # "spawn" workers take this process's environment
+            run_windowed(lambda task: pool.submit(run_task, task), tasks, on_result,
+                         options.max_in_flight())
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
         raise
@@ -234,9 +265,10 @@ def _start_local_cluster(options: ExecutorOptions) -> tuple[Any, Any]:
         notify("dask dashboard: not available, the bokeh package is not installed "
                "(pip install 'bokeh>=3.1'); running without it")
         dashboard = None
-    cluster = LocalCluster(n_workers=options.workers, threads_per_worker=1,
-                           processes=options.dask_processes, dashboard_address=dashboard,
-                           silence_logs=logging.ERROR)
+    with single_threaded_workers():
+        cluster = LocalCluster(n_workers=options.workers, threads_per_worker=1,
+                               processes=options.dask_processes, dashboard_address=dashboard,
+                               silence_logs=logging.ERROR)
     client = Client(cluster)
     if dashboard:
         notify(f"dask dashboard: {dashboard_link(client.dashboard_link, dashboard)}")
@@ -337,7 +369,7 @@ def cpu_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-__all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT", "Executor",
-           "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count", "dashboard_link",
-           "notify",
-           "register_executor", "run_windowed", "worker_versions"]
+__all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT", "WORKER_THREAD_VARIABLES",
+           "Executor", "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count",
+           "dashboard_link", "notify", "register_executor", "run_windowed",
+           "single_threaded_workers", "worker_versions"]

@@ -22,6 +22,7 @@ before.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import os
@@ -62,7 +63,8 @@ class StudyInput:
     meta : dict
         ``meta.json`` of the database.
     data_hash : str
-        :func:`vfs.study.manifest.data_hash` of the selected cases' four tables.
+        :func:`vfs.study.manifest.data_hash` of the selected cases' four tables;
+        empty while not computed (``study_input(..., validate=False, hash=False)``).
     fmt : str
         ``"parquet"``, ``"csv"``, ``"pcm"`` or ``"memory"``.
     folder : str or None
@@ -72,6 +74,11 @@ class StudyInput:
     database : Database or None
         The whole selection, only for an in-memory database (its chunks
         then travel inside the tasks).
+    validated : bool
+        Whether the selected cases have been validated; False after
+        ``study_input(..., validate=False)``: :func:`validate_selection` must
+        pass (and, with ``data_hash`` empty, :func:`selection_hash` give the
+        hash) before any result is written.
     """
 
     cases: pd.DataFrame
@@ -81,6 +88,7 @@ class StudyInput:
     folder: str | None
     reference: str | None
     database: Database | None = field(default=None, repr=False)
+    validated: bool = True
 
     @property
     def case_ids(self) -> np.ndarray:
@@ -108,7 +116,8 @@ def streamed_data_hash(location: str, case_ids: np.ndarray) -> str:
 
 
 def study_input(source: str | os.PathLike[str] | Database, where: str | None = None,
-                *, block_cases: int = VALIDATION_BLOCK) -> StudyInput:
+                *, block_cases: int = VALIDATION_BLOCK, validate: bool = True,
+                hash: bool = True) -> StudyInput:
     """Open a study's database and select its cases (see the module's description).
 
     Parameters
@@ -120,6 +129,15 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         SQL predicate on the cases table (duckdb).
     block_cases : int
         Cases validated at a time (Parquet).
+    validate : bool
+        Validate the selected cases of a Parquet database now (default); with
+        False the cases table is still checked, and the blocks are left to
+        :func:`validate_selection` (a parallel study runs it while its workers
+        start on the tasks; it is most of the client's time before them).
+    hash : bool
+        Compute the data hash of a Parquet selection now (default); with False
+        ``data_hash`` is left empty for :func:`selection_hash` (a new parallel
+        study computes it with the validation).
 
     Returns
     -------
@@ -152,12 +170,41 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
     ids = cases["case_id"].to_numpy()
     if ids.size == 0:
         raise _nothing_selected(where)
-    for start in range(0, ids.size, max(1, int(block_cases))):
-        load_database(location, where=_ids_predicate(ids[start:start + block_cases]),
-                      validate=True)
     meta, _ = read_meta(location)
     folder = location if is_url(location) else str(Path(location).resolve())
-    return StudyInput(cases, meta, streamed_data_hash(location, ids), fmt, folder, reference)
+    chosen = StudyInput(cases, meta, streamed_data_hash(location, ids) if hash else "",
+                        fmt, folder, reference, validated=False)
+    if validate:
+        validate_selection(chosen, block_cases)
+        chosen = dataclasses.replace(chosen, validated=True)
+    return chosen
+
+
+def selection_hash(selection: StudyInput) -> str:
+    """The selection's data hash: ``data_hash``, computed now where left empty."""
+    if selection.data_hash or selection.folder is None:
+        return selection.data_hash
+    return streamed_data_hash(selection.folder, selection.case_ids)
+
+
+def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOCK) -> None:
+    """Validate the selected cases of a Parquet database in blocks of ``block_cases``.
+
+    :func:`vfs.database.load_database` with ``validate=True`` on each block (every
+    check of the schema is per case, so blocks find what the whole would); nothing
+    to do for a selection already validated.
+
+    Raises
+    ------
+    DataError
+        Listing the problems of the first block that has any.
+    """
+    if selection.validated or selection.folder is None:
+        return
+    ids = selection.case_ids
+    for start in range(0, ids.size, max(1, int(block_cases))):
+        load_database(selection.folder, where=_ids_predicate(ids[start:start + block_cases]),
+                      validate=True)
 
 
 def _nothing_selected(where: str | None) -> DataError:
@@ -165,4 +212,5 @@ def _nothing_selected(where: str | None) -> DataError:
                                  "no case selected" + (f" by {where!r}" if where else "")))
 
 
-__all__ = ["VALIDATION_BLOCK", "StudyInput", "streamed_data_hash", "study_input"]
+__all__ = ["VALIDATION_BLOCK", "StudyInput", "selection_hash", "streamed_data_hash",
+           "study_input", "validate_selection"]

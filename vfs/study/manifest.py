@@ -121,7 +121,11 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
                              "--out (nothing is overwritten there)")
     if resume and has_study:
         old = read_manifest(out)
-        diffs = [k for k in RESUME_KEYS if old.get(k) != manifest.get(k)]
+        # a parallel study puts its data hash into the manifest before its first chunk
+        # (vfs.study.run); one that stopped before has none and nothing to keep
+        unhashed = not old.get("data_hash") and not any((out / CHUNK_DIR).glob("*.parquet"))
+        diffs = [k for k in RESUME_KEYS if old.get(k) != manifest.get(k)
+                 and not (k == "data_hash" and unhashed)]
         if diffs:
             lines = [f"  {k}: study has {old.get(k)!r}, now {manifest.get(k)!r}" for k in diffs]
             raise ParameterError(f"cannot resume {out}: the study was started with other "

@@ -8,26 +8,29 @@ from the start of the records through impact or avoidance to rest
 row per (case, system), ``runs.parquet``, read by the effectiveness analysis
 (:mod:`vfs.analysis.effectiveness`).
 
-Work is split into chunks of ``chunk_size`` cases in database order, and
-consecutive chunks into groups of up to ``task_cases`` cases
-(:func:`task_groups`).  Every (group, system) pair, the baseline included, is
-one task (:class:`vfs.study.tasks.RunTask`): one vectorised batch run of the
-group's cases.  When all runs of a chunk are in, the main process writes the
-chunk atomically to ``chunks/chunk_000123.parquet``; chunks on disk are never
-redone (``resume``).  A case that makes a batch raise is isolated by bisection
-and recorded with its error message.  Chunk ``k`` and system index ``j`` (0 =
-baseline, 1.. = the systems in the order given) draw their random numbers from
-``numpy.random.default_rng([seed, k, j])`` (also inside a group), so the
-results do not depend on the executor (:mod:`vfs.study.executors`), on the
-grouping nor on the order in which tasks finish.  The settings are one
-:class:`vfs.study.spec.StudySpec`.  The folder layout is described in
-:mod:`vfs.study.manifest`; the columns and the command line in docs/study.md.
+Work is split into chunks of ``chunk_size`` cases in database order. A task
+(:class:`vfs.study.tasks.RunTask`) runs consecutive chunks of one system (the
+baseline included) as one vectorised batch of up to ``task_cases`` cases; the
+plan (:func:`vfs.study.plan.plan_tasks`) sizes the tasks by their estimated
+cost, so that few tasks pay the fixed per-step overhead and the workers end
+together, and submits the longest first. When all runs of a chunk are in, the
+main process writes the chunk atomically to ``chunks/chunk_000123.parquet``;
+chunks on disk are never redone (``resume``). A case that makes a batch raise
+is isolated by bisection and recorded with its error message. Chunk ``k`` and
+system index ``j`` (0 = baseline, 1.. = the systems in the order given) draw
+their random numbers from ``numpy.random.default_rng([seed, k, j])`` (also
+inside a group), so the results do not depend on the executor
+(:mod:`vfs.study.executors`), on the grouping nor on the order in which tasks
+finish. The settings are one :class:`vfs.study.spec.StudySpec`. The folder
+layout is described in :mod:`vfs.study.manifest`; the columns and the command
+line in docs/study.md.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -44,7 +47,7 @@ from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
 from vfs.study.faults import record_fault
-from vfs.study.inputs import StudyInput, study_input
+from vfs.study.inputs import StudyInput, selection_hash, study_input, validate_selection
 from vfs.study.layout import (
     BASELINE,
     CASES_FILE,
@@ -66,9 +69,10 @@ from vfs.study.manifest import (
     prepare_folder,
 )
 from vfs.study.orphans import pid_alive
+from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
-from vfs.study.tasks import RunTask, assemble_chunk, error_text
+from vfs.study.tasks import RunTask, assemble_chunks, error_text
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
 IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
@@ -112,33 +116,47 @@ class _ChunkWriter:
     on_chunk: Callable[[int, int], None] | None
     cases_run: int = 0
     pending: dict[int, dict[int, pd.DataFrame]] = field(default_factory=dict)
+    gate: Callable[[], None] | None = None  # called before the first chunk file is written
 
     def __call__(self, task: RunTask, table: pd.DataFrame) -> None:
         n = len(task.case_ids)
         if len(table) != n:
             raise SimulationError(f"chunk {task.chunk}, system {task.system_name}: "
                                   f"{len(table)} rows for {n} cases")
+        complete: list[tuple[int, list[pd.DataFrame]]] = []
         start = 0
         for chunk, size in task.parts:  # a task's table holds its chunks' rows in order
             part = table if len(task.parts) == 1 else \
                 table.iloc[start:start + size].reset_index(drop=True)
             start += size
-            self._add(chunk, task.system_index, part)
+            runs = self._add(chunk, task.system_index, part)
+            if runs is not None:
+                complete.append((chunk, runs))
+        if not complete:
+            return
+        if self.gate is not None:
+            self.gate()
+            self.gate = None
+        # the chunks this task completed, assembled at once (near the end of a parallel
+        # study the last tasks complete most chunks), then written one by one
+        tables = assemble_chunks([runs for _, runs in complete], self.cases)
+        for (chunk, runs), chunk_table in zip(complete, tables, strict=True):
+            write_table(chunk_path(self.out, chunk), chunk_table,
+                        field_metadata(chunk_table.columns))
+            self.cases_run += len(runs[0])
+            if self.on_chunk is not None:
+                self.on_chunk(chunk, self.cases_run)
 
-    def _add(self, chunk: int, system_index: int, table: pd.DataFrame) -> None:
-        n = len(table)
+    def _add(self, chunk: int, system_index: int, table: pd.DataFrame
+             ) -> list[pd.DataFrame] | None:
+        """Keep a chunk's runs of one system; all its runs once the last is in."""
         parts = self.pending.setdefault(chunk, {})
         parts[system_index] = table
-        self.progress.update(n / self.runners)
+        self.progress.update(len(table) / self.runners)
         if len(parts) < self.runners:
-            return
+            return None
         del self.pending[chunk]
-        chunk_table = assemble_chunk([parts[j] for j in range(self.runners)], self.cases)
-        write_table(chunk_path(self.out, chunk), chunk_table,
-                    field_metadata(chunk_table.columns))
-        self.cases_run += n
-        if self.on_chunk is not None:
-            self.on_chunk(chunk, self.cases_run)
+        return [parts[j] for j in range(self.runners)]
 
 
 #: Exit code of ``vfs study`` for a study that ended incomplete (resume it).
@@ -234,8 +252,8 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
         task_cases : int
             Cases a task runs as one vectorised batch (default
             :data:`DEFAULT_TASK_CASES`; whole chunks, each with its own
-            random stream, so the results do not depend on it); fewer when
-            that would leave workers idle.
+            random stream, so the results do not depend on it); with workers
+            the tasks are sized by cost (:func:`vfs.study.plan.plan_tasks`).
         seed : int
             Seed of all random draws (systems with noise or reaction times).
         where : str, optional
@@ -294,7 +312,12 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     else:
         spec = StudySpec.of(db, systems, out, **options)
     system_objs = resolve_systems(list(spec.systems), spec.registry)
-    selection = study_input(spec.db, spec.where)
+    # with workers, the blocks are validated (and a new study's data hash computed)
+    # while the workers start on the tasks (_Validation); nothing is written before
+    defer = spec.engine != "serial"
+    resuming = spec.resume and (spec.out / MANIFEST_FILE).exists()
+    selection = study_input(spec.db, spec.where, validate=not defer,
+                            hash=not defer or resuming)
     ids = selection.case_ids  # never empty (study_input refuses)
     size = spec.chunk_size
     plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
@@ -334,20 +357,53 @@ def _run_locked(plan: _Plan) -> StudyResult:
         raise
 
 
-def task_groups(todo: Sequence[int], chunk_size: int, task_cases: int, runners: int,
-                workers: int) -> list[list[int]]:
-    """The chunks to do, in groups that one task each runs as one batch.
+class _Validation:
+    """:func:`validate_selection` and :func:`selection_hash` in a thread of this
+    process, while the workers run.
 
-    Groups of consecutive entries of ``todo`` of at most ``task_cases``
-    cases (at least one chunk), and at least ``2 workers / runners`` groups
-    while there are chunks enough (two tasks per worker keep them busy).
+    The client's validation of a Parquet selection reads and checks every case,
+    its hash reads every row (together about 0.4 ms of CPU per case); run before
+    the tasks, they would keep every worker waiting.  :meth:`wait` joins the
+    thread, raises its :class:`DataError`, and puts the hash into the manifest
+    (written again); the chunk writer calls it before the first chunk file.
     """
-    if not todo:
-        return []
-    per_task = max(1, task_cases // chunk_size)
-    wanted = -(-2 * workers // runners) if workers > 1 else 1
-    per_task = max(1, min(per_task, len(todo) // max(1, wanted)))
-    return [list(todo[i:i + per_task]) for i in range(0, len(todo), per_task)]
+
+    def __init__(self, selection: StudyInput, manifest: dict[str, Any], path: Path) -> None:
+        self.selection = selection
+        self.manifest, self.path = manifest, path
+        self.error: BaseException | None = None
+        self.thread: threading.Thread | None = None
+        self.hash = selection.data_hash
+        self.done = selection.validated and bool(selection.data_hash or
+                                                 selection.folder is None)
+
+    def _run(self) -> None:
+        try:
+            validate_selection(self.selection)
+            self.hash = selection_hash(self.selection)
+        except BaseException as exc:  # noqa: BLE001 - raised in the study's thread by wait()
+            self.error = exc
+
+    def start(self) -> None:
+        if not self.done and self.thread is None:
+            self.thread = threading.Thread(target=self._run, name="vfs-study-validation",
+                                           daemon=True)
+            self.thread.start()
+
+    def wait(self, cause: BaseException | None = None) -> None:
+        """Join the validation (run it here if never started); raise what it found."""
+        if self.done:
+            return
+        if self.thread is None:
+            self._run()
+        else:
+            self.thread.join()
+        self.done = True
+        if self.error is not None:
+            raise self.error from cause
+        if self.manifest.get("data_hash") != self.hash:
+            self.manifest["data_hash"] = self.hash
+            write_json(self.path, self.manifest)
 
 
 def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
@@ -372,26 +428,41 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     n_tasks_max = len(todo) * len(runners)
     n_workers = 1 if spec.engine == "serial" else (
         spec.workers if spec.workers else max(1, min(cpu_count(), n_tasks_max)))
+    planned = plan_tasks(todo, [int(chunks[k].size) for k in todo],
+                         [runner_cost(r) for r in runners], n_workers, spec.chunk_size,
+                         spec.task_cases)
     tasks = []
-    for group in task_groups(todo, spec.chunk_size, spec.task_cases, len(runners), n_workers):
+    for item in planned:
+        group = list(item.chunks)
         case_ids = np.concatenate([chunks[k] for k in group])
         parts = tuple((k, int(chunks[k].size)) for k in group) if len(group) > 1 else ()
         sub = None if batch_all is None else batch_all.take(np.concatenate(
             [np.arange(k * spec.chunk_size, k * spec.chunk_size + chunks[k].size)
              for k in group]))
-        for j, system in enumerate(runners):
-            tasks.append(RunTask(
-                chunk=group[0], case_ids=case_ids, system_index=j, system=system,
-                db=selection.reference, db_format=selection.fmt, batch=sub,
-                equip=str(spec.equip), seed=spec.seed, params=spec.params,
-                impact_parameters=str(spec.impact_parameters), group=parts))
+        j = item.system_index
+        tasks.append(RunTask(
+            chunk=group[0], case_ids=case_ids, system_index=j, system=runners[j],
+            db=selection.reference, db_format=selection.fmt, batch=sub,
+            equip=str(spec.equip), seed=spec.seed, params=spec.params,
+            impact_parameters=str(spec.impact_parameters), group=parts))
     bar = _progress_bar(sum(chunks[k].size for k in todo), spec.progress)
-    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk)
-    options = ExecutorOptions(n_workers, spec.scheduler, spec.dask_processes, spec.dashboard,
-                              spec.in_flight)
+    validation = _Validation(selection, manifest, out_dir / MANIFEST_FILE)
+    writer = _ChunkWriter(out_dir, len(runners), cases_meta, bar, spec.on_chunk,
+                          gate=validation.wait if tasks else None)
+    # no more processes than tasks
+    options = ExecutorOptions(max(1, min(n_workers, len(tasks))), spec.scheduler,
+                              spec.dask_processes, spec.dashboard, spec.in_flight)
     try:  # chunks written so far stay; the study can be resumed
         if tasks:
-            EXECUTORS.get(spec.engine)(tasks, writer, options)
+            validation.start()
+            try:
+                EXECUTORS.get(spec.engine)(tasks, writer, options)
+            except Exception as exc:  # invalid data may be why a task failed: say so
+                validation.wait(cause=exc)
+                raise
+            validation.wait()
+        else:
+            validation.wait()
     finally:
         bar.close()
     manifest.pop("error", None)

@@ -103,8 +103,8 @@ class StudySpec:
     chunk_size : int
         Cases per chunk file and random stream (>= 1).
     task_cases : int
-        Cases one task runs as one batch, whole chunks (>= 1; at least one
-        chunk); fewer when that leaves workers idle.
+        Most cases one task runs as one batch, whole chunks (>= 1; at least one
+        chunk); with workers the plan sizes tasks by cost (:mod:`vfs.study.plan`).
     seed : int
         Seed of all random draws.
     where : str, optional

@@ -309,6 +309,32 @@ def assemble_chunk(parts: Sequence[pd.DataFrame], cases: pd.DataFrame | None = N
     return normalise_runs(out.reset_index(drop=True), cases)
 
 
+def assemble_chunks(chunks: Sequence[Sequence[pd.DataFrame]],
+                    cases: pd.DataFrame | None = None) -> list[pd.DataFrame]:
+    """:func:`assemble_chunk` of several chunks at once (one concatenation and one
+    :func:`normalise_runs` for all: the per-call cost is paid once), the same tables.
+
+    Chunks whose runs do not all have the same columns are assembled one by one (a
+    chunk's table must not gain the columns of another).
+    """
+    if len(chunks) < 2:
+        return [assemble_chunk(parts, cases) for parts in chunks]
+    columns = [list(part.columns) for part in chunks[0]]
+    if any([list(part.columns) for part in parts] != columns for parts in chunks[1:]):
+        return [assemble_chunk(parts, cases) for parts in chunks]
+    frames = []
+    for c, parts in enumerate(chunks):
+        for j, part in enumerate(parts):
+            frames.append(part.assign(_pos=np.arange(len(part)), _sys=j, _chunk=c))
+    out = pd.concat(frames, ignore_index=True)
+    out = out.sort_values(["_chunk", "_pos", "_sys"], kind="stable")
+    bounds = np.searchsorted(out["_chunk"].to_numpy(), np.arange(len(chunks) + 1))
+    out = normalise_runs(out.drop(columns=["_pos", "_sys", "_chunk"]).reset_index(drop=True),
+                         cases)
+    return [out.iloc[a:b].reset_index(drop=True) for a, b in zip(bounds[:-1], bounds[1:],
+                                                                  strict=True)]
+
+
 def normalise_runs(df: pd.DataFrame, cases: pd.DataFrame | None = None) -> pd.DataFrame:
     """Column order and dtypes of a runs table (also used for each chunk).
 
@@ -344,5 +370,5 @@ def normalise_runs(df: pd.DataFrame, cases: pd.DataFrame | None = None) -> pd.Da
 
 
 
-__all__ = ["RunTask", "assemble_chunk", "error_text", "load_chunk", "normalise_runs", "run_batch",
-           "run_task"]
+__all__ = ["RunTask", "assemble_chunk", "assemble_chunks", "error_text", "load_chunk",
+           "normalise_runs", "run_batch", "run_task"]

@@ -88,13 +88,16 @@ def main() -> None:  # noqa: D103
     parser.add_argument("--systems", default="three-stage,ideal")
     parser.add_argument("--workers", default="2,4,8,16")
     parser.add_argument("--dask", action="store_true", help="also a local dask cluster")
+    parser.add_argument("--serial-wall", type=float, default=None,
+                        help="wall seconds of the serial run measured earlier on this machine: "
+                             "the serial run is skipped (and the comparison of runs.parquet)")
     parser.add_argument("--out", default="docs/figures")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     runs_per_case = 1 + len(args.systems.split(","))
     workers = [int(w) for w in args.workers.split(",")]
-    plan = [("serial", 1)] + [("process", w) for w in workers]
+    plan = ([] if args.serial_wall else [("serial", 1)]) + [("process", w) for w in workers]
     if args.dask:
         plan.append(("dask", max(workers)))
     records: list[dict[str, Any]] = []
@@ -104,6 +107,7 @@ def main() -> None:  # noqa: D103
         db = generated_database(tmp / "db", args.cases)
         print(f"generated {args.cases} cases in {time.perf_counter() - t0:.1f} s", flush=True)
         serial: pd.DataFrame | None = None
+        serial_wall = args.serial_wall
         for engine, w in plan:
             folder = tmp / f"study-{engine}-{w}"
             argv = ["study", "--db", str(db), "--systems", args.systems, "--engine", engine,
@@ -112,9 +116,9 @@ def main() -> None:  # noqa: D103
                 argv += ["--workers", str(w)]
             wall, cpu = run_cli(argv)
             runs = pd.read_parquet(folder / "runs.parquet")
-            if serial is None:
+            if serial is None and not args.serial_wall:
                 serial, serial_wall = runs, wall
-            diff = _largest_difference(serial, runs)
+            diff = None if serial is None else _largest_difference(serial, runs)
             rec = {"cases": args.cases, "systems": args.systems,
                    "runs_per_case": runs_per_case, "engine": engine, "workers": w,
                    "wall_s": wall, "children_cpu_s": cpu,

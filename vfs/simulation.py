@@ -593,41 +593,30 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
     res = run_out(both, state, np.concatenate([mu, mu]), params,
                   wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]))
-    first = RunoutResult(*(a if name == "path_t" else a[:m]
-                           for name, a in zip(RunoutResult._fields, res, strict=True)))
-    second = RunoutResult(*(a if name == "path_t" else a[m:]
-                            for name, a in zip(RunoutResult._fields, res, strict=True)))
-    return PairRunoutResult(first, second, np.zeros(m, dtype=bool), np.full(m, np.nan))
+    return PairRunoutResult.from_batch(res, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 
 def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:
     """Expand a run-out result of the colliding rows to all N cases (NaN elsewhere)."""
-
-    def expand(r: RunoutResult | None) -> RunoutResult:
-        fields = []
-        for name in RunoutResult._fields:
-            if name == "path_t":
-                fields.append(np.zeros(1) if r is None else r.path_t)
-                continue
-            if r is None:
-                shape = {"path": (n, 1, 3), "kinetic_energy": (n, 1)}.get(name, (n,))
-                fields.append(np.zeros(n, dtype=bool) if name == "at_rest"
-                              else np.full(shape, np.nan))
-                continue
-            values = getattr(r, name)
-            shape = (n,) + values.shape[1:]
-            full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
-            full[rows] = values
-            fields.append(full)
-        return RunoutResult(*fields)
-
-    sec = np.zeros(n, dtype=bool)
-    sec_t = np.full(n, np.nan)
-    if part is None:
-        return PairRunoutResult(expand(None), expand(None), sec, sec_t)
-    sec[rows] = part.secondary_collision
-    sec_t[rows] = part.secondary_collision_time
-    return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
+    fields = []
+    for name in PairRunoutResult._fields:
+        if name == "path_t":
+            fields.append(np.zeros(1) if part is None else part.path_t)
+            continue
+        if part is None:
+            shape = {"path": (n, 2, 1, 3), "kinetic_energy": (n, 2, 1),
+                     "secondary_collision": (n,), "secondary_collision_time": (n,)
+                     }.get(name, (n, 2))
+            fields.append(np.zeros(shape, dtype=bool) if name in ("at_rest",
+                                                                  "secondary_collision")
+                          else np.full(shape, np.nan))
+            continue
+        values = getattr(part, name)
+        shape = (n,) + values.shape[1:]
+        full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
+        full[rows] = values
+        fields.append(full)
+    return PairRunoutResult(*fields)
 
 
 def vehicle_axis(record: tuple, template: str) -> np.ndarray:
@@ -640,11 +629,11 @@ def vehicle_axis(record: tuple, template: str) -> np.ndarray:
 
 
 def runout_axis(runout: PairRunoutResult) -> dict[str, np.ndarray]:
-    """The per-case fields of both vehicles' :class:`RunoutResult` as (N, 2) arrays
-    (vehicle 1 in column 0); ``path`` and ``path_t`` are left out.
+    """The per-case fields of both vehicles' run-out as (N, 2) arrays (vehicle 1 in
+    column 0); ``path``, ``path_t``, ``kinetic_energy`` and the secondary collision are
+    left out.
     """
-    one, two = runout.result1._asdict(), runout.result2._asdict()
-    return {name: np.stack([one[name], two[name]], axis=1) for name in RunoutResult._fields
+    return {name: getattr(runout, name) for name in RunoutResult._fields
             if name not in ("path", "path_t", "kinetic_energy")}
 
 

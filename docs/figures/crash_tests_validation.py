@@ -40,8 +40,8 @@ def main() -> None:
               f" km/h, post v1 ({imp.vx1_post[i]:.2f}, {imp.vy1_post[i]:.2f}) v2 "
               f"({imp.vx2_post[i]:.2f}, {imp.vy2_post[i]:.2f}) m/s, w1 "
               f"{imp.yaw_rate1_post[i]:.2f} w2 {imp.yaw_rate2_post[i]:.2f} rad/s, rest1 "
-              f"({res.runout.result1.rest_x[i]:.2f}, {res.runout.result1.rest_y[i]:.2f}) rest2 "
-              f"({res.runout.result2.rest_x[i]:.2f}, {res.runout.result2.rest_y[i]:.2f}) m")
+              f"({res.runout.rest_x[i, 0]:.2f}, {res.runout.rest_y[i, 0]:.2f}) rest2 "
+              f"({res.runout.rest_x[i, 1]:.2f}, {res.runout.rest_y[i, 1]:.2f}) m")
 
     fig = Figure(figsize=(8.0, 4.2))
     ax = fig.add_subplot()

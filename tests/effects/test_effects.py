@@ -47,8 +47,8 @@ def outcome(res, name):
 
 
 def rest(res):
-    return np.stack([res.runout.result1.rest_x, res.runout.result1.rest_y,
-                     res.runout.result2.rest_x, res.runout.result2.rest_y], axis=1)
+    ro = res.runout
+    return np.stack([ro.rest_x[:, 0], ro.rest_y[:, 0], ro.rest_x[:, 1], ro.rest_y[:, 1]], axis=1)
 
 
 # ----------------------------------------------------------------- registry
@@ -350,5 +350,5 @@ def test_all_effects_together_are_mirror_symmetric(batch):
     np.testing.assert_array_equal(a.impact.impact_type, b.impact.impact_type)
     for f in ("delta_v1", "delta_v2", "ees1", "ees2"):
         np.testing.assert_allclose(outcome(a, f)[hit], outcome(b, f)[hit], rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(a.runout.result1.rest_y[hit], -b.runout.result1.rest_y[hit],
+    np.testing.assert_allclose(a.runout.rest_y[hit, 0], -b.runout.rest_y[hit, 0],
                                atol=1e-4)

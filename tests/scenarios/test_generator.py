@@ -141,7 +141,7 @@ def test_without_effects_and_noise_the_model_equals_the_reconstruction(clean):
         "ees2": imp.ees2[hit], "energy_loss": imp.energy_loss[hit],
         "pdof1": RECONSTRUCTION.column("pdof1").as_stored(imp.pdof1[hit]),
         "vx2_post": imp.vx2_post[hit],
-        "rest_x1": res.runout.result1.rest_x[hit], "rest_yaw2": res.runout.result2.rest_yaw[hit],
+        "rest_x1": res.runout.rest_x[hit, 0], "rest_yaw2": res.runout.rest_yaw[hit, 1],
     }
     for col, model in checks.items():
         np.testing.assert_array_equal(r[col].to_numpy(float), model, err_msg=col)

@@ -455,11 +455,12 @@ def _oracle(cases, x):
            "velocity_angle_change1": imp.velocity_angle_change1,
            "post_speed2": np.hypot(imp.vx2_post, imp.vy2_post),
            "pdof1": imp.pdof1, "sliding": (imp.impact_type == 2).astype(float)}
-    for i, r in ((1, ro.result1), (2, ro.result2)):
-        out[f"rest_x{i}"], out[f"rest_y{i}"] = r.rest_x, r.rest_y
-        out[f"rest_yaw{i}"] = r.rest_yaw
-        out[f"runout_distance{i}"] = np.hypot(r.rest_x - getattr(config, f"x{i}"),
-                                            r.rest_y - getattr(config, f"y{i}"))
+    for i in (1, 2):
+        rest_x, rest_y = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
+        out[f"rest_x{i}"], out[f"rest_y{i}"] = rest_x, rest_y
+        out[f"rest_yaw{i}"] = ro.rest_yaw[:, i - 1]
+        out[f"runout_distance{i}"] = np.hypot(rest_x - getattr(config, f"x{i}"),
+                                            rest_y - getattr(config, f"y{i}"))
     return out
 
 

@@ -260,12 +260,34 @@ class RunoutResult(NamedTuple):
 
 
 class PairRunoutResult(NamedTuple):
-    """Result of :func:`run_out_pair` for N collisions.
+    """Result of :func:`run_out_pair` for N collisions: the fields of :class:`RunoutResult`
+    with a vehicle axis.
+
+    Axis 1, after the case axis, is the vehicle (vehicle 1 at index 0), as in
+    :class:`vfs.physics.precrash_result.KinematicState`: ``field[:, 0]`` is vehicle 1's
+    :class:`RunoutResult` field and ``field[:, 1]`` vehicle 2's.
 
     Attributes
     ----------
-    result1, result2 : RunoutResult
-        Run-out of vehicle 1 and of vehicle 2 (same path times).
+    rest_x, rest_y : ndarray (N, 2)
+        CG rest position [m] (where ``at_rest`` is False: the position at the
+        end of the simulated time).
+    rest_yaw : ndarray (N, 2)
+        Rest heading [rad], not wrapped (the accumulated yaw angle).
+    time_to_rest : ndarray (N, 2)
+        Time from the start of the run-out to rest [s]; NaN where the vehicle
+        was still moving at the end of the simulated time.
+    distance : ndarray (N, 2)
+        Length of the CG path [m].
+    at_rest : ndarray of bool (N, 2)
+        True where the vehicle came to rest within ``max_time``.
+    path : ndarray (N, 2, K, 3)
+        CG pose (x [m], y [m], yaw [rad]) every ``path_interval``, from t = 0;
+        after a vehicle has stopped its samples repeat the rest pose.
+    path_t : ndarray (K,)
+        Times of the path samples [s] (both vehicles).
+    kinetic_energy : ndarray (N, 2, K)
+        Kinetic energy, translational plus rotational [J], at the path samples.
     secondary_collision : ndarray of bool (N,)
         True where the outlines, after having separated (overlap area <=
         :data:`vfs.physics.geometry.AREA_TOLERANCE`), overlapped again.
@@ -274,10 +296,28 @@ class PairRunoutResult(NamedTuple):
         NaN where there is none.
     """
 
-    result1: RunoutResult
-    result2: RunoutResult
+    rest_x: np.ndarray
+    rest_y: np.ndarray
+    rest_yaw: np.ndarray
+    time_to_rest: np.ndarray
+    distance: np.ndarray
+    at_rest: np.ndarray
+    path: np.ndarray
+    path_t: np.ndarray
+    kinetic_energy: np.ndarray
     secondary_collision: np.ndarray
     secondary_collision_time: np.ndarray
+
+    @classmethod
+    def from_batch(cls, result: RunoutResult, secondary_collision: np.ndarray,
+                   secondary_collision_time: np.ndarray) -> PairRunoutResult:
+        """Pair result from the :class:`RunoutResult` of a batch of 2N vehicles that holds
+        every vehicle 1 (rows 0..N-1) before every vehicle 2 (rows N..2N-1).
+        """
+        n = result.rest_x.shape[0] // 2
+        return cls(*(a if name == "path_t" else np.stack([a[:n], a[n:]], axis=1)
+                     for name, a in zip(RunoutResult._fields, result, strict=True)),
+                   secondary_collision, secondary_collision_time)
 
 
 # ----------------------------------------------------------------------------
@@ -972,8 +1012,4 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
                     on_step=tracker)
-    first = RunoutResult(*(a if name == "path_t" else a[:n]
-                           for name, a in zip(RunoutResult._fields, res, strict=True)))
-    second = RunoutResult(*(a if name == "path_t" else a[n:]
-                            for name, a in zip(RunoutResult._fields, res, strict=True)))
-    return PairRunoutResult(first, second, tracker.secondary, tracker.time)
+    return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

@@ -283,7 +283,7 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
     layers: list[Layer] = []
     focus: list[np.ndarray] = []
     near: list[np.ndarray] = []
-    for j, (veh, res) in enumerate(((batch.vehicle1, ro.result1), (batch.vehicle2, ro.result2))):
+    for j, veh in enumerate((batch.vehicle1, batch.vehicle2)):
         color = COLORS[j]
         p = batch.paths
         row = i + j * n
@@ -311,10 +311,10 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
                                 overview=False))
             layers.append(Layer("arrow", np.array([x0, x0 + ARROW_TIME * post_v]), color, "--",
                                 overview=False))
-            if not np.isnan(res.rest_x[i]):
-                layers.append(Layer("path", np.asarray(res.path[i])[:, :2], color, "-",
+            if not np.isnan(ro.rest_x[i, j]):
+                layers.append(Layer("path", np.asarray(ro.path[i, j])[:, :2], color, "-",
                                     "run-out path", size=0.8))
-                o = vehicle_outline(v, [res.rest_x[i]], [res.rest_y[i]], [res.rest_yaw[i]])[0]
+                o = vehicle_outline(v, [ro.rest_x[i, j]], [ro.rest_y[i, j]], [ro.rest_yaw[i, j]])[0]
                 layers.append(_outline_layer(o, color, "-", "at rest", 0.35))
                 near.append(o)
         else:

@@ -409,9 +409,9 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
         cols[f"pdof{i}"] = getattr(imp, f"pdof{i}")[rows]
     for i in (1, 2):
         cols[f"velocity_angle_change{i}"] = getattr(imp, f"velocity_angle_change{i}")[rows]
-    for i, r in ((1, ro.result1), (2, ro.result2)):
-        cols[f"rest_x{i}"], cols[f"rest_y{i}"] = r.rest_x[rows], r.rest_y[rows]
-        cols[f"rest_yaw{i}"] = r.rest_yaw[rows]
+    for i in (1, 2):
+        cols[f"rest_x{i}"], cols[f"rest_y{i}"] = ro.rest_x[rows, i - 1], ro.rest_y[rows, i - 1]
+        cols[f"rest_yaw{i}"] = ro.rest_yaw[rows, i - 1]
     return pd.DataFrame(cols)
 
 

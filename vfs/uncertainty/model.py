@@ -211,14 +211,14 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                       secondary_collisions=False)
     columns: dict[str, np.ndarray] = {"energy_loss": res.energy_loss,
                                       "closing_speed": res.closing_speed}
-    for i, r in ((1, ro.result1), (2, ro.result2)):
+    for i in (1, 2):
         columns[f"x{i}"], columns[f"y{i}"] = pose[i][0], pose[i][1]
         for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
             columns[f"{name}{i}"] = getattr(res, f"{name}{i}")
         columns[f"vx{i}_post"] = getattr(res, f"vx{i}_post")
         columns[f"vy{i}_post"] = getattr(res, f"vy{i}_post")
-        columns[f"rest_x{i}"], columns[f"rest_y{i}"] = r.rest_x, r.rest_y
-        columns[f"rest_yaw{i}"] = r.rest_yaw
+        columns[f"rest_x{i}"], columns[f"rest_y{i}"] = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
+        columns[f"rest_yaw{i}"] = ro.rest_yaw[:, i - 1]
     derived = from_results(columns, sorted({o.vocabulary for o in OUTCOMES} - {"sliding"}))
     out: dict[str, np.ndarray] = {}
     for o in OUTCOMES:
@@ -227,8 +227,7 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     # an indicator over every run: a separating run is not sliding (0, not NaN)
     out["sliding"] = (res.impact_type == IMPACT_SLIDING).astype(float)
     ordered = {name: out[name] for name in OUTCOME_NAMES}
-    at_rest = np.stack([ro.result1.at_rest, ro.result2.at_rest], axis=1)
-    return ModelRuns(ordered, res.impact_type, at_rest, fallback)
+    return ModelRuns(ordered, res.impact_type, ro.at_rest, fallback)
 
 
 def nominal_runs(cases: CaseSet, config: UncertaintyConfig) -> ModelRuns:

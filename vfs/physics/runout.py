@@ -1,15 +1,13 @@
 """Post-crash run-out: vehicles sliding and rolling from the separation to rest.
 
-After the impact each vehicle moves as a planar rigid body with three degrees
-of freedom (CG position x, y and yaw) on four wheels, steering angle 0, until
-the tyre forces have dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash
-movement"): whether a vehicle was "rolling or sliding ... has a huge influence
-on the amount of energy dissipated", which is why a time-forward vehicle model
-replaces an assumed mean deceleration; the Collision Calculation Uncertainty paper: the rest
-positions are the
-criterion a simulation is judged by (its Marquard run-out is the energy-only
-alternative); the Modeling Head-On Collisions paper: frontal deformation can lock wheels, hence a
-brake
+After the impact each vehicle moves as a planar rigid body with three degrees of freedom (CG
+position x, y and yaw) on four wheels, steering angle 0, until the tyre forces have
+dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash movement"): whether a
+vehicle was "rolling or sliding ... has a huge influence on the amount of energy
+dissipated", which is why a time-forward vehicle model replaces an assumed mean
+deceleration; the Collision Calculation Uncertainty paper: the rest positions are the
+criterion a simulation is judged by (its Marquard run-out is the energy-only alternative);
+the Modeling Head-On Collisions paper: frontal deformation can lock wheels, hence a brake
 factor per wheel.
 
 Wheels sit at (L1, +-track/2) and (-L2, +-track/2) in the vehicle frame, in the

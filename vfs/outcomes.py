@@ -432,9 +432,9 @@ def result_columns(res: CaseResults) -> dict[str, np.ndarray]:
         for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
             cols[f"{name}{i}"] = getattr(st, name)[:, i - 1]
         for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")
+            cols[f"{name}{i}"] = getattr(imp, name)[:, i - 1]
         for name in ("vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")
+            cols[f"{name}{i}_post"] = getattr(imp, f"{name}_post")[:, i - 1]
         cols[f"rest_x{i}"], cols[f"rest_y{i}"], cols[f"rest_yaw{i}"] = (
             ro.rest_x[:, i - 1], ro.rest_y[:, i - 1], ro.rest_yaw[:, i - 1])
     return cols

@@ -23,6 +23,7 @@ from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import (
     FIXED_OBJECT_MASS,
+    RESULT_COLUMNS,
     ImpactConfig,
     ImpactParams,
     ImpactResult,
@@ -226,10 +227,11 @@ class CaseResults(NamedTuple):
 def _scatter_impact(n: int, rows: np.ndarray, part: ImpactResult) -> ImpactResult:
     out = []
     for values in part:
+        shape = (n,) + values.shape[1:]
         if values.dtype.kind in "iu":
-            full = np.zeros(n, dtype=values.dtype)
+            full = np.zeros(shape, dtype=values.dtype)
         else:
-            full = np.full(n, np.nan)
+            full = np.full(shape, np.nan)
         full[rows] = values
         out.append(full)
     return ImpactResult(*out)
@@ -417,14 +419,12 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
         e1, e2 = deformation_energies(config, result)
         for hook in split_hooks:
             e1, e2 = hook(ctx, config, result, e1, e2)
-        active = result.impact_type != 0
+        active = (result.impact_type != 0)[:, None]
         change = VelocityChange(*(np.where(active, a, 0.0) for a in change))
-        result = with_outcome(
-            config, result,
-            vx1=result.vx1_post + change.dvx1, vy1=result.vy1_post + change.dvy1,
-            w1=result.yaw_rate1_post + change.dw1, vx2=result.vx2_post + change.dvx2,
-            vy2=result.vy2_post + change.dvy2, w2=result.yaw_rate2_post + change.dw2,
-            e1=e1, e2=e2)
+        result = with_outcome(config, result, vx=result.vx_post + change.dvx,
+                              vy=result.vy_post + change.dvy,
+                              yaw_rate=result.yaw_rate_post + change.dw,
+                              energy=np.stack([e1, e2], axis=1))
     b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
     b2 = b1.copy()
     for hook in hooks(effects, "post_impact"):
@@ -579,10 +579,9 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     PairRunoutResult
     """
     st = impact_state
-    post1 = RunoutState(st.x[:, 0], st.y[:, 0], st.yaw[:, 0], result.vx1_post,
-                        result.vy1_post, result.yaw_rate1_post)
-    post2 = RunoutState(st.x[:, 1], st.y[:, 1], st.yaw[:, 1], result.vx2_post,
-                        result.vy2_post, result.yaw_rate2_post)
+    post1, post2 = (RunoutState(st.x[:, j], st.y[:, j], st.yaw[:, j], result.vx_post[:, j],
+                                result.vy_post[:, j], result.yaw_rate_post[:, j])
+                    for j in (0, 1))
     if secondary_collisions:
         return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
                             wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
@@ -617,15 +616,6 @@ def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> 
         full[rows] = values
         fields.append(full)
     return PairRunoutResult(*fields)
-
-
-def vehicle_axis(record: tuple, template: str) -> np.ndarray:
-    """(N, 2) array of the fields ``template`` with ``{i}`` = 1, 2 of a record that names
-    the vehicle in the field (ImpactConfig, ImpactResult, VelocityChange), vehicle 1 in
-    column 0: the one conversion to the axis convention of :class:`KinematicState`.
-    """
-    fields = record._asdict()  # type: ignore[attr-defined]
-    return np.stack([fields[template.format(i=1)], fields[template.format(i=2)]], axis=1)
 
 
 def runout_axis(runout: PairRunoutResult) -> dict[str, np.ndarray]:
@@ -680,10 +670,9 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
     })
     rest = runout_axis(ro)
     cols.update(vehicle_columns([
-        *((f"{name}{{i}}", vehicle_axis(imp, f"{name}{{i}}"))
-          for name in ("delta_v", "ees", "pdof", "velocity_angle_change")),
-        *((f"{name}{{i}}_post", vehicle_axis(imp, f"{name}{{i}}_post"))
-          for name in ("vx", "vy", "yaw_rate")),
+        *((RESULT_COLUMNS[name], getattr(imp, name))
+          for name in ("delta_v", "ees", "pdof", "velocity_angle_change", "vx_post", "vy_post",
+                       "yaw_rate_post")),
         ("rest_x{i}", rest["rest_x"]), ("rest_y{i}", rest["rest_y"]),
         ("rest_yaw{i}", rest["rest_yaw"]), ("time_to_rest{i}", rest["time_to_rest"]),
         ("runout_distance{i}", rest["distance"]), ("at_rest{i}", rest["at_rest"]),

@@ -281,8 +281,8 @@ def test_penetration_change_moves_pose_poi_and_plane_as_documented(clean):
                         poi_y=c.poi_y + geo.poi[:, 1] - cases.geo_poi[:, 1],
                         cp_angle=c.cp_angle + dcp)
     direct = solve_impact(config)
-    np.testing.assert_allclose(runs.outcomes["delta_v1"], direct.delta_v1, rtol=1e-12)
-    np.testing.assert_allclose(runs.outcomes["pdof2"], direct.pdof2, atol=1e-12)
+    np.testing.assert_allclose(runs.outcomes["delta_v1"], direct.delta_v[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(runs.outcomes["pdof2"], direct.pdof[:, 1], atol=1e-12)
     nominal = nominal_runs(cases, default_config())
     assert np.any(np.abs(runs.outcomes["delta_v1"] - nominal.outcomes["delta_v1"]) > 1e-3)
 
@@ -444,17 +444,17 @@ def _oracle(cases, x):
     veh = [v._replace(mass=getattr(config, f"m{i}"), yaw_inertia=getattr(config, f"izz{i}"))
            for i, v in ((1, cases.vehicle1), (2, cases.vehicle2))]
     states = [RunoutState(getattr(config, f"x{i}"), getattr(config, f"y{i}"),
-                          getattr(config, f"yaw{i}"), getattr(imp, f"vx{i}_post"),
-                          getattr(imp, f"vy{i}_post"), getattr(imp, f"yaw_rate{i}_post"))
+                          getattr(config, f"yaw{i}"), imp.vx_post[:, i - 1],
+                          imp.vy_post[:, i - 1], imp.yaw_rate_post[:, i - 1])
               for i in (1, 2)]
     ro = run_out_pair(veh[0], veh[1], states[0], states[1], col["road_friction"],
                       RunoutParams(), np.repeat(col["wheel_brake1"][:, None], 4, 1),
                       np.repeat(col["wheel_brake2"][:, None], 4, 1))
-    out = {"delta_v1": imp.delta_v1, "delta_v2": imp.delta_v2, "ees1": imp.ees1,
-           "ees2": imp.ees2, "energy_loss": imp.energy_loss,
-           "velocity_angle_change1": imp.velocity_angle_change1,
-           "post_speed2": np.hypot(imp.vx2_post, imp.vy2_post),
-           "pdof1": imp.pdof1, "sliding": (imp.impact_type == 2).astype(float)}
+    out = {"delta_v1": imp.delta_v[:, 0], "delta_v2": imp.delta_v[:, 1], "ees1": imp.ees[:, 0],
+           "ees2": imp.ees[:, 1], "energy_loss": imp.energy_loss,
+           "velocity_angle_change1": imp.velocity_angle_change[:, 0],
+           "post_speed2": np.hypot(imp.vx_post[:, 1], imp.vy_post[:, 1]),
+           "pdof1": imp.pdof[:, 0], "sliding": (imp.impact_type == 2).astype(float)}
     for i in (1, 2):
         rest_x, rest_y = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
         out[f"rest_x{i}"], out[f"rest_y{i}"] = rest_x, rest_y

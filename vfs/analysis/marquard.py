@@ -73,8 +73,8 @@ def marquard_check(batch: Any, results: Any, params: Any = None) -> pd.DataFrame
     for i, veh in enumerate((batch.vehicle1, batch.vehicle2)):
         x0, y0 = pre.impact_state.x[hit, i], pre.impact_state.y[hit, i]
         yaw0 = pre.impact_state.yaw[hit, i]
-        vx = getattr(imp, f"vx{i + 1}_post")[hit]
-        vy = getattr(imp, f"vy{i + 1}_post")[hit]
+        vx = imp.vx_post[hit, i]
+        vy = imp.vy_post[hit, i]
         dist = np.hypot(run.rest_x[hit, i] - x0, run.rest_y[hit, i] - y0)
         rot = run.rest_yaw[hit, i] - yaw0
         length = np.asarray(veh.length, float)[hit]

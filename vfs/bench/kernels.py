@@ -154,7 +154,7 @@ def bench_timestep_convergence(quick: bool) -> dict[str, Any]:
         np.hypot(a.runout.rest_x[:, 1] - b.runout.rest_x[:, 1],
                  a.runout.rest_y[:, 1] - b.runout.rest_y[:, 1])[both],
     ])
-    dv = np.abs(a.impact.delta_v1 - b.impact.delta_v1)[both]
+    dv = np.abs(a.impact.delta_v[:, 0] - b.impact.delta_v[:, 0])[both]
     return {
         "cases": n, "collided_in_both": int(both.sum()),
         "collision_outcome_changed": int((a.precrash.collided != b.precrash.collided).sum()),

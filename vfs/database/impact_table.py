@@ -269,7 +269,7 @@ def solve_impact_table(
     impact_type = impact_type_names(result.impact_type).astype(object)
     impact_type[bad_rows] = "error"
     out["impact_type"] = impact_type
-    rd = result._asdict()
+    rd = result.columns()
     for col in OUTPUT_COLUMNS:
         if col in ("impact_type", "error"):
             continue

@@ -97,11 +97,10 @@ class ImpactParams:
         ("applicable for a wide range of closing speeds"); the Reconstruction
         chapter gives 0.1-0.3 for real crashes.
     contact_friction : float
-        Friction coefficient between the bodies at the POI (tan rho of the
-        friction cone, the Collision Calculation Uncertainty paper), >= 0.  Default 0.6; there is
-        no firm
-        source for a universal value (openPASS hard-codes 0.3), so studies
-        should vary it (see `vfs uncertainty`).
+        Friction coefficient between the bodies at the POI (tan rho of the friction cone,
+        the Collision Calculation Uncertainty paper), >= 0.  Default 0.6; there is no firm
+        source for a universal value (openPASS hard-codes 0.3), so studies should vary it
+        (see `vfs uncertainty`).
     restitution_mode : {"impulse", "normal"}
         How eps enters (:data:`RESTITUTION_MODES`).  ``"impulse"`` (default): the
         Kudlich-Slibar/PC-Crash convention, S = (1 + eps) S_C for both impulse
@@ -216,47 +215,87 @@ class ImpactConfig(NamedTuple):
         return int(self.m1.shape[0])
 
 
+#: Table column of each per-vehicle field of :class:`ImpactResult` (``{i}`` = 1, 2): the
+#: names of the files and reports (:meth:`ImpactResult.columns`).
+RESULT_COLUMNS: dict[str, str] = {
+    "vx_post": "vx{i}_post", "vy_post": "vy{i}_post", "yaw_rate_post": "yaw_rate{i}_post",
+    "delta_vx": "delta_vx{i}", "delta_vy": "delta_vy{i}", "delta_v": "delta_v{i}",
+    "ees": "ees{i}", "velocity_angle_change": "velocity_angle_change{i}", "pdof": "pdof{i}",
+    "pdof_clock": "pdof_clock{i}",
+}
+
+
+def deprecated_vehicle_field(field: str, j: int) -> property:
+    """Read-only alias, named with the vehicle number, of ``field[:, j]`` of a record with a
+    vehicle axis (vehicle 1 at j = 0), kept for plugins written against the former
+    one-array-per-vehicle records; reading it warns (``DeprecationWarning``).
+    """
+    old = RESULT_COLUMNS.get(field, field + "{i}").format(i=j + 1)
+
+    def get(self: tuple) -> np.ndarray:
+        warnings.warn(f"{type(self).__name__}.{old} is deprecated: use {field}[:, {j}] "
+                      "(vehicle axis 1, vehicle 1 at index 0)", DeprecationWarning,
+                      stacklevel=2)
+        return getattr(self, field)[:, j]
+
+    get.__doc__ = f"Deprecated alias of ``{field}[:, {j}]``."
+    get.vehicle_alias = (field, j)  # type: ignore[attr-defined]
+    return property(get)
+
+
 class ImpactResult(NamedTuple):
-    """Result of :func:`solve_impact` for N configurations, arrays of shape (N,).
+    """Result of :func:`solve_impact` for N configurations.
+
+    Fields of the impact as a whole are arrays (N,); fields of each vehicle are
+    arrays (N, 2) whose axis 1 is the vehicle (vehicle 1 at index 0), as in
+    :class:`vfs.physics.precrash_result.KinematicState`.  :meth:`columns` gives the
+    table columns (``delta_v1``, ``ees2``, ...).
 
     Attributes
     ----------
-    impact_type : ndarray of int
+    impact_type : ndarray of int (N,)
         0 none (separating), 1 full, 2 sliding (:data:`IMPACT_TYPE_NAMES`).
-    normal_x, normal_y : ndarray
+    normal_x, normal_y : ndarray (N,)
         Unit normal n of the contact plane, from vehicle 2 towards vehicle 1.
-    closing_speed : ndarray
+    closing_speed : ndarray (N,)
         Normal approach speed at the POI, -u.n [m/s] (> 0 for an impact).
-    sliding_speed : ndarray
+    sliding_speed : ndarray (N,)
         Tangential relative POI speed before the impact, u.t [m/s].
-    impulse_t, impulse_n : ndarray
+    impulse_t, impulse_n : ndarray (N,)
         Total impulse on vehicle 1 in contact-plane components [N s]
         (T and N; vehicle 2 receives the opposite).
-    impulse_x, impulse_y : ndarray
+    impulse_x, impulse_y : ndarray (N,)
         Total impulse on vehicle 1, global components [N s].
-    vx1_post, vy1_post, vx2_post, vy2_post : ndarray
+    vx_post, vy_post : ndarray (N, 2)
         Post-impact CG velocities [m/s].
-    yaw_rate1_post, yaw_rate2_post : ndarray
+    yaw_rate_post : ndarray (N, 2)
         Post-impact yaw rates [rad/s].
-    delta_vx1, delta_vy1, delta_vx2, delta_vy2 : ndarray
+    delta_vx, delta_vy : ndarray (N, 2)
         Velocity change of each CG [m/s].
-    delta_v1, delta_v2 : ndarray
+    delta_v : ndarray (N, 2)
         Magnitude of the CG velocity change [m/s].
-    energy_loss : ndarray
+    energy_loss : ndarray (N,)
         Kinetic energy lost, translational plus rotational [J] (>= 0).
-    ees1, ees2 : ndarray
+    ees : ndarray (N, 2)
         Energy equivalent speed [m/s]: E_i = m_i EES_i^2 / 2 (the Reconstruction chapter) with
         the loss split by :func:`energy_split`.
-    velocity_angle_change1, velocity_angle_change2 : ndarray
+    velocity_angle_change : ndarray (N, 2)
         Angle between the CG velocity vectors before and after [rad], in
         [0, pi]; NaN when either speed is below 1 mm/s.
-    pdof1, pdof2 : ndarray
+    pdof : ndarray (N, 2)
         Principal direction of force [rad] in the vehicle's frame: the
         direction the impulse comes from, 0 = straight from ahead (frontal),
         positive clockwise seen from above (pi/2 = from the right), in
         (-pi, pi].
-    pdof_clock1, pdof_clock2 : ndarray of int
+    pdof_clock : ndarray of int (N, 2)
         PDOF as a clock direction 1-12 (12 = frontal, 3 = right side).
+
+    Notes
+    -----
+    The names with the vehicle number of the former one-array-per-vehicle record
+    (``vx1_post``, ``delta_v2``, ``ees1``, ``pdof_clock2``, ...) remain as read-only
+    attributes for plugins written against it; they are deprecated (a
+    ``DeprecationWarning``) and vfs itself does not use them.
     """
 
     impact_type: np.ndarray
@@ -268,32 +307,62 @@ class ImpactResult(NamedTuple):
     impulse_n: np.ndarray
     impulse_x: np.ndarray
     impulse_y: np.ndarray
-    vx1_post: np.ndarray
-    vy1_post: np.ndarray
-    yaw_rate1_post: np.ndarray
-    vx2_post: np.ndarray
-    vy2_post: np.ndarray
-    yaw_rate2_post: np.ndarray
-    delta_vx1: np.ndarray
-    delta_vy1: np.ndarray
-    delta_vx2: np.ndarray
-    delta_vy2: np.ndarray
-    delta_v1: np.ndarray
-    delta_v2: np.ndarray
+    vx_post: np.ndarray
+    vy_post: np.ndarray
+    yaw_rate_post: np.ndarray
+    delta_vx: np.ndarray
+    delta_vy: np.ndarray
+    delta_v: np.ndarray
     energy_loss: np.ndarray
-    ees1: np.ndarray
-    ees2: np.ndarray
-    velocity_angle_change1: np.ndarray
-    velocity_angle_change2: np.ndarray
-    pdof1: np.ndarray
-    pdof2: np.ndarray
-    pdof_clock1: np.ndarray
-    pdof_clock2: np.ndarray
+    ees: np.ndarray
+    velocity_angle_change: np.ndarray
+    pdof: np.ndarray
+    pdof_clock: np.ndarray
 
     @property
     def impact_type_name(self) -> np.ndarray:
         """Impact type as strings 'none', 'full', 'sliding'."""
         return impact_type_names(self.impact_type)
+
+    @property
+    def size(self) -> int:
+        """Number of impacts N."""
+        return int(self.impact_type.shape[0])
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The fields as table columns (N,): the per-vehicle fields as two columns named
+        by :data:`RESULT_COLUMNS` (``delta_v1``, ``delta_v2``, ...), vehicle 1's first.
+        """
+        out: dict[str, np.ndarray] = {}
+        for name, values in zip(self._fields, self, strict=True):
+            if name in RESULT_COLUMNS:
+                for i in (1, 2):
+                    out[RESULT_COLUMNS[name].format(i=i)] = values[:, i - 1]
+            else:
+                out[name] = values
+        return out
+
+    # deprecated aliases of the former field names (read-only; see Notes)
+    vx1_post = deprecated_vehicle_field("vx_post", 0)
+    vx2_post = deprecated_vehicle_field("vx_post", 1)
+    vy1_post = deprecated_vehicle_field("vy_post", 0)
+    vy2_post = deprecated_vehicle_field("vy_post", 1)
+    yaw_rate1_post = deprecated_vehicle_field("yaw_rate_post", 0)
+    yaw_rate2_post = deprecated_vehicle_field("yaw_rate_post", 1)
+    delta_vx1 = deprecated_vehicle_field("delta_vx", 0)
+    delta_vx2 = deprecated_vehicle_field("delta_vx", 1)
+    delta_vy1 = deprecated_vehicle_field("delta_vy", 0)
+    delta_vy2 = deprecated_vehicle_field("delta_vy", 1)
+    delta_v1 = deprecated_vehicle_field("delta_v", 0)
+    delta_v2 = deprecated_vehicle_field("delta_v", 1)
+    ees1 = deprecated_vehicle_field("ees", 0)
+    ees2 = deprecated_vehicle_field("ees", 1)
+    velocity_angle_change1 = deprecated_vehicle_field("velocity_angle_change", 0)
+    velocity_angle_change2 = deprecated_vehicle_field("velocity_angle_change", 1)
+    pdof1 = deprecated_vehicle_field("pdof", 0)
+    pdof2 = deprecated_vehicle_field("pdof", 1)
+    pdof_clock1 = deprecated_vehicle_field("pdof_clock", 0)
+    pdof_clock2 = deprecated_vehicle_field("pdof_clock", 1)
 
 
 # ----------------------------------------------------------------------------
@@ -433,6 +502,11 @@ def ees_from_energy(energy: npt.ArrayLike, mass: npt.ArrayLike) -> np.ndarray:
 # ----------------------------------------------------------------------------
 
 
+def _pair(one: np.ndarray, two: np.ndarray) -> np.ndarray:
+    """(N, 2) array of a per-vehicle value: vehicle 1 in column 0."""
+    return np.stack([one, two], axis=1)
+
+
 def _pdof(ix: np.ndarray, iy: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """PDOF [rad] and clock direction of an impulse (ix, iy) on a vehicle with heading yaw."""
     # direction the force comes from (-impulse), relative to the heading,
@@ -507,29 +581,25 @@ def poi_relative_velocity(config: ImpactConfig, vx1: np.ndarray, vy1: np.ndarray
     return ((vx1 - w1 * r1y) - (vx2 - w2 * r2y), (vy1 + w1 * r1x) - (vy2 + w2 * r2x))
 
 
-def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
-                 vy1: np.ndarray, w1: np.ndarray, vx2: np.ndarray, vy2: np.ndarray,
-                 w2: np.ndarray, e1: np.ndarray | None = None,
-                 e2: np.ndarray | None = None) -> ImpactResult:
-    """Result with changed post-impact velocities [m/s, rad/s] and, optionally,
-    deformation energies e1, e2 [J]; delta-v, EES and the change of velocity
-    angle follow.  The impulse, impact type, energy loss and PDOF describe
-    the impulse exchange and stay as they are.
+def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx: np.ndarray,
+                 vy: np.ndarray, yaw_rate: np.ndarray,
+                 energy: np.ndarray | None = None) -> ImpactResult:
+    """Result with changed post-impact velocities ``vx``, ``vy`` [m/s] and ``yaw_rate``
+    [rad/s] and, optionally, deformation energies ``energy`` [J], each (N, 2) (vehicle
+    axis 1); delta-v, EES and the change of velocity angle follow.  The impulse, impact
+    type, energy loss and PDOF describe the impulse exchange and stay as they are.
     """
-    dvx1, dvy1 = vx1 - config.vx1, vy1 - config.vy1
-    dvx2, dvy2 = vx2 - config.vx2, vy2 - config.vy2
-    none = result.impact_type == IMPACT_NONE
-    keep = {k: getattr(result, k) for k in ImpactResult._fields}
-    keep.update(
-        vx1_post=vx1, vy1_post=vy1, yaw_rate1_post=w1, vx2_post=vx2, vy2_post=vy2,
-        yaw_rate2_post=w2, delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
-        velocity_angle_change1=angle_between(config.vx1, config.vy1, vx1, vy1),
-        velocity_angle_change2=angle_between(config.vx2, config.vy2, vx2, vy2),
-    )
-    if e1 is not None and e2 is not None:
-        keep["ees1"] = np.where(none, result.ees1, ees_from_energy(e1, config.m1))
-        keep["ees2"] = np.where(none, result.ees2, ees_from_energy(e2, config.m2))
+    vx0 = np.stack([config.vx1, config.vx2], axis=1)
+    vy0 = np.stack([config.vy1, config.vy2], axis=1)
+    dvx, dvy = vx - vx0, vy - vy0
+    keep = result._asdict()
+    keep.update(vx_post=vx, vy_post=vy, yaw_rate_post=yaw_rate, delta_vx=dvx, delta_vy=dvy,
+                delta_v=velocity_change(dvx, dvy),
+                velocity_angle_change=angle_between(vx0, vy0, vx, vy))
+    if energy is not None:
+        none = (result.impact_type == IMPACT_NONE)[:, None]
+        mass = np.stack([config.m1, config.m2], axis=1)
+        keep["ees"] = np.where(none, result.ees, ees_from_energy(energy, mass))
     return ImpactResult(**keep)
 
 
@@ -537,8 +607,8 @@ def deformation_energies(config: ImpactConfig,
                          result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
     """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
     with np.errstate(invalid="ignore"):  # a fixed object (m = inf) has EES 0 and E 0
-        e1 = deformation_energy(config.m1, result.ees1)
-        e2 = deformation_energy(config.m2, result.ees2)
+        e1 = deformation_energy(config.m1, result.ees[:, 0])
+        e2 = deformation_energy(config.m2, result.ees[:, 1])
     return (np.where(np.isposinf(config.m1), 0.0, e1),
             np.where(np.isposinf(config.m2), 0.0, e2))
 
@@ -662,18 +732,17 @@ def _solve_block(config: ImpactConfig,
         normal_x=nx, normal_y=ny,
         closing_speed=-u_n, sliding_speed=u_t,
         impulse_t=s_t, impulse_n=s_n, impulse_x=impulse_x, impulse_y=impulse_y,
-        vx1_post=vx1p, vy1_post=vy1p, yaw_rate1_post=w1p,
-        vx2_post=vx2p, vy2_post=vy2p, yaw_rate2_post=w2p,
-        delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
-        energy_loss=loss, ees1=ees_from_energy(e1, m1), ees2=ees_from_energy(e2, m2),
-        velocity_angle_change1=angle_between(c.vx1, c.vy1, vx1p, vy1p),
-        velocity_angle_change2=angle_between(c.vx2, c.vy2, vx2p, vy2p),
-        pdof1=np.where(none, nan, pdof1), pdof2=np.where(none, nan, pdof2),
-        pdof_clock1=np.where(none, 0, clock1), pdof_clock2=np.where(none, 0, clock2),
+        vx_post=_pair(vx1p, vx2p), vy_post=_pair(vy1p, vy2p), yaw_rate_post=_pair(w1p, w2p),
+        delta_vx=_pair(dvx1, dvx2), delta_vy=_pair(dvy1, dvy2),
+        delta_v=_pair(velocity_change(dvx1, dvy1), velocity_change(dvx2, dvy2)),
+        energy_loss=loss, ees=_pair(ees_from_energy(e1, m1), ees_from_energy(e2, m2)),
+        velocity_angle_change=_pair(angle_between(c.vx1, c.vy1, vx1p, vy1p),
+                                    angle_between(c.vx2, c.vy2, vx2p, vy2p)),
+        pdof=_pair(np.where(none, nan, pdof1), np.where(none, nan, pdof2)),
+        pdof_clock=_pair(np.where(none, 0, clock1), np.where(none, 0, clock2)),
     )
     if np.any(created):
         fallback = _solve_block(config, stiffness_ratio, False)
-        result = ImpactResult(*(np.where(created, b, a)
+        result = ImpactResult(*(np.where(created.reshape((-1,) + (1,) * (a.ndim - 1)), b, a)
                                 for a, b in zip(result, fallback, strict=True)))
     return result

@@ -214,9 +214,9 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     for i in (1, 2):
         columns[f"x{i}"], columns[f"y{i}"] = pose[i][0], pose[i][1]
         for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            columns[f"{name}{i}"] = getattr(res, f"{name}{i}")
-        columns[f"vx{i}_post"] = getattr(res, f"vx{i}_post")
-        columns[f"vy{i}_post"] = getattr(res, f"vy{i}_post")
+            columns[f"{name}{i}"] = getattr(res, name)[:, i - 1]
+        columns[f"vx{i}_post"] = res.vx_post[:, i - 1]
+        columns[f"vy{i}_post"] = res.vy_post[:, i - 1]
         columns[f"rest_x{i}"], columns[f"rest_y{i}"] = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
         columns[f"rest_yaw{i}"] = ro.rest_yaw[:, i - 1]
     derived = from_results(columns, sorted({o.vocabulary for o in OUTCOMES} - {"sliding"}))

@@ -40,14 +40,17 @@ def resolves(dotted: str) -> bool:
     return False
 
 
+def docstrings(source: str, clean: bool = False) -> list[str]:
+    """The docstrings of the module, classes and functions of ``source``."""
+    return [ast.get_docstring(node, clean=clean) or "" for node in ast.walk(ast.parse(source))
+            if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef
+                          | ast.AsyncFunctionDef)]
+
+
 def broken_references(source: str) -> list[str]:
     """Fully qualified vfs cross-references in the docstrings of ``source`` that do not resolve."""
-    bad = []
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
-            doc = ast.get_docstring(node, clean=False) or ""
-            bad += [m.group(1) for m in ROLE.finditer(doc) if not resolves(m.group(1))]
-    return bad
+    return [m.group(1) for doc in docstrings(source) for m in ROLE.finditer(doc)
+            if not resolves(m.group(1))]
 
 
 def test_the_check_catches_a_reference_to_a_missing_name() -> None:
@@ -148,12 +151,8 @@ def stranded_lines(doc: str, short: int = 25, long: int = 40) -> list[str]:
 
 def broken_fragments(source: str) -> list[str]:
     """Lowercase sentence starts and stranded lines in the docstrings of ``source``."""
-    bad = []
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
-            doc = ast.get_docstring(node, clean=True) or ""
-            bad += lowercase_sentence_starts(doc) + stranded_lines(doc)
-    return bad
+    return [bad for doc in docstrings(source, clean=True)
+            for bad in lowercase_sentence_starts(doc) + stranded_lines(doc)]
 
 
 def test_the_fragment_check_catches_broken_docstrings() -> None:

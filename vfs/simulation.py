@@ -22,6 +22,8 @@ from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import (
+    CONFIG_IMPACT_FIELDS,
+    CONFIG_VEHICLE_FIELDS,
     FIXED_OBJECT_MASS,
     RESULT_COLUMNS,
     ImpactConfig,
@@ -387,18 +389,15 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
     v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
-    m1, izz1, m2, izz2 = v1.mass, v1.yaw_inertia, v2.mass, v2.yaw_inertia
+    mass = np.stack([v1.mass, v2.mass], axis=1)
+    izz = np.stack([v1.yaw_inertia, v2.yaw_inertia], axis=1)
     # rigid fixed objects (N, 2) bool, where the cases say (a CaseBatch may; others have none)
     fixed_object = getattr(batch, "fixed_object", None)
     if fixed_object is not None:  # the limit 1/m = 0 (vfs.physics.impact)
         fixed = fixed_object[hit]
-        m1, izz1 = (np.where(fixed[:, 0], FIXED_OBJECT_MASS, a) for a in (m1, izz1))
-        m2, izz2 = (np.where(fixed[:, 1], FIXED_OBJECT_MASS, a) for a in (m2, izz2))
+        mass, izz = (np.where(fixed, FIXED_OBJECT_MASS, a) for a in (mass, izz))
     config = ImpactConfig.from_arrays(
-        m1=m1, izz1=izz1, x1=st.x[:, 0], y1=st.y[:, 0], yaw1=st.yaw[:, 0],
-        vx1=st.vx[:, 0], vy1=st.vy[:, 0], yaw_rate1=st.yaw_rate[:, 0],
-        m2=m2, izz2=izz2, x2=st.x[:, 1], y2=st.y[:, 1], yaw2=st.yaw[:, 1],
-        vx2=st.vx[:, 1], vy2=st.vy[:, 1], yaw_rate2=st.yaw_rate[:, 1],
+        m=mass, izz=izz, x=st.x, y=st.y, yaw=st.yaw, vx=st.vx, vy=st.vy, yaw_rate=st.yaw_rate,
         poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
         restitution=eps[hit], contact_friction=mu[hit],
     )
@@ -522,8 +521,9 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         poi[hit, 0], poi[hit, 1], cp[hit] = config.poi_x, config.poi_y, config.cp_angle
         brakes[hit, 0], brakes[hit, 1] = b1, b2
     else:
-        part = solve_impact(ImpactConfig.from_arrays(**{f: np.zeros(0) for f in
-                                                        ImpactConfig._fields}))
+        part = solve_impact(ImpactConfig.from_arrays(
+            **{f: np.zeros((0, 2)) for f in CONFIG_VEHICLE_FIELDS},
+            **{f: np.zeros(0) for f in CONFIG_IMPACT_FIELDS}))
         b1 = b2 = np.zeros((0, 4))
     impact = _scatter_impact(n, hit, part)
     # run-out from the post-impact state (all cases; non-colliding ones are at
@@ -531,8 +531,8 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     # inertias the impact used (an effect may have changed them at the impact stages)
     runout = _scatter_runout(
         n, hit,
-        runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz1),
-                     _with_inertia(batch.vehicle2.take(hit), config.izz2),
+        runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz[:, 0]),
+                     _with_inertia(batch.vehicle2.take(hit), config.izz[:, 1]),
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2)
         if hit.size else None,
     )

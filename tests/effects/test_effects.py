@@ -291,7 +291,7 @@ def _head_on_context(angle_deg: float, offset: float):
     ctx = ImpactContext(np.array([0]), v, v, state, np.array([0.8]), np.array([0.0]),
                         np.array([0.03]))
     c = ctx.overlap.centroid[0]
-    config = ImpactConfig.from_arrays(
+    config = ImpactConfig.from_columns(
         m1=1500, izz1=2500, x1=0, y1=0, yaw1=0, vx1=15, vy1=0, yaw_rate1=0, m2=1500, izz2=2500,
         x2=x2, y2=offset, yaw2=yaw2, vx2=state.vx[0, 1], vy2=state.vy[0, 1], yaw_rate2=0,
         poi_x=c[0], poi_y=c[1], cp_angle=np.radians(60), restitution=0.1, contact_friction=0.6)

@@ -42,7 +42,7 @@ def barrier_config(**over: object) -> ImpactConfig:
         m2=INF, izz2=INF, x2=3.3, y2=0.0, yaw2=0.0, vx2=0.0, vy2=0.0, yaw_rate2=0.0,
         poi_x=2.3, poi_y=0.0, cp_angle=np.pi / 2, restitution=0.19, contact_friction=0.6)
     base.update(over)
-    return ImpactConfig.from_arrays(**base)
+    return ImpactConfig.from_columns(**base)
 
 
 def test_inverse_mass_of_fixed_object_is_exactly_zero():
@@ -92,7 +92,7 @@ configs = st.fixed_dictionaries(dict(
 
 
 def _with_object(d: dict[str, float], m2: float, izz2: float) -> ImpactConfig:
-    return ImpactConfig.from_arrays(x1=0.0, y1=0.0, m2=m2, izz2=izz2, yaw2=0.0, vx2=0.0,
+    return ImpactConfig.from_columns(x1=0.0, y1=0.0, m2=m2, izz2=izz2, yaw2=0.0, vx2=0.0,
                                     vy2=0.0, yaw_rate2=0.0, **d)
 
 
@@ -101,23 +101,25 @@ def _with_object(d: dict[str, float], m2: float, izz2: float) -> ImpactConfig:
 def test_angular_momentum_of_free_vehicle_about_poi_is_conserved(d):
     c = _with_object(d, INF, INF)
     r = solve_impact(c)
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
+    r1x, r1y = c.poi_x - c.x[:, 0], c.poi_y - c.y[:, 0]
 
     def l_poi(vx, vy, w):  # I1 w1 - r1 x (m1 v1), about the fixed POI [kg m^2/s]
-        return c.izz1 * w - c.m1 * (r1x * vy - r1y * vx)
+        return c.izz[:, 0] * w - c.m[:, 0] * (r1x * vy - r1y * vx)
 
-    before = l_poi(c.vx1, c.vy1, c.yaw_rate1)
+    before = l_poi(c.vx[:, 0], c.vy[:, 0], c.yaw_rate[:, 0])
     after = l_poi(r.vx_post[:, 0], r.vy_post[:, 0], r.yaw_rate_post[:, 0])
-    scale = c.m1 * (np.abs(c.vx1) + np.abs(c.vy1) + 3.0 * np.abs(c.yaw_rate1) + 1.0) * 5.0
+    scale = c.m[:, 0] * (np.abs(c.vx[:, 0]) + np.abs(c.vy[:, 0])
+                         + 3.0 * np.abs(c.yaw_rate[:, 0]) + 1.0) * 5.0
     assert np.all(np.abs(after - before) <= 1e-10 * scale)
     # linear momentum is not conserved: it changes by exactly the impulse
-    assert np.all(np.abs(c.m1 * (r.vx_post[:, 0] - c.vx1) - r.impulse_x)
+    assert np.all(np.abs(c.m[:, 0] * (r.vx_post[:, 0] - c.vx[:, 0]) - r.impulse_x)
                   <= 1e-9 * (1.0 + np.abs(r.impulse_x)))
     # the object stays at rest, energy is never gained
     assert np.all(r.vx_post[:, 1] == 0.0) and np.all(r.yaw_rate_post[:, 1] == 0.0)
-    ke0 = 0.5 * c.m1 * (c.vx1**2 + c.vy1**2) + 0.5 * c.izz1 * c.yaw_rate1**2
-    ke1 = (0.5 * c.m1 * (r.vx_post[:, 0]**2 + r.vy_post[:, 0]**2)
-           + 0.5 * c.izz1 * r.yaw_rate_post[:, 0]**2)
+    ke0 = (0.5 * c.m[:, 0] * (c.vx[:, 0]**2 + c.vy[:, 0]**2)
+           + 0.5 * c.izz[:, 0] * c.yaw_rate[:, 0]**2)
+    ke1 = (0.5 * c.m[:, 0] * (r.vx_post[:, 0]**2 + r.vy_post[:, 0]**2)
+           + 0.5 * c.izz[:, 0] * r.yaw_rate_post[:, 0]**2)
     assert np.all(ke1 <= ke0 * (1 + 1e-12) + 1e-9)
     active = r.impact_type != IMPACT_NONE
     assert np.all(np.abs(np.where(active, ke0 - ke1 - r.energy_loss, 0.0))

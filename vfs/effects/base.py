@@ -52,7 +52,7 @@ import numpy as np
 
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
-from vfs.physics.impact import ImpactConfig, ImpactResult, deprecated_vehicle_field
+from vfs.physics.impact import ImpactConfig, ImpactResult, add_vehicle_aliases
 from vfs.registry import Registry
 
 #: Simulation stages an effect can hook into, in the order they run.
@@ -148,13 +148,8 @@ class VelocityChange(NamedTuple):
             return NotImplemented
         return VelocityChange(*(a + b for a, b in zip(self, other, strict=True)))
 
-    # deprecated aliases of the former field names (read-only; see Notes)
-    dvx1 = deprecated_vehicle_field("dvx", 0)
-    dvx2 = deprecated_vehicle_field("dvx", 1)
-    dvy1 = deprecated_vehicle_field("dvy", 0)
-    dvy2 = deprecated_vehicle_field("dvy", 1)
-    dw1 = deprecated_vehicle_field("dw", 0)
-    dw2 = deprecated_vehicle_field("dw", 1)
+
+add_vehicle_aliases(VelocityChange, ("dvx", "dvy", "dw"))
 
 
 class Effect:

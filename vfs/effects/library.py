@@ -101,8 +101,7 @@ def braking_impulse(config: ImpactConfig, result: ImpactResult,
     u / |u|, never more than its post-impact velocity component along u (the
     tyres stop, they do not reverse the motion); no yaw change.
     """
-    vx = np.stack([config.vx1, config.vx2], axis=1)
-    vy = np.stack([config.vy1, config.vy2], axis=1)
+    vx, vy = config.vx, config.vy
     speed = np.hypot(vx, vy)
     with np.errstate(invalid="ignore", divide="ignore"):
         ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
@@ -350,9 +349,9 @@ class EESStiffness(Effect):
         """Re-split the total E1 + E2 with E1 / E2 = k2 / k1."""
         side = (ctx.faces == FACE_LEFT) | (ctx.faces == FACE_RIGHT)
         f = np.where(side, self["side_factor"], 1.0)
-        k1 = config.m1 ** self["mass_exponent"] * f[:, 0]
-        k2 = config.m2 ** self["mass_exponent"] * f[:, 1]
-        return energy_split(e1 + e2, config.m1, config.m2, stiffness_ratio=k1 / k2)
+        k = config.m ** self["mass_exponent"] * f
+        return energy_split(e1 + e2, config.m[:, 0], config.m[:, 1],
+                            stiffness_ratio=k[:, 0] / k[:, 1])
 
 
 @register_effect

@@ -313,9 +313,10 @@ class PairRunoutResult(NamedTuple):
         every vehicle 1 (rows 0..N-1) before every vehicle 2 (rows N..2N-1).
         """
         n = result.rest_x.shape[0] // 2
-        return cls(*(a if name == "path_t" else np.stack([a[:n], a[n:]], axis=1)
-                     for name, a in zip(RunoutResult._fields, result, strict=True)),
-                   secondary_collision, secondary_collision_time)
+        fields = {name: a if name == "path_t" else np.stack([a[:n], a[n:]], axis=1)
+                  for name, a in zip(RunoutResult._fields, result, strict=True)}
+        return cls(**fields, secondary_collision=secondary_collision,
+                   secondary_collision_time=secondary_collision_time)
 
 
 # ----------------------------------------------------------------------------

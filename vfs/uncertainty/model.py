@@ -132,15 +132,15 @@ def _velocities(c0: ImpactConfig, col: Mapping[str, np.ndarray]
     """
     vel = {}
     for i in (1, 2):
-        vx, vy = getattr(c0, f"vx{i}"), getattr(c0, f"vy{i}")
+        vx, vy = c0.vx[:, i - 1], c0.vy[:, i - 1]
         speed = np.hypot(vx, vy)
-        yaw = getattr(c0, f"yaw{i}")
+        yaw = c0.yaw[:, i - 1]
         moving = speed > 1e-3
         dx = np.where(moving, vx / np.where(moving, speed, 1.0), np.cos(yaw))
         dy = np.where(moving, vy / np.where(moving, speed, 1.0), np.sin(yaw))
         s = col[f"speed{i}"]
         scale = np.where(speed > 0.5, s / np.where(speed > 0.5, speed, 1.0), 1.0)
-        vel[i] = (dx * s, dy * s, getattr(c0, f"yaw_rate{i}") * scale)
+        vel[i] = (dx * s, dy * s, c0.yaw_rate[:, i - 1] * scale)
     return vel
 
 
@@ -155,8 +155,8 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     pose = {}
     for i in (1, 2):
         vx, vy, w = vel[i]
-        pose[i] = (getattr(c0, f"x{i}") + tau * vx, getattr(c0, f"y{i}") + tau * vy,
-                   getattr(c0, f"yaw{i}") + tau * w)
+        pose[i] = (c0.x[:, i - 1] + tau * vx, c0.y[:, i - 1] + tau * vy,
+                   c0.yaw[:, i - 1] + tau * w)
     poi_x, poi_y, cp = c0.poi_x.copy(), c0.poi_y.copy(), c0.cp_angle.copy()
     fallback = np.zeros(rows.shape[0], dtype=bool)
     moved = np.flatnonzero(np.abs(tau) > 1e-12)
@@ -179,24 +179,26 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     cp = cp + col["cp_angle"]
     # masses; the yaw inertia keeps its radius of gyration
     m1, m2 = col["mass1"], col["mass2"]
-    izz1, izz2 = c0.izz1 * m1 / c0.m1, c0.izz2 * m2 / c0.m2
+    izz1, izz2 = c0.izz[:, 0] * m1 / c0.m[:, 0], c0.izz[:, 1] * m2 / c0.m[:, 1]
+
+    def pair(one: np.ndarray, two: np.ndarray) -> np.ndarray:
+        return np.stack([one, two], axis=1)
+
     # POI shift along the turned plane's angle and along its normal from vehicle 2
     # towards vehicle 1 (the impact model's contact frame)
     turned = ImpactConfig(
-        m1, izz1, pose[1][0], pose[1][1], pose[1][2], vel[1][0], vel[1][1], vel[1][2],
-        m2, izz2, pose[2][0], pose[2][1], pose[2][2], vel[2][0], vel[2][1], vel[2][2],
-        poi_x, poi_y, cp, col["restitution"], col["contact_friction"])
+        m=pair(m1, m2), izz=pair(izz1, izz2), x=pair(pose[1][0], pose[2][0]),
+        y=pair(pose[1][1], pose[2][1]), yaw=pair(pose[1][2], pose[2][2]),
+        vx=pair(vel[1][0], vel[2][0]), vy=pair(vel[1][1], vel[2][1]),
+        yaw_rate=pair(vel[1][2], vel[2][2]), poi_x=poi_x, poi_y=poi_y, cp_angle=cp,
+        restitution=col["restitution"], contact_friction=col["contact_friction"])
     frame = contact_frame(turned)
     poi_x = poi_x + col["poi_shift_t"] * np.cos(cp) + col["poi_shift_n"] * frame.nx
     poi_y = poi_y + col["poi_shift_t"] * np.sin(cp) + col["poi_shift_n"] * frame.ny
     # the simulation's impact and run-out stages, without effects
     k = rows.shape[0]
-
-    def both(name: str) -> np.ndarray:
-        return np.stack([getattr(turned, f"{name}1"), getattr(turned, f"{name}2")], axis=1)
-
-    vx, vy = both("vx"), both("vy")
-    state = KinematicState(both("x"), both("y"), both("yaw"), vx, vy, both("yaw_rate"),
+    vx, vy = turned.vx, turned.vy
+    state = KinematicState(turned.x, turned.y, turned.yaw, vx, vy, turned.yaw_rate,
                            np.hypot(vx, vy))
     runs = _Cases(v1._replace(mass=m1, yaw_inertia=izz1), v2._replace(mass=m2, yaw_inertia=izz2),
                   col["road_friction"])

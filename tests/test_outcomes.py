@@ -113,7 +113,7 @@ def test_results_and_their_reconstruction_give_the_same_outcomes(clean, tmp_path
     rows = np.arange(batch.size)
     rec = reconstruction_rows(batch, res, rows, res.restitution, res.contact_friction)
     model = from_results(res)
-    stored = {c: RECONSTRUCTION.column(c).as_stored(res.impact.__getattribute__(c))
+    stored = {c: RECONSTRUCTION.column(c).as_stored(res.impact.columns()[c])
               for c in ANGLES}
     model_stored = from_results({**result_columns(res), **stored})
     save_database(db, tmp_path / "db")

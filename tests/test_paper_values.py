@@ -117,14 +117,14 @@ def test_mondeo_vectra_ees_is_the_mass_split_internal_loss(crash_tests):
     # the model's EES: the whole internal loss split by mass, E2 = dE m1 / (m1 + m2)
     m1, m2 = batch.vehicle1.mass[i], batch.vehicle2.mass[i]
     e2 = res.impact.energy_loss[i] * m1 / (m1 + m2)
-    assert res.impact.ees2[i] == pytest.approx(np.sqrt(2 * e2 / m2), rel=1e-9)
-    assert res.impact.ees2[i] * KMH_PER_MS == pytest.approx(float(model), abs=half_unit(model))
+    assert res.impact.ees[i, 1] == pytest.approx(np.sqrt(2 * e2 / m2), rel=1e-9)
+    assert res.impact.ees[i, 1] * KMH_PER_MS == pytest.approx(float(model), abs=half_unit(model))
     # the page's derived figures: loss, share, deformation-only EES (70-75 % of the loss,
     # energy-balance paper Table 2)
     text = VALIDATION
     assert f"internal loss ({res.impact.energy_loss[i] / 1e3:.1f} kJ" in text
     assert f"gives the Opel {100 * m1 / (m1 + m2):.1f} % ({e2 / 1e3:.1f} kJ" in text
-    lo, hi = (res.impact.ees2[i] * KMH_PER_MS * np.sqrt(f) for f in (0.70, 0.75))
+    lo, hi = (res.impact.ees[i, 1] * KMH_PER_MS * np.sqrt(f) for f in (0.70, 0.75))
     assert "EES of 21.3-22.0" in text and f"{lo:.1f}-{hi:.1f}" == "21.3-22.0"
     crash3_j = 0.5 * m2 * (ct.MV_EES2_KMH / KMH_PER_MS) ** 2
     assert f"{crash3_j / 1e3:.1f} kJ" == "8.3 kJ" and "= 8.3 kJ" in text

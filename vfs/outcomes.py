@@ -428,15 +428,15 @@ def result_columns(res: CaseResults) -> dict[str, np.ndarray]:
         "energy_loss": imp.energy_loss,
         "closing_speed": imp.closing_speed,
     }
-    for i, r in zip(VEHICLES, (ro.result1, ro.result2), strict=True):
+    for i in VEHICLES:
         for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
             cols[f"{name}{i}"] = getattr(st, name)[:, i - 1]
         for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")
+            cols[f"{name}{i}"] = getattr(imp, name)[:, i - 1]
         for name in ("vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")
+            cols[f"{name}{i}_post"] = getattr(imp, f"{name}_post")[:, i - 1]
         cols[f"rest_x{i}"], cols[f"rest_y{i}"], cols[f"rest_yaw{i}"] = (
-            r.rest_x, r.rest_y, r.rest_yaw)
+            ro.rest_x[:, i - 1], ro.rest_y[:, i - 1], ro.rest_yaw[:, i - 1])
     return cols
 
 

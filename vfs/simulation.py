@@ -22,7 +22,10 @@ from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
 from vfs.physics.impact import (
+    CONFIG_IMPACT_FIELDS,
+    CONFIG_VEHICLE_FIELDS,
     FIXED_OBJECT_MASS,
+    RESULT_COLUMNS,
     ImpactConfig,
     ImpactParams,
     ImpactResult,
@@ -233,10 +236,11 @@ class CaseResults(NamedTuple):
 def _scatter_impact(n: int, rows: np.ndarray, part: ImpactResult) -> ImpactResult:
     out = []
     for values in part:
+        shape = (n,) + values.shape[1:]
         if values.dtype.kind in "iu":
-            full = np.zeros(n, dtype=values.dtype)
+            full = np.zeros(shape, dtype=values.dtype)
         else:
-            full = np.full(n, np.nan)
+            full = np.full(shape, np.nan)
         full[rows] = values
         out.append(full)
     return ImpactResult(*out)
@@ -392,18 +396,15 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
     v1, v2 = batch.vehicle1.take(hit), batch.vehicle2.take(hit)
-    m1, izz1, m2, izz2 = v1.mass, v1.yaw_inertia, v2.mass, v2.yaw_inertia
+    mass = np.stack([v1.mass, v2.mass], axis=1)
+    izz = np.stack([v1.yaw_inertia, v2.yaw_inertia], axis=1)
     # rigid fixed objects (N, 2) bool, where the cases say (a CaseBatch may; others have none)
     fixed_object = getattr(batch, "fixed_object", None)
     if fixed_object is not None:  # the limit 1/m = 0 (vfs.physics.impact)
         fixed = fixed_object[hit]
-        m1, izz1 = (np.where(fixed[:, 0], FIXED_OBJECT_MASS, a) for a in (m1, izz1))
-        m2, izz2 = (np.where(fixed[:, 1], FIXED_OBJECT_MASS, a) for a in (m2, izz2))
+        mass, izz = (np.where(fixed, FIXED_OBJECT_MASS, a) for a in (mass, izz))
     config = ImpactConfig.from_arrays(
-        m1=m1, izz1=izz1, x1=st.x[:, 0], y1=st.y[:, 0], yaw1=st.yaw[:, 0],
-        vx1=st.vx[:, 0], vy1=st.vy[:, 0], yaw_rate1=st.yaw_rate[:, 0],
-        m2=m2, izz2=izz2, x2=st.x[:, 1], y2=st.y[:, 1], yaw2=st.yaw[:, 1],
-        vx2=st.vx[:, 1], vy2=st.vy[:, 1], yaw_rate2=st.yaw_rate[:, 1],
+        m=mass, izz=izz, x=st.x, y=st.y, yaw=st.yaw, vx=st.vx, vy=st.vy, yaw_rate=st.yaw_rate,
         poi_x=pre.poi[hit, 0], poi_y=pre.poi[hit, 1], cp_angle=pre.cp_angle[hit],
         restitution=eps[hit], contact_friction=mu[hit],
     )
@@ -424,14 +425,12 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
         e1, e2 = deformation_energies(config, result)
         for hook in split_hooks:
             e1, e2 = hook(ctx, config, result, e1, e2)
-        active = result.impact_type != 0
+        active = (result.impact_type != 0)[:, None]
         change = VelocityChange(*(np.where(active, a, 0.0) for a in change))
-        result = with_outcome(
-            config, result,
-            vx1=result.vx1_post + change.dvx1, vy1=result.vy1_post + change.dvy1,
-            w1=result.yaw_rate1_post + change.dw1, vx2=result.vx2_post + change.dvx2,
-            vy2=result.vy2_post + change.dvy2, w2=result.yaw_rate2_post + change.dw2,
-            e1=e1, e2=e2)
+        result = with_outcome(config, result, vx=result.vx_post + change.dvx,
+                              vy=result.vy_post + change.dvy,
+                              yaw_rate=result.yaw_rate_post + change.dw,
+                              energy=np.stack([e1, e2], axis=1))
     b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
     b2 = b1.copy()
     for hook in hooks(effects, "post_impact"):
@@ -565,8 +564,9 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         poi[hit, 0], poi[hit, 1], cp[hit] = config.poi_x, config.poi_y, config.cp_angle
         brakes[hit, 0], brakes[hit, 1] = b1, b2
     else:
-        part = solve_impact(ImpactConfig.from_arrays(**{f: np.zeros(0) for f in
-                                                        ImpactConfig._fields}))
+        part = solve_impact(ImpactConfig.from_arrays(
+            **{f: np.zeros((0, 2)) for f in CONFIG_VEHICLE_FIELDS},
+            **{f: np.zeros(0) for f in CONFIG_IMPACT_FIELDS}))
         b1 = b2 = np.zeros((0, 4))
     impact = _scatter_impact(n, hit, part)
     # run-out from the post-impact state (all cases; non-colliding ones are at
@@ -574,8 +574,8 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     # inertias the impact used (an effect may have changed them at the impact stages)
     runout = _scatter_runout(
         n, hit,
-        runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz1),
-                     _with_inertia(batch.vehicle2.take(hit), config.izz2),
+        runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz[:, 0]),
+                     _with_inertia(batch.vehicle2.take(hit), config.izz[:, 1]),
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
                      secondary_collisions=params.secondary_collisions)
         if hit.size else None,
@@ -623,10 +623,9 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     PairRunoutResult
     """
     st = impact_state
-    post1 = RunoutState(st.x[:, 0], st.y[:, 0], st.yaw[:, 0], result.vx1_post,
-                        result.vy1_post, result.yaw_rate1_post)
-    post2 = RunoutState(st.x[:, 1], st.y[:, 1], st.yaw[:, 1], result.vx2_post,
-                        result.vy2_post, result.yaw_rate2_post)
+    post1, post2 = (RunoutState(st.x[:, j], st.y[:, j], st.yaw[:, j], result.vx_post[:, j],
+                                result.vy_post[:, j], result.yaw_rate_post[:, j])
+                    for j in (0, 1))
     if secondary_collisions:
         return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
                             wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
@@ -637,58 +636,38 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
     res = run_out(both, state, np.concatenate([mu, mu]), params,
                   wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]))
-    first = RunoutResult(*(a if name == "path_t" else a[:m]
-                           for name, a in zip(RunoutResult._fields, res, strict=True)))
-    second = RunoutResult(*(a if name == "path_t" else a[m:]
-                            for name, a in zip(RunoutResult._fields, res, strict=True)))
-    return PairRunoutResult(first, second, np.zeros(m, dtype=bool), np.full(m, np.nan))
+    return PairRunoutResult.from_batch(res, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 
 def _scatter_runout(n: int, rows: np.ndarray, part: PairRunoutResult | None) -> PairRunoutResult:
     """Expand a run-out result of the colliding rows to all N cases (NaN elsewhere)."""
-
-    def expand(r: RunoutResult | None) -> RunoutResult:
-        fields = []
-        for name in RunoutResult._fields:
-            if name == "path_t":
-                fields.append(np.zeros(1) if r is None else r.path_t)
-                continue
-            if r is None:
-                shape = {"path": (n, 1, 3), "kinetic_energy": (n, 1)}.get(name, (n,))
-                fields.append(np.zeros(n, dtype=bool) if name == "at_rest"
-                              else np.full(shape, np.nan))
-                continue
-            values = getattr(r, name)
-            shape = (n,) + values.shape[1:]
-            full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
-            full[rows] = values
-            fields.append(full)
-        return RunoutResult(*fields)
-
-    sec = np.zeros(n, dtype=bool)
-    sec_t = np.full(n, np.nan)
-    if part is None:
-        return PairRunoutResult(expand(None), expand(None), sec, sec_t)
-    sec[rows] = part.secondary_collision
-    sec_t[rows] = part.secondary_collision_time
-    return PairRunoutResult(expand(part.result1), expand(part.result2), sec, sec_t)
-
-
-def vehicle_axis(record: tuple, template: str) -> np.ndarray:
-    """(N, 2) array of the fields ``template`` with ``{i}`` = 1, 2 of a record that names
-    the vehicle in the field (ImpactConfig, ImpactResult, VelocityChange), vehicle 1 in
-    column 0: the one conversion to the axis convention of :class:`KinematicState`.
-    """
-    fields = record._asdict()  # type: ignore[attr-defined]
-    return np.stack([fields[template.format(i=1)], fields[template.format(i=2)]], axis=1)
+    fields = []
+    for name in PairRunoutResult._fields:
+        if name == "path_t":
+            fields.append(np.zeros(1) if part is None else part.path_t)
+            continue
+        if part is None:
+            shape = {"path": (n, 2, 1, 3), "kinetic_energy": (n, 2, 1),
+                     "secondary_collision": (n,), "secondary_collision_time": (n,)
+                     }.get(name, (n, 2))
+            fields.append(np.zeros(shape, dtype=bool) if name in ("at_rest",
+                                                                  "secondary_collision")
+                          else np.full(shape, np.nan))
+            continue
+        values = getattr(part, name)
+        shape = (n,) + values.shape[1:]
+        full = np.zeros(shape, dtype=bool) if values.dtype == bool else np.full(shape, np.nan)
+        full[rows] = values
+        fields.append(full)
+    return PairRunoutResult(*fields)
 
 
 def runout_axis(runout: PairRunoutResult) -> dict[str, np.ndarray]:
-    """The per-case fields of both vehicles' :class:`RunoutResult` as (N, 2) arrays
-    (vehicle 1 in column 0); ``path`` and ``path_t`` are left out.
+    """The per-case fields of both vehicles' run-out as (N, 2) arrays (vehicle 1 in
+    column 0); ``path``, ``path_t``, ``kinetic_energy`` and the secondary collision are
+    left out.
     """
-    one, two = runout.result1._asdict(), runout.result2._asdict()
-    return {name: np.stack([one[name], two[name]], axis=1) for name in RunoutResult._fields
+    return {name: getattr(runout, name) for name in RunoutResult._fields
             if name not in ("path", "path_t", "kinetic_energy")}
 
 
@@ -735,10 +714,9 @@ def results_table(batch: CaseBatch, res: CaseResults) -> pd.DataFrame:
     })
     rest = runout_axis(ro)
     cols.update(vehicle_columns([
-        *((f"{name}{{i}}", vehicle_axis(imp, f"{name}{{i}}"))
-          for name in ("delta_v", "ees", "pdof", "velocity_angle_change")),
-        *((f"{name}{{i}}_post", vehicle_axis(imp, f"{name}{{i}}_post"))
-          for name in ("vx", "vy", "yaw_rate")),
+        *((RESULT_COLUMNS[name], getattr(imp, name))
+          for name in ("delta_v", "ees", "pdof", "velocity_angle_change", "vx_post", "vy_post",
+                       "yaw_rate_post")),
         ("rest_x{i}", rest["rest_x"]), ("rest_y{i}", rest["rest_y"]),
         ("rest_yaw{i}", rest["rest_yaw"]), ("time_to_rest{i}", rest["time_to_rest"]),
         ("runout_distance{i}", rest["distance"]), ("at_rest{i}", rest["at_rest"]),

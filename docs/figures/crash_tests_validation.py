@@ -35,13 +35,14 @@ def main() -> None:
         print(f"{cid:4d}  {int(imp.impact_type[i])}  {res.restitution[i]:.2f} "
               f"{res.contact_friction[i]:.2f}  {imp.energy_loss[i] / 1e3:8.1f}  "
               f"{meas / 1e3:8.1f} ({sd / 1e3:.1f})  {(imp.energy_loss[i] - meas) / 1e3:+.1f}")
-        print(f"      dv1 {imp.delta_v1[i] * KMH_PER_MS:.1f} dv2 {imp.delta_v2[i] * KMH_PER_MS:.1f}"
-              f" km/h, ees1 {imp.ees1[i] * KMH_PER_MS:.1f} ees2 {imp.ees2[i] * KMH_PER_MS:.1f}"
-              f" km/h, post v1 ({imp.vx1_post[i]:.2f}, {imp.vy1_post[i]:.2f}) v2 "
-              f"({imp.vx2_post[i]:.2f}, {imp.vy2_post[i]:.2f}) m/s, w1 "
-              f"{imp.yaw_rate1_post[i]:.2f} w2 {imp.yaw_rate2_post[i]:.2f} rad/s, rest1 "
-              f"({res.runout.result1.rest_x[i]:.2f}, {res.runout.result1.rest_y[i]:.2f}) rest2 "
-              f"({res.runout.result2.rest_x[i]:.2f}, {res.runout.result2.rest_y[i]:.2f}) m")
+        print(f"      dv1 {imp.delta_v[i, 0] * KMH_PER_MS:.1f} "
+              f"dv2 {imp.delta_v[i, 1] * KMH_PER_MS:.1f}"
+              f" km/h, ees1 {imp.ees[i, 0] * KMH_PER_MS:.1f} ees2 {imp.ees[i, 1] * KMH_PER_MS:.1f}"
+              f" km/h, post v1 ({imp.vx_post[i, 0]:.2f}, {imp.vy_post[i, 0]:.2f}) v2 "
+              f"({imp.vx_post[i, 1]:.2f}, {imp.vy_post[i, 1]:.2f}) m/s, w1 "
+              f"{imp.yaw_rate_post[i, 0]:.2f} w2 {imp.yaw_rate_post[i, 1]:.2f} rad/s, rest1 "
+              f"({res.runout.rest_x[i, 0]:.2f}, {res.runout.rest_y[i, 0]:.2f}) rest2 "
+              f"({res.runout.rest_x[i, 1]:.2f}, {res.runout.rest_y[i, 1]:.2f}) m")
 
     fig = Figure(figsize=(8.0, 4.2))
     ax = fig.add_subplot()

@@ -73,7 +73,8 @@ class HiddenFrictionMass(Effect):
     parameters = (EffectParameter("on", 1.0, 0.0, 1.0, "-", "switch", 0.0),)
 
     def impact_parameters(self, ctx, config):
-        return config._replace(contact_friction=friction_of_mass_ratio(config.m1 / config.m2))
+        ratio = config.m[:, 0] / config.m[:, 1]
+        return config._replace(contact_friction=friction_of_mass_ratio(ratio))
 
 
 class HiddenPenetrationOverlap(Effect):

@@ -18,7 +18,7 @@ def test_the_check_on_simulated_cases(tmp_path):
     assert len(check) == 2 * n_hit
     # the model's speeds are the impulse model's post-impact speeds
     hit = np.flatnonzero(res.impact.impact_type > 0)
-    v1 = np.hypot(res.impact.vx1_post[hit], res.impact.vy1_post[hit])
+    v1 = np.hypot(res.impact.vx_post[hit, 0], res.impact.vy_post[hit, 0])
     np.testing.assert_allclose(check[check.vehicle == 1]["speed_model"], v1)
     table = summarise(check)
     assert table["n"].sum() == (np.isfinite(check.ratio) & (check.speed_model > 1.0)).sum()

@@ -43,12 +43,13 @@ OUTCOMES = ("delta_v1", "delta_v2", "ees1", "ees2", "vx1_post", "vy1_post", "yaw
 
 
 def outcome(res, name):
-    return getattr(res.impact, name)
+    """A table column of the impact result (``delta_v1``, ``ees2``, ...)."""
+    return res.impact.columns()[name]
 
 
 def rest(res):
-    return np.stack([res.runout.result1.rest_x, res.runout.result1.rest_y,
-                     res.runout.result2.rest_x, res.runout.result2.rest_y], axis=1)
+    ro = res.runout
+    return np.stack([ro.rest_x[:, 0], ro.rest_y[:, 0], ro.rest_x[:, 1], ro.rest_y[:, 1]], axis=1)
 
 
 # ----------------------------------------------------------------- registry
@@ -107,17 +108,16 @@ def test_user_effect_registers_and_runs(batch, baseline):
         outputs = ("yaw_rate_post",)
 
         def contact_impulse(self, ctx, config, result):
-            zero = np.zeros(config.size)
+            zero = np.zeros((config.size, 2))
             f = self["factor"] - 1.0
-            return VelocityChange(zero, zero, f * result.yaw_rate1_post, zero, zero,
-                                  f * result.yaw_rate2_post)
+            return VelocityChange(zero, zero, f * result.yaw_rate_post)
 
     try:
         assert get_effect("test_double_yaw_rate") is DoubleYawRate
         res = run(batch, parse_effect("test_double_yaw_rate=3"))
         hit = baseline.precrash.collided
-        np.testing.assert_allclose(res.impact.yaw_rate1_post[hit],
-                                   3 * baseline.impact.yaw_rate1_post[hit], rtol=1e-12)
+        np.testing.assert_allclose(res.impact.yaw_rate_post[hit, 0],
+                                   3 * baseline.impact.yaw_rate_post[hit, 0], rtol=1e-12)
         with pytest.raises(ParameterError, match="already registered"):
             register_effect(type("DoubleYawRate", (DoubleYawRate,), {"__module__": "other"}))
     finally:
@@ -177,8 +177,8 @@ def test_nominal_strength_changes_its_outputs(name, batch, baseline):
     res = run(batch, get_effect(name)())
     hit = baseline.precrash.collided
     changed = {
-        "delta_v": np.abs(res.impact.delta_v1 - baseline.impact.delta_v1)[hit].max(),
-        "ees": np.abs(res.impact.ees1 - baseline.impact.ees1)[hit].max(),
+        "delta_v": np.abs(res.impact.delta_v[:, 0] - baseline.impact.delta_v[:, 0])[hit].max(),
+        "ees": np.abs(res.impact.ees[:, 0] - baseline.impact.ees[:, 0])[hit].max(),
         "rest": np.abs(rest(res) - rest(baseline))[hit].max(),
     }
     expect = {
@@ -219,37 +219,35 @@ def test_restitution_falls_with_closing_speed(batch, baseline):
 def test_tyre_impulse_slows_but_never_reverses(batch, baseline):
     res = run(batch, get_effect("tyre_impulse")(duration=0.4, brake_factor=1.0))
     hit = baseline.precrash.collided
-    for i in (1, 2):
-        b = np.hypot(getattr(baseline.impact, f"vx{i}_post"), getattr(baseline.impact,
-                                                                      f"vy{i}_post"))[hit]
-        e = np.hypot(getattr(res.impact, f"vx{i}_post"), getattr(res.impact, f"vy{i}_post"))[hit]
+    new, old = res.impact, baseline.impact
+    for j in (0, 1):
+        b = np.hypot(old.vx_post[:, j], old.vy_post[:, j])[hit]
+        e = np.hypot(new.vx_post[:, j], new.vy_post[:, j])[hit]
         assert np.all(e <= b + 1e-12)
         # the change is at most b mu g T
-        change = np.hypot(getattr(res.impact, f"vx{i}_post") - getattr(baseline.impact,
-                                                                       f"vx{i}_post"),
-                          getattr(res.impact, f"vy{i}_post") - getattr(baseline.impact,
-                                                                       f"vy{i}_post"))[hit]
+        change = np.hypot(new.vx_post[:, j] - old.vx_post[:, j],
+                          new.vy_post[:, j] - old.vy_post[:, j])[hit]
         assert np.all(change <= batch.road_friction[hit] * 9.80665 * 0.4 + 1e-9)
     # the impulse exchange itself (EES, energy loss, impact type) is unchanged
-    np.testing.assert_allclose(res.impact.ees1[hit], baseline.impact.ees1[hit], rtol=1e-12)
+    np.testing.assert_allclose(res.impact.ees[hit, 0], baseline.impact.ees[hit, 0], rtol=1e-12)
     np.testing.assert_array_equal(res.impact.impact_type, baseline.impact.impact_type)
 
 
 def test_body_friction_only_lowers_ees(batch, baseline):
     res = run(batch, get_effect("body_friction")(share=1.0))
     hit = baseline.precrash.collided
-    e_base = 0.5 * batch.vehicle1.mass * baseline.impact.ees1**2 + \
-        0.5 * batch.vehicle2.mass * baseline.impact.ees2**2
-    e_new = 0.5 * batch.vehicle1.mass * res.impact.ees1**2 + \
-        0.5 * batch.vehicle2.mass * res.impact.ees2**2
+    e_base = 0.5 * batch.vehicle1.mass * baseline.impact.ees[:, 0]**2 + \
+        0.5 * batch.vehicle2.mass * baseline.impact.ees[:, 1]**2
+    e_new = 0.5 * batch.vehicle1.mass * res.impact.ees[:, 0]**2 + \
+        0.5 * batch.vehicle2.mass * res.impact.ees[:, 1]**2
     assert np.all(e_new[hit] <= e_base[hit] + 1e-6)
     assert np.all(e_new[hit] >= 0)
     # sliding impacts dissipate tangential work: some energy is removed there
     sliding = hit & (baseline.impact.impact_type == 2)
     assert sliding.any() and np.all(e_new[sliding] < e_base[sliding])
     # the split ratio between the vehicles stays the mass rule
-    ratio_b = baseline.impact.ees1[hit] / baseline.impact.ees2[hit]
-    ratio_n = res.impact.ees1[hit] / res.impact.ees2[hit]
+    ratio_b = baseline.impact.ees[hit, 0] / baseline.impact.ees[hit, 1]
+    ratio_n = res.impact.ees[hit, 0] / res.impact.ees[hit, 1]
     ok = np.isfinite(ratio_n)
     np.testing.assert_allclose(ratio_n[ok], ratio_b[ok], rtol=1e-9)
 
@@ -258,11 +256,11 @@ def test_ees_stiffness_keeps_the_total_and_reduces_to_the_mass_rule(batch, basel
     hit = baseline.precrash.collided
     res = run(batch, get_effect("ees_stiffness")(mass_exponent=0.0, side_factor=1.0))
     m1, m2 = batch.vehicle1.mass, batch.vehicle2.mass
-    total = 0.5 * m1 * res.impact.ees1**2 + 0.5 * m2 * res.impact.ees2**2
+    total = 0.5 * m1 * res.impact.ees[:, 0]**2 + 0.5 * m2 * res.impact.ees[:, 1]**2
     np.testing.assert_allclose(total[hit], baseline.impact.energy_loss[hit], rtol=1e-9)
     # equal stiffness: equal energies
-    np.testing.assert_allclose((0.5 * m1 * res.impact.ees1**2)[hit],
-                               (0.5 * m2 * res.impact.ees2**2)[hit], rtol=1e-9)
+    np.testing.assert_allclose((0.5 * m1 * res.impact.ees[:, 0]**2)[hit],
+                               (0.5 * m2 * res.impact.ees[:, 1]**2)[hit], rtol=1e-9)
 
 
 def test_penetration_depth_grows_with_small_overlap(batch, baseline):
@@ -293,7 +291,7 @@ def _head_on_context(angle_deg: float, offset: float):
     ctx = ImpactContext(np.array([0]), v, v, state, np.array([0.8]), np.array([0.0]),
                         np.array([0.03]))
     c = ctx.overlap.centroid[0]
-    config = ImpactConfig.from_arrays(
+    config = ImpactConfig.from_columns(
         m1=1500, izz1=2500, x1=0, y1=0, yaw1=0, vx1=15, vy1=0, yaw_rate1=0, m2=1500, izz2=2500,
         x2=x2, y2=offset, yaw2=yaw2, vx2=state.vx[0, 1], vy2=state.vy[0, 1], yaw_rate2=0,
         poi_x=c[0], poi_y=c[1], cp_angle=np.radians(60), restitution=0.1, contact_friction=0.6)
@@ -350,5 +348,5 @@ def test_all_effects_together_are_mirror_symmetric(batch):
     np.testing.assert_array_equal(a.impact.impact_type, b.impact.impact_type)
     for f in ("delta_v1", "delta_v2", "ees1", "ees2"):
         np.testing.assert_allclose(outcome(a, f)[hit], outcome(b, f)[hit], rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(a.runout.result1.rest_y[hit], -b.runout.result1.rest_y[hit],
+    np.testing.assert_allclose(a.runout.rest_y[hit, 0], -b.runout.rest_y[hit, 0],
                                atol=1e-4)

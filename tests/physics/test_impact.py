@@ -38,7 +38,7 @@ def config(**over) -> ImpactConfig:
                 vy2=0.0, yaw_rate2=0.0, poi_x=2.0, poi_y=0.0, cp_angle=np.pi / 2,
                 restitution=0.2, contact_friction=0.5)
     base.update(over)
-    return ImpactConfig.from_arrays(**base)
+    return ImpactConfig.from_columns(**base)
 
 
 def close(actual, expected, tol) -> None:
@@ -49,18 +49,18 @@ def close(actual, expected, tol) -> None:
 
 
 def momentum(c: ImpactConfig, vx1, vy1, vx2, vy2):
-    return c.m1 * vx1 + c.m2 * vx2, c.m1 * vy1 + c.m2 * vy2
+    return c.m[:, 0] * vx1 + c.m[:, 1] * vx2, c.m[:, 0] * vy1 + c.m[:, 1] * vy2
 
 
 def angular_momentum(c: ImpactConfig, vx1, vy1, w1, vx2, vy2, w2):
     """About the global origin [kg m^2/s]."""
-    return (c.izz1 * w1 + c.m1 * (c.x1 * vy1 - c.y1 * vx1)
-            + c.izz2 * w2 + c.m2 * (c.x2 * vy2 - c.y2 * vx2))
+    return (c.izz[:, 0] * w1 + c.m[:, 0] * (c.x[:, 0] * vy1 - c.y[:, 0] * vx1)
+            + c.izz[:, 1] * w2 + c.m[:, 1] * (c.x[:, 1] * vy2 - c.y[:, 1] * vx2))
 
 
 def kinetic(c: ImpactConfig, vx1, vy1, w1, vx2, vy2, w2):
-    return (0.5 * c.m1 * (vx1**2 + vy1**2) + 0.5 * c.izz1 * w1**2
-            + 0.5 * c.m2 * (vx2**2 + vy2**2) + 0.5 * c.izz2 * w2**2)
+    return (0.5 * c.m[:, 0] * (vx1**2 + vy1**2) + 0.5 * c.izz[:, 0] * w1**2
+            + 0.5 * c.m[:, 1] * (vx2**2 + vy2**2) + 0.5 * c.izz[:, 1] * w2**2)
 
 
 @pytest.mark.parametrize("eps", [0.0, 0.1, 0.5, 1.0])
@@ -69,37 +69,37 @@ def test_collinear_central_impact_closed_form(eps):
     r = solve_impact(c)
     v_rel = 30.0
     assert r.impact_type[0] == IMPACT_FULL
-    assert r.delta_v1[0] == pytest.approx((1 + eps) * 1000 / 2500 * v_rel, rel=1e-12)
-    assert r.delta_v2[0] == pytest.approx((1 + eps) * 1500 / 2500 * v_rel, rel=1e-12)
+    assert r.delta_v[0, 0] == pytest.approx((1 + eps) * 1000 / 2500 * v_rel, rel=1e-12)
+    assert r.delta_v[0, 1] == pytest.approx((1 + eps) * 1500 / 2500 * v_rel, rel=1e-12)
     mu_red = 1500 * 1000 / 2500
     assert r.energy_loss[0] == pytest.approx(0.5 * mu_red * v_rel**2 * (1 - eps**2), rel=1e-12,
                                              abs=1e-12 * 0.5 * mu_red * v_rel**2)
     # mass rule: E1 = E m2 / (m1 + m2); EES from E = m EES^2 / 2
     e1 = r.energy_loss[0] * 1000 / 2500
-    assert r.ees1[0] == pytest.approx(np.sqrt(2 * e1 / 1500), rel=1e-12, abs=1e-5)
-    assert r.yaw_rate1_post[0] == pytest.approx(0.0, abs=1e-12)
+    assert r.ees[0, 0] == pytest.approx(np.sqrt(2 * e1 / 1500), rel=1e-12, abs=1e-5)
+    assert r.yaw_rate_post[0, 0] == pytest.approx(0.0, abs=1e-12)
     # frontal impulse on both: PDOF 0, 12 o'clock; velocity reversed for 2
-    assert r.pdof1[0] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock1[0] == 12
-    assert r.pdof2[0] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock2[0] == 12
+    assert r.pdof[0, 0] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock[0, 0] == 12
+    assert r.pdof[0, 1] == pytest.approx(0.0, abs=1e-12) and r.pdof_clock[0, 1] == 12
 
 
 def test_eps_zero_full_impact_gives_equal_poi_velocities():
     c = config(restitution=0.0, poi_y=0.6, vy2=2.0, yaw_rate1=0.3, contact_friction=5.0)
     r = solve_impact(c)
     assert r.impact_type[0] == IMPACT_FULL
-    r1 = np.array([c.poi_x[0] - c.x1[0], c.poi_y[0] - c.y1[0]])
-    r2 = np.array([c.poi_x[0] - c.x2[0], c.poi_y[0] - c.y2[0]])
-    v1p = np.array([r.vx1_post[0] - r.yaw_rate1_post[0] * r1[1],
-                    r.vy1_post[0] + r.yaw_rate1_post[0] * r1[0]])
-    v2p = np.array([r.vx2_post[0] - r.yaw_rate2_post[0] * r2[1],
-                    r.vy2_post[0] + r.yaw_rate2_post[0] * r2[0]])
+    r1 = np.array([c.poi_x[0] - c.x[0, 0], c.poi_y[0] - c.y[0, 0]])
+    r2 = np.array([c.poi_x[0] - c.x[0, 1], c.poi_y[0] - c.y[0, 1]])
+    v1p = np.array([r.vx_post[0, 0] - r.yaw_rate_post[0, 0] * r1[1],
+                    r.vy_post[0, 0] + r.yaw_rate_post[0, 0] * r1[0]])
+    v2p = np.array([r.vx_post[0, 1] - r.yaw_rate_post[0, 1] * r2[1],
+                    r.vy_post[0, 1] + r.yaw_rate_post[0, 1] * r2[0]])
     np.testing.assert_allclose(v1p, v2p, atol=1e-10)
 
 
 def test_separating_configuration_is_no_impact():
     r = solve_impact(config(vx1=-5.0, vx2=5.0))
     assert r.impact_type[0] == IMPACT_NONE
-    assert r.delta_v1[0] == 0.0 and r.energy_loss[0] == 0.0 and np.isnan(r.pdof1[0])
+    assert r.delta_v[0, 0] == 0.0 and r.energy_loss[0] == 0.0 and np.isnan(r.pdof[0, 0])
 
 
 def test_side_impact_pdof_clock():
@@ -108,12 +108,12 @@ def test_side_impact_pdof_clock():
     c = config(x2=3.0, y2=0.0, yaw2=np.pi / 2, vx2=0.0, vy2=5.0, poi_x=2.0, poi_y=0.0,
                cp_angle=np.pi / 2)
     r = solve_impact(c)
-    assert r.pdof_clock1[0] == 12 and r.pdof_clock2[0] == 9
-    assert np.degrees(r.pdof2[0]) == pytest.approx(-90.0, abs=15.0)
+    assert r.pdof_clock[0, 0] == 12 and r.pdof_clock[0, 1] == 9
+    assert np.degrees(r.pdof[0, 1]) == pytest.approx(-90.0, abs=15.0)
     # mirrored: vehicle 2 heading south is struck on its right side, 3 o'clock
     r = solve_impact(config(x2=3.0, y2=0.0, yaw2=-np.pi / 2, vx2=0.0, vy2=-5.0, poi_x=2.0,
                             poi_y=0.0, cp_angle=np.pi / 2))
-    assert r.pdof_clock2[0] == 3 and np.degrees(r.pdof2[0]) == pytest.approx(90.0, abs=15.0)
+    assert r.pdof_clock[0, 1] == 3 and np.degrees(r.pdof[0, 1]) == pytest.approx(90.0, abs=15.0)
 
 
 def test_params_validation():
@@ -140,7 +140,7 @@ def random_configs(rng: np.random.Generator, n: int, wide: bool = True) -> Impac
     m1, m2 = rng.uniform(100, 40_000, (2, n)) if wide else rng.uniform(800, 2600, (2, n))
     k1, k2 = rng.uniform(0.3, 3.0, (2, n))
     reach = 6.0 if wide else 3.0
-    return ImpactConfig.from_arrays(
+    return ImpactConfig.from_columns(
         m1=m1, izz1=m1 * k1**2, x1=rng.uniform(-reach, reach, n), y1=rng.uniform(-reach, reach, n),
         yaw1=rng.uniform(-np.pi, np.pi, n), vx1=rng.uniform(-40, 40, n),
         vy1=rng.uniform(-40, 40, n), yaw_rate1=rng.uniform(-3, 3, n),
@@ -160,16 +160,15 @@ seeds = st.integers(0, 2**32 - 1)
 def test_momentum_and_angular_momentum_conserved(seed, wide):
     c = random_configs(np.random.default_rng(seed), 256, wide)
     r = solve_impact(c)
-    px0, py0 = momentum(c, c.vx1, c.vy1, c.vx2, c.vy2)
-    px1, py1 = momentum(c, r.vx1_post, r.vy1_post, r.vx2_post, r.vy2_post)
-    scale = c.m1 * np.hypot(c.vx1, c.vy1) + c.m2 * np.hypot(c.vx2, c.vy2)
+    px0, py0 = momentum(c, c.vx[:, 0], c.vy[:, 0], c.vx[:, 1], c.vy[:, 1])
+    px1, py1 = momentum(c, r.vx_post[:, 0], r.vy_post[:, 0], r.vx_post[:, 1], r.vy_post[:, 1])
+    scale = (c.m * np.hypot(c.vx, c.vy)).sum(axis=1)
     np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
     np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
-    l0 = angular_momentum(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
-    l1 = angular_momentum(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post,
-                          r.vy2_post, r.yaw_rate2_post)
-    lscale = (c.izz1 * np.abs(c.yaw_rate1) + c.izz2 * np.abs(c.yaw_rate2)
-              + scale * (np.hypot(c.x1, c.y1) + np.hypot(c.x2, c.y2) + 1.0))
+    l0 = angular_momentum(c, *pre_velocities(c))
+    l1 = angular_momentum(c, *post_velocities(r))
+    lscale = (c.izz[:, 0] * np.abs(c.yaw_rate[:, 0]) + c.izz[:, 1] * np.abs(c.yaw_rate[:, 1])
+              + scale * (np.hypot(c.x[:, 0], c.y[:, 0]) + np.hypot(c.x[:, 1], c.y[:, 1]) + 1.0))
     np.testing.assert_array_less(np.abs(l1 - l0), 1e-9 * lscale)
     # both impact types are exercised
     assert {IMPACT_FULL, IMPACT_SLIDING} <= set(np.unique(r.impact_type))
@@ -179,21 +178,32 @@ def test_momentum_and_angular_momentum_conserved(seed, wide):
 def test_energy_never_gained_and_loss_consistent(seed, wide):
     c = random_configs(np.random.default_rng(seed), 256, wide)
     r = solve_impact(c)
-    e0 = kinetic(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
-    e1 = kinetic(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post,
-                 r.yaw_rate2_post)
+    e0 = kinetic(c, *pre_velocities(c))
+    e1 = kinetic(c, *post_velocities(r))
     np.testing.assert_array_less(e1 - e0, 1e-9 * e0)
     np.testing.assert_allclose(e0 - e1, r.energy_loss, atol=1e-9 * e0.max())
-    assert (r.ees1 >= 0).all() and (r.ees2 >= 0).all()
+    assert (r.ees[:, 0] >= 0).all() and (r.ees[:, 1] >= 0).all()
+
+
+def pre_velocities(c):
+    """vx1, vy1, w1, vx2, vy2, w2 before the impact [m/s, rad/s]."""
+    return (c.vx[:, 0], c.vy[:, 0], c.yaw_rate[:, 0], c.vx[:, 1], c.vy[:, 1],
+            c.yaw_rate[:, 1])
+
+
+def post_velocities(r):
+    """vx1, vy1, w1, vx2, vy2, w2 after the impact [m/s, rad/s] (the ImpactConfig order)."""
+    return (r.vx_post[:, 0], r.vy_post[:, 0], r.yaw_rate_post[:, 0], r.vx_post[:, 1],
+            r.vy_post[:, 1], r.yaw_rate_post[:, 1])
 
 
 def relative_poi_velocity(c: ImpactConfig, r, post: bool):
     if post:
-        v = (r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post, r.yaw_rate2_post)
+        v = post_velocities(r)
     else:
-        v = (c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
-    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+        v = pre_velocities(c)
+    r1x, r1y = c.poi_x - c.x[:, 0], c.poi_y - c.y[:, 0]
+    r2x, r2y = c.poi_x - c.x[:, 1], c.poi_y - c.y[:, 1]
     ux = (v[0] - v[2] * r1y) - (v[3] - v[5] * r2y)
     uy = (v[1] + v[2] * r1x) - (v[4] + v[5] * r2x)
     return ux, uy
@@ -237,12 +247,11 @@ def test_friction_cone_and_sliding_conditions(seed, wide):
 def rotate(c: ImpactConfig, angle: float, dx: float, dy: float) -> ImpactConfig:
     co, si = np.cos(angle), np.sin(angle)
     d = c._asdict()
-    for i in ("1", "2"):
-        x, y = d["x" + i], d["y" + i]
-        d["x" + i], d["y" + i] = co * x - si * y + dx, si * x + co * y + dy
-        vx, vy = d["vx" + i], d["vy" + i]
-        d["vx" + i], d["vy" + i] = co * vx - si * vy, si * vx + co * vy
-        d["yaw" + i] = d["yaw" + i] + angle
+    x, y = d["x"], d["y"]  # (N, 2): both vehicles
+    d["x"], d["y"] = co * x - si * y + dx, si * x + co * y + dy
+    vx, vy = d["vx"], d["vy"]
+    d["vx"], d["vy"] = co * vx - si * vy, si * vx + co * vy
+    d["yaw"] = d["yaw"] + angle
     px, py = d["poi_x"], d["poi_y"]
     d["poi_x"], d["poi_y"] = co * px - si * py + dx, si * px + co * py + dy
     d["cp_angle"] = d["cp_angle"] + angle
@@ -257,16 +266,15 @@ def test_rigid_motion_invariance(seed, angle, dx, dy, flip):
     if flip:  # the contact plane's orientation must not matter
         moved = moved._replace(cp_angle=moved.cp_angle + np.pi)
     r, s = solve_impact(c), solve_impact(moved)
-    scale = np.hypot(c.vx1, c.vy1) + np.hypot(c.vx2, c.vy2) + 1.0
+    scale = np.hypot(c.vx[:, 0], c.vy[:, 0]) + np.hypot(c.vx[:, 1], c.vy[:, 1]) + 1.0
     np.testing.assert_array_equal(r.impact_type, s.impact_type)
-    for a, b in ((r.delta_v1, s.delta_v1), (r.delta_v2, s.delta_v2), (r.ees1, s.ees1),
-                 (r.ees2, s.ees2)):
+    for a, b in ((r.delta_v, s.delta_v), (r.ees, s.ees)):
         np.testing.assert_allclose(a, b, atol=1e-7 * scale.max())
     co, si = np.cos(angle), np.sin(angle)
-    close(s.vx1_post, co * r.vx1_post - si * r.vy1_post, 1e-7 * scale)
-    close(s.yaw_rate2_post, r.yaw_rate2_post, 1e-7 * scale)
-    close(s.impulse_t, r.impulse_t, 1e-7 * np.abs(r.impulse_t) + 1e-6 * scale * c.m1)
-    d_pdof = np.mod(s.pdof1 - r.pdof1 + np.pi, 2 * np.pi) - np.pi
+    close(s.vx_post[:, 0], co * r.vx_post[:, 0] - si * r.vy_post[:, 0], 1e-7 * scale)
+    close(s.yaw_rate_post[:, 1], r.yaw_rate_post[:, 1], 1e-7 * scale)
+    close(s.impulse_t, r.impulse_t, 1e-7 * np.abs(r.impulse_t) + 1e-6 * scale * c.m[:, 0])
+    d_pdof = np.mod(s.pdof[:, 0] - r.pdof[:, 0] + np.pi, 2 * np.pi) - np.pi
     close(np.nan_to_num(d_pdof), 0.0, 1e-6)
 
 
@@ -275,14 +283,14 @@ def test_swapping_vehicles(seed, wide):
     c = random_configs(np.random.default_rng(seed), 256, wide)
     r, s = solve_impact(c), solve_impact(c.swapped())
     np.testing.assert_array_equal(r.impact_type, s.impact_type)
-    scale = np.hypot(c.vx1, c.vy1) + np.hypot(c.vx2, c.vy2) + 1.0
-    close(s.vx1_post, r.vx2_post, 1e-9 * scale)
-    close(s.vy2_post, r.vy1_post, 1e-9 * scale)
-    close(s.yaw_rate1_post, r.yaw_rate2_post, 1e-9 * scale)
-    close(s.delta_v1, r.delta_v2, 1e-9 * scale)
-    close(s.ees2, r.ees1, 1e-9 * scale)
+    scale = np.hypot(c.vx[:, 0], c.vy[:, 0]) + np.hypot(c.vx[:, 1], c.vy[:, 1]) + 1.0
+    close(s.vx_post[:, 0], r.vx_post[:, 1], 1e-9 * scale)
+    close(s.vy_post[:, 1], r.vy_post[:, 0], 1e-9 * scale)
+    close(s.yaw_rate_post[:, 0], r.yaw_rate_post[:, 1], 1e-9 * scale)
+    close(s.delta_v[:, 0], r.delta_v[:, 1], 1e-9 * scale)
+    close(s.ees[:, 1], r.ees[:, 0], 1e-9 * scale)
     np.testing.assert_allclose(s.energy_loss, r.energy_loss, rtol=1e-9, atol=1e-6)
-    close(s.impulse_x, -r.impulse_x, 1e-9 * scale * (c.m1 + c.m2))
+    close(s.impulse_x, -r.impulse_x, 1e-9 * scale * (c.m[:, 0] + c.m[:, 1]))
 
 
 def test_single_and_batch_identical():
@@ -290,7 +298,7 @@ def test_single_and_batch_identical():
     batch = solve_impact(c)
     for k in (0, 8191, 8192, 19_999):
         one = solve_impact(ImpactConfig(*(a[k:k + 1] for a in c)))
-        for name in ("vx1_post", "yaw_rate2_post", "ees1", "energy_loss", "pdof2"):
+        for name in ("vx_post", "yaw_rate_post", "ees", "energy_loss", "pdof"):
             np.testing.assert_array_equal(getattr(one, name), getattr(batch, name)[k:k + 1])
 
 
@@ -309,7 +317,7 @@ def test_normal_restitution_oblique_particle_impact_closed_form(eps):
                vx1=20.0, vy1=3.0, vx2=-10.0, vy2=-4.0, m1=m1, m2=m2, restitution=eps,
                contact_friction=5.0)
     # x2 = x1: the normal is undefined by the CG rule, so give vehicle 2 an offset along n
-    c = c._replace(x2=np.array([1e-9]))
+    c = c._replace(x=np.array([[0.0, 1e-9]]))
     r = solve_impact(c, restitution_mode="normal")
     ux, uy = relative_poi_velocity(c, r, post=False)
     uxp, uyp = relative_poi_velocity(c, r, post=True)
@@ -341,10 +349,9 @@ def test_normal_restitution_stops_sliding_inside_the_cone(seed, wide):
     # restitution would create energy (Kane's paradox) a full impact falls back to the
     # default Poisson split: those rows equal the default mode's, and they are few
     default = solve_impact(c)
-    fields = ("vx1_post", "vy1_post", "yaw_rate1_post", "vx2_post", "vy2_post",
-              "yaw_rate2_post")
+    fields = ("vx_post", "vy_post", "yaw_rate_post")
     same = np.all([np.isclose(getattr(r, f), getattr(default, f), rtol=1e-12, atol=1e-12)
-                   for f in fields], axis=0)
+                   .all(axis=1) for f in fields], axis=0)
     sliding = r.impact_type == IMPACT_SLIDING
     # (the slip direction comes from each mode's stick solution and may differ where the
     # normal and tangential directions are strongly coupled)
@@ -363,14 +370,13 @@ def test_normal_restitution_stops_sliding_inside_the_cone(seed, wide):
     assert (np.abs(r.impulse_t[full]) <= c.contact_friction[full] * r.impulse_n[full]
             + 1e-9 * size[full]).all()
     # momentum is conserved and energy never gained, as in the default mode
-    px0, py0 = momentum(c, c.vx1, c.vy1, c.vx2, c.vy2)
-    px1, py1 = momentum(c, r.vx1_post, r.vy1_post, r.vx2_post, r.vy2_post)
-    scale = c.m1 * np.hypot(c.vx1, c.vy1) + c.m2 * np.hypot(c.vx2, c.vy2)
+    px0, py0 = momentum(c, c.vx[:, 0], c.vy[:, 0], c.vx[:, 1], c.vy[:, 1])
+    px1, py1 = momentum(c, r.vx_post[:, 0], r.vy_post[:, 0], r.vx_post[:, 1], r.vy_post[:, 1])
+    scale = (c.m * np.hypot(c.vx, c.vy)).sum(axis=1)
     np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
     np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
-    e0 = kinetic(c, c.vx1, c.vy1, c.yaw_rate1, c.vx2, c.vy2, c.yaw_rate2)
-    e1 = kinetic(c, r.vx1_post, r.vy1_post, r.yaw_rate1_post, r.vx2_post, r.vy2_post,
-                 r.yaw_rate2_post)
+    e0 = kinetic(c, *pre_velocities(c))
+    e1 = kinetic(c, *post_velocities(r))
     np.testing.assert_array_less(e1 - e0, 1e-9 * e0)
 
 
@@ -385,8 +391,10 @@ def test_normal_restitution_is_continuous_at_the_critical_ratio():
     below = solve_impact(c._replace(contact_friction=np.array([mu_c * (1 - 1e-9)])),
                          restitution_mode="normal")
     assert above.impact_type[0] == IMPACT_FULL and below.impact_type[0] == IMPACT_SLIDING
-    for f in ("vx1_post", "vy1_post", "yaw_rate1_post", "vx2_post", "vy2_post"):
-        assert getattr(below, f)[0] == pytest.approx(getattr(above, f)[0], rel=1e-6, abs=1e-6)
+    for f, j in (("vx_post", 0), ("vy_post", 0), ("yaw_rate_post", 0), ("vx_post", 1),
+                 ("vy_post", 1)):
+        assert getattr(below, f)[0, j] == pytest.approx(getattr(above, f)[0, j], rel=1e-6,
+                                                        abs=1e-6)
 
 
 def test_the_two_conventions_differ_only_through_restitution():
@@ -397,7 +405,7 @@ def test_the_two_conventions_differ_only_through_restitution():
     # eps = 0: identical (no restitution to distribute)
     a = solve_impact(c._replace(restitution=np.zeros(200)))
     b = solve_impact(c._replace(restitution=np.zeros(200)), restitution_mode="normal")
-    np.testing.assert_allclose(a.delta_v1, b.delta_v1, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(a.delta_v[:, 0], b.delta_v[:, 0], rtol=1e-12, atol=1e-12)
     assert ImpactParams().restitution_mode == "impulse"
     with pytest.raises(ParameterError, match="restitution_mode"):
         ImpactParams(restitution_mode="tangential")

@@ -42,7 +42,7 @@ def barrier_config(**over: object) -> ImpactConfig:
         m2=INF, izz2=INF, x2=3.3, y2=0.0, yaw2=0.0, vx2=0.0, vy2=0.0, yaw_rate2=0.0,
         poi_x=2.3, poi_y=0.0, cp_angle=np.pi / 2, restitution=0.19, contact_friction=0.6)
     base.update(over)
-    return ImpactConfig.from_arrays(**base)
+    return ImpactConfig.from_columns(**base)
 
 
 def test_inverse_mass_of_fixed_object_is_exactly_zero():
@@ -55,22 +55,22 @@ def test_inverse_mass_of_fixed_object_is_exactly_zero():
 def test_central_barrier_impact_rebounds_with_minus_eps_v(eps):
     c = barrier_config(restitution=eps)
     r = solve_impact(c)
-    np.testing.assert_allclose(r.vx1_post, -eps * 15.64, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(r.vy1_post, 0.0, atol=1e-12)
-    np.testing.assert_allclose(r.yaw_rate1_post, 0.0, atol=1e-12)
+    np.testing.assert_allclose(r.vx_post[:, 0], -eps * 15.64, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.vy_post[:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(r.yaw_rate_post[:, 0], 0.0, atol=1e-12)
     # the object does not move, and all the loss is vehicle 1's deformation energy
-    assert r.vx2_post[0] == 0.0 and r.yaw_rate2_post[0] == 0.0 and r.ees2[0] == 0.0
+    assert r.vx_post[0, 1] == 0.0 and r.yaw_rate_post[0, 1] == 0.0 and r.ees[0, 1] == 0.0
     loss = 0.5 * 1703.0 * 15.64**2 * (1.0 - eps**2)
     np.testing.assert_allclose(r.energy_loss, loss, rtol=1e-12)
-    np.testing.assert_allclose(0.5 * 1703.0 * r.ees1**2, loss, rtol=1e-12)
+    np.testing.assert_allclose(0.5 * 1703.0 * r.ees[:, 0]**2, loss, rtol=1e-12)
 
 
 def test_fixed_object_may_be_either_participant():
     c = barrier_config(x1=3.3, x2=0.0, m1=INF, izz1=INF, vx1=0.0, m2=1703.0, izz2=2771.0,
                        vx2=15.64, restitution=0.3)
     r = solve_impact(c)
-    np.testing.assert_allclose(r.vx2_post, -0.3 * 15.64, atol=1e-12)
-    assert r.vx1_post[0] == 0.0 and r.ees1[0] == 0.0
+    np.testing.assert_allclose(r.vx_post[:, 1], -0.3 * 15.64, atol=1e-12)
+    assert r.vx_post[0, 0] == 0.0 and r.ees[0, 0] == 0.0
 
 
 def test_config_problems_accept_one_fixed_object_only():
@@ -92,7 +92,7 @@ configs = st.fixed_dictionaries(dict(
 
 
 def _with_object(d: dict[str, float], m2: float, izz2: float) -> ImpactConfig:
-    return ImpactConfig.from_arrays(x1=0.0, y1=0.0, m2=m2, izz2=izz2, yaw2=0.0, vx2=0.0,
+    return ImpactConfig.from_columns(x1=0.0, y1=0.0, m2=m2, izz2=izz2, yaw2=0.0, vx2=0.0,
                                     vy2=0.0, yaw_rate2=0.0, **d)
 
 
@@ -101,22 +101,25 @@ def _with_object(d: dict[str, float], m2: float, izz2: float) -> ImpactConfig:
 def test_angular_momentum_of_free_vehicle_about_poi_is_conserved(d):
     c = _with_object(d, INF, INF)
     r = solve_impact(c)
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
+    r1x, r1y = c.poi_x - c.x[:, 0], c.poi_y - c.y[:, 0]
 
     def l_poi(vx, vy, w):  # I1 w1 - r1 x (m1 v1), about the fixed POI [kg m^2/s]
-        return c.izz1 * w - c.m1 * (r1x * vy - r1y * vx)
+        return c.izz[:, 0] * w - c.m[:, 0] * (r1x * vy - r1y * vx)
 
-    before = l_poi(c.vx1, c.vy1, c.yaw_rate1)
-    after = l_poi(r.vx1_post, r.vy1_post, r.yaw_rate1_post)
-    scale = c.m1 * (np.abs(c.vx1) + np.abs(c.vy1) + 3.0 * np.abs(c.yaw_rate1) + 1.0) * 5.0
+    before = l_poi(c.vx[:, 0], c.vy[:, 0], c.yaw_rate[:, 0])
+    after = l_poi(r.vx_post[:, 0], r.vy_post[:, 0], r.yaw_rate_post[:, 0])
+    scale = c.m[:, 0] * (np.abs(c.vx[:, 0]) + np.abs(c.vy[:, 0])
+                         + 3.0 * np.abs(c.yaw_rate[:, 0]) + 1.0) * 5.0
     assert np.all(np.abs(after - before) <= 1e-10 * scale)
     # linear momentum is not conserved: it changes by exactly the impulse
-    assert np.all(np.abs(c.m1 * (r.vx1_post - c.vx1) - r.impulse_x)
+    assert np.all(np.abs(c.m[:, 0] * (r.vx_post[:, 0] - c.vx[:, 0]) - r.impulse_x)
                   <= 1e-9 * (1.0 + np.abs(r.impulse_x)))
     # the object stays at rest, energy is never gained
-    assert np.all(r.vx2_post == 0.0) and np.all(r.yaw_rate2_post == 0.0)
-    ke0 = 0.5 * c.m1 * (c.vx1**2 + c.vy1**2) + 0.5 * c.izz1 * c.yaw_rate1**2
-    ke1 = 0.5 * c.m1 * (r.vx1_post**2 + r.vy1_post**2) + 0.5 * c.izz1 * r.yaw_rate1_post**2
+    assert np.all(r.vx_post[:, 1] == 0.0) and np.all(r.yaw_rate_post[:, 1] == 0.0)
+    ke0 = (0.5 * c.m[:, 0] * (c.vx[:, 0]**2 + c.vy[:, 0]**2)
+           + 0.5 * c.izz[:, 0] * c.yaw_rate[:, 0]**2)
+    ke1 = (0.5 * c.m[:, 0] * (r.vx_post[:, 0]**2 + r.vy_post[:, 0]**2)
+           + 0.5 * c.izz[:, 0] * r.yaw_rate_post[:, 0]**2)
     assert np.all(ke1 <= ke0 * (1 + 1e-12) + 1e-9)
     active = r.impact_type != IMPACT_NONE
     assert np.all(np.abs(np.where(active, ke0 - ke1 - r.energy_loss, 0.0))
@@ -133,7 +136,7 @@ def test_central_barrier_limit_of_1e9_kg_vehicle(eps):
     (m1 + M), so the fixed object's (1 + eps) v differs by exactly m1 / (m1 + M)."""
     fixed = solve_impact(barrier_config(restitution=eps))
     heavy = solve_impact(barrier_config(restitution=eps, m2=HEAVY_MASS, izz2=HEAVY_INERTIA))
-    rel = (fixed.delta_v1 - heavy.delta_v1) / fixed.delta_v1
+    rel = (fixed.delta_v[:, 0] - heavy.delta_v[:, 0]) / fixed.delta_v[:, 0]
     np.testing.assert_allclose(rel, 1703.0 / (1703.0 + HEAVY_MASS), rtol=1e-6)
 
 
@@ -161,5 +164,6 @@ def test_fixed_object_equals_1e9_kg_vehicle_to_1e_6(d):
     diff = np.hypot(fixed.impulse_x - heavy.impulse_x, fixed.impulse_y - heavy.impulse_y)[0]
     assert diff <= tol * size
     # vehicle 1's velocity change is S / m1: the same relative difference
-    dv = np.hypot(fixed.vx1_post - heavy.vx1_post, fixed.vy1_post - heavy.vy1_post)[0]
-    assert dv <= tol * fixed.delta_v1[0] + 1e-15
+    dv = np.hypot(fixed.vx_post[0, 0] - heavy.vx_post[0, 0],
+                  fixed.vy_post[0, 0] - heavy.vy_post[0, 0])
+    assert dv <= tol * fixed.delta_v[0, 0] + 1e-15

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from vfs.errors import ParameterError
 from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
 from vfs.physics.runout import (
+    PairRunoutResult,
     RunoutParams,
     RunoutResult,
     RunoutState,
@@ -309,9 +310,9 @@ def test_secondary_collision_when_pushed_together_again():
     res = run_out_pair(v, v, s1, s2, 0.8, wheel_brake1=FREE, wheel_brake2=LOCKED)
     assert res.secondary_collision[0]
     t = res.secondary_collision_time[0]
-    assert 0.1 < t < res.result2.time_to_rest[0] + 1.0
+    assert 0.1 < t < res.time_to_rest[0, 1] + 1.0
     # apart at some earlier sample, overlapping again at the end (they pass through)
-    gap = res.result2.path[0, :, 0] - res.result1.path[0, :, 0] - length
+    gap = res.path[0, 1, :, 0] - res.path[0, 0, :, 0] - length
     assert (gap > 0).any()
 
 
@@ -323,7 +324,7 @@ def test_no_secondary_collision_when_drifting_apart(course2):
                                  -0.5)
     res = run_out_pair(v, v, s1, s2, 0.8)
     assert not res.secondary_collision[0] and np.isnan(res.secondary_collision_time[0])
-    assert res.result1.at_rest[0] and res.result2.at_rest[0]
+    assert res.at_rest[0].all()
 
 
 def test_no_secondary_collision_without_separation():
@@ -335,11 +336,11 @@ def test_no_secondary_collision_without_separation():
     assert not res.secondary_collision[0]
 
 
-def brute_force_secondary(v1, v2, r1: RunoutResult, r2: RunoutResult):
+def brute_force_secondary(v1, v2, res: PairRunoutResult):
     """Overlap area of every recorded pose pair (path_interval = dt), then the rule."""
-    n, k = r1.path.shape[:2]
+    n, k = res.path.shape[0], res.path.shape[2]
     rep = np.repeat(np.arange(n), k)
-    p1, p2 = r1.path.reshape(-1, 3), r2.path.reshape(-1, 3)
+    p1, p2 = res.path[:, 0].reshape(-1, 3), res.path[:, 1].reshape(-1, 3)
     area = overlap(vehicle_outline(v1.take(rep), *p1.T), vehicle_outline(v2.take(rep), *p2.T)).area
     over = (area > AREA_TOLERANCE).reshape(n, k)
     hit, when = np.zeros(n, bool), np.full(n, np.nan)
@@ -348,7 +349,7 @@ def brute_force_secondary(v1, v2, r1: RunoutResult, r2: RunoutResult):
         if apart.size:
             again = np.flatnonzero(over[i, apart[0]:])
             if again.size:
-                hit[i], when[i] = True, r1.path_t[apart[0] + again[0]]
+                hit[i], when[i] = True, res.path_t[apart[0] + again[0]]
     return hit, when
 
 
@@ -371,7 +372,7 @@ def test_secondary_collisions_match_brute_force_overlap():
     mu = rng.uniform(0.3, 1.0, n)
     params = RunoutParams(path_interval=0.005, max_time=8.0)
     res = run_out_pair(v1, v2, s1, s2, mu, params)
-    hit, when = brute_force_secondary(v1, v2, res.result1, res.result2)
+    hit, when = brute_force_secondary(v1, v2, res)
     assert hit.any() and not hit.all()
     np.testing.assert_array_equal(res.secondary_collision, hit)
     np.testing.assert_allclose(res.secondary_collision_time, when, rtol=0, atol=1e-9)
@@ -412,9 +413,15 @@ def test_pair_results_equal_single_run_outs():
     res = run_out_pair(v1, v2, s1, s2, 0.7, wheel_brake2=LOCKED)
     alone1 = run_out(v1, s1, 0.7)
     alone2 = run_out(v2, s2, 0.7, wheel_brake=LOCKED)
-    np.testing.assert_array_equal(res.result1.rest_x, alone1.rest_x)
-    np.testing.assert_array_equal(res.result2.rest_y, alone2.rest_y)
-    assert res.result1.path.shape == res.result2.path.shape
+    for j, alone in enumerate((alone1, alone2)):
+        for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+            np.testing.assert_array_equal(getattr(res, name)[:, j], getattr(alone, name))
+        # the pair's path runs until both vehicles rest: the single one's samples come first
+        k = alone.path_t.size
+        np.testing.assert_array_equal(res.path_t[:k], alone.path_t)
+        np.testing.assert_array_equal(res.path[:, j, :k], alone.path)
+        np.testing.assert_array_equal(res.kinetic_energy[:, j, :k], alone.kinetic_energy)
+    assert res.rest_x.shape == (n, 2) and res.path.shape[:2] == (n, 2)
 
 
 # ----------------------------------------------------------------------------

@@ -137,11 +137,11 @@ def test_without_effects_and_noise_the_model_equals_the_reconstruction(clean):
     checks = {
         "t_impact": res.precrash.impact_time[hit], "x1": st.x[hit, 0], "vy2": st.vy[hit, 1],
         "poi_x": res.poi[hit, 0], "cp_angle": res.cp_angle[hit],
-        "delta_v1": imp.delta_v1[hit], "delta_v2": imp.delta_v2[hit], "ees1": imp.ees1[hit],
-        "ees2": imp.ees2[hit], "energy_loss": imp.energy_loss[hit],
-        "pdof1": RECONSTRUCTION.column("pdof1").as_stored(imp.pdof1[hit]),
-        "vx2_post": imp.vx2_post[hit],
-        "rest_x1": res.runout.result1.rest_x[hit], "rest_yaw2": res.runout.result2.rest_yaw[hit],
+        "delta_v1": imp.delta_v[hit, 0], "delta_v2": imp.delta_v[hit, 1], "ees1": imp.ees[hit, 0],
+        "ees2": imp.ees[hit, 1], "energy_loss": imp.energy_loss[hit],
+        "pdof1": RECONSTRUCTION.column("pdof1").as_stored(imp.pdof[hit, 0]),
+        "vx2_post": imp.vx_post[hit, 1],
+        "rest_x1": res.runout.rest_x[hit, 0], "rest_yaw2": res.runout.rest_yaw[hit, 1],
     }
     for col, model in checks.items():
         np.testing.assert_array_equal(r[col].to_numpy(float), model, err_msg=col)
@@ -162,7 +162,7 @@ def test_each_hidden_effect_leaves_a_trace(name, clean):
     batch = CaseBatch.from_database(db)
     res = simulate_cases(batch, params=SimulationParams(effects=truth.effects))
     hit = res.precrash.collided
-    np.testing.assert_allclose(b.loc[batch.case_id[hit], "delta_v1"], res.impact.delta_v1[hit],
+    np.testing.assert_allclose(b.loc[batch.case_id[hit], "delta_v1"], res.impact.delta_v[hit, 0],
                                rtol=1e-12)
 
 

@@ -124,7 +124,7 @@ def test_unperturbed_case_is_feasible_at_its_own_speeds(clean):
     cases = CaseSet.from_database(clean)
     rec = reconstruct(cases, cases.case_id[0], observation=ObservationSettings(
         rest_position_sd=0.2, rest_yaw_sd=math.radians(3)), settings=FAST, seed=1)
-    truth = np.hypot(cases.config.vx1[0], cases.config.vy1[0])
+    truth = np.hypot(cases.config.vx[0, 0], cases.config.vy[0, 0])
     band = rec.speed_band().set_index("quantity")
     assert rec.optimum.accepted and rec.optimum.chi2 < 6 * 4.0
     assert band.loc["speed1", "p5"] <= truth <= band.loc["speed1", "p95"]

@@ -21,7 +21,7 @@ from vfs.bench import BENCHMARKS
 from vfs.cli import main as vfs_main
 from vfs.errors import DataError, ParameterError
 from vfs.physics.geometry import contact_geometry, vehicle_outline
-from vfs.physics.impact import solve_impact
+from vfs.physics.impact import ImpactConfig, solve_impact
 from vfs.physics.runout import RunoutParams, RunoutState, run_out_pair
 from vfs.scenarios.generator import generate_database, write_generated
 from vfs.uncertainty import (
@@ -268,21 +268,21 @@ def test_penetration_change_moves_pose_poi_and_plane_as_documented(clean):
     runs = evaluate(cases, x._replace(values=deeper), default_config())
     assert not runs.geometry_fallback.any()
     c = cases.config
-    pose = {i: (getattr(c, f"x{i}") + 0.01 * getattr(c, f"vx{i}"),
-                getattr(c, f"y{i}") + 0.01 * getattr(c, f"vy{i}"),
-                getattr(c, f"yaw{i}") + 0.01 * getattr(c, f"yaw_rate{i}")) for i in (1, 2)}
+    pose = {i: (c.x[:, i - 1] + 0.01 * c.vx[:, i - 1], c.y[:, i - 1] + 0.01 * c.vy[:, i - 1],
+                c.yaw[:, i - 1] + 0.01 * c.yaw_rate[:, i - 1]) for i in (1, 2)}
     geo = contact_geometry(vehicle_outline(cases.vehicle1, *pose[1]),
                            vehicle_outline(cases.vehicle2, *pose[2]),
                            np.stack(pose[1][:2], 1), np.stack(pose[2][:2], 1))
     dcp = np.mod(geo.cp_angle - cases.geo_cp + np.pi / 2, np.pi) - np.pi / 2
-    config = c._replace(x1=pose[1][0], y1=pose[1][1], yaw1=pose[1][2], x2=pose[2][0],
-                        y2=pose[2][1], yaw2=pose[2][2],
+    config = c._replace(x=np.stack([pose[1][0], pose[2][0]], 1),
+                        y=np.stack([pose[1][1], pose[2][1]], 1),
+                        yaw=np.stack([pose[1][2], pose[2][2]], 1),
                         poi_x=c.poi_x + geo.poi[:, 0] - cases.geo_poi[:, 0],
                         poi_y=c.poi_y + geo.poi[:, 1] - cases.geo_poi[:, 1],
                         cp_angle=c.cp_angle + dcp)
     direct = solve_impact(config)
-    np.testing.assert_allclose(runs.outcomes["delta_v1"], direct.delta_v1, rtol=1e-12)
-    np.testing.assert_allclose(runs.outcomes["pdof2"], direct.pdof2, atol=1e-12)
+    np.testing.assert_allclose(runs.outcomes["delta_v1"], direct.delta_v[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(runs.outcomes["pdof2"], direct.pdof[:, 1], atol=1e-12)
     nominal = nominal_runs(cases, default_config())
     assert np.any(np.abs(runs.outcomes["delta_v1"] - nominal.outcomes["delta_v1"]) > 1e-3)
 
@@ -380,7 +380,8 @@ def _truth_as_one_more_sample(db, config, rng):
     cp_true = rec["cp_angle"].to_numpy()
     cp_model = geo.cp_angle + np.mod(cp_true - geo.cp_angle + np.pi / 2, np.pi) - np.pi / 2
     tx, ty = np.cos(cp_model), np.sin(cp_model)
-    side = -ty * (cases.config.x1 - cases.config.x2) + tx * (cases.config.y1 - cases.config.y2)
+    cfg = cases.config
+    side = -ty * (cfg.x[:, 0] - cfg.x[:, 1]) + tx * (cfg.y[:, 0] - cfg.y[:, 1])
     sgn = np.where(side < 0, -1.0, 1.0)
     st, sn = x[:, col["poi_shift_t"]], x[:, col["poi_shift_n"]]
     rec["poi_x"] = geo.poi[:, 0] - st * tx + sn * sgn * ty
@@ -411,55 +412,57 @@ def _oracle(cases, x):
     """Outcomes of one input set per case, built by hand as docs/uncertainty.md describes
     the sample and run out with the simulation's own step (run_out_pair, 5 ms)."""
     col = {name: x[:, k] for k, name in enumerate(INPUT_NAMES)}
-    c = cases.config
+    c = cases.config.columns()  # table columns m1, vx2, ...
     tau = col["penetration_time"] - cases.penetration
     fields = {}
     for i in (1, 2):
-        vx, vy = getattr(c, f"vx{i}"), getattr(c, f"vy{i}")
+        vx, vy = c[f"vx{i}"], c[f"vy{i}"]
         v = np.hypot(vx, vy)
         f = np.where(v > 0.5, col[f"speed{i}"] / np.maximum(v, 0.5), 1.0)
         fields[f"vx{i}"], fields[f"vy{i}"] = vx * f, vy * f
-        fields[f"yaw_rate{i}"] = getattr(c, f"yaw_rate{i}") * f
-        fields[f"x{i}"] = getattr(c, f"x{i}") + tau * fields[f"vx{i}"]
-        fields[f"y{i}"] = getattr(c, f"y{i}") + tau * fields[f"vy{i}"]
-        fields[f"yaw{i}"] = getattr(c, f"yaw{i}") + tau * fields[f"yaw_rate{i}"]
+        fields[f"yaw_rate{i}"] = c[f"yaw_rate{i}"] * f
+        fields[f"x{i}"] = c[f"x{i}"] + tau * fields[f"vx{i}"]
+        fields[f"y{i}"] = c[f"y{i}"] + tau * fields[f"vy{i}"]
+        fields[f"yaw{i}"] = c[f"yaw{i}"] + tau * fields[f"yaw_rate{i}"]
         fields[f"m{i}"] = col[f"mass{i}"]
-        fields[f"izz{i}"] = getattr(c, f"izz{i}") * col[f"mass{i}"] / getattr(c, f"m{i}")
+        fields[f"izz{i}"] = c[f"izz{i}"] * col[f"mass{i}"] / c[f"m{i}"]
     geo = contact_geometry(
         vehicle_outline(cases.vehicle1, fields["x1"], fields["y1"], fields["yaw1"]),
         vehicle_outline(cases.vehicle2, fields["x2"], fields["y2"], fields["yaw2"]),
         np.stack([fields["x1"], fields["y1"]], 1), np.stack([fields["x2"], fields["y2"]], 1))
     turn = np.mod(geo.cp_angle - cases.geo_cp + np.pi / 2, np.pi) - np.pi / 2
-    cp = c.cp_angle + turn + col["cp_angle"]
+    cp = c["cp_angle"] + turn + col["cp_angle"]
     t = np.stack([np.cos(cp), np.sin(cp)], 1)
     n = np.stack([-np.sin(cp), np.cos(cp)], 1)
     towards1 = np.stack([fields["x1"] - fields["x2"], fields["y1"] - fields["y2"]], 1)
     n *= np.where(np.sum(n * towards1, axis=1) < 0, -1.0, 1.0)[:, None]
-    poi = np.stack([c.poi_x, c.poi_y], 1) + geo.poi - cases.geo_poi \
+    poi = np.stack([c["poi_x"], c["poi_y"]], 1) + geo.poi - cases.geo_poi \
         + col["poi_shift_t"][:, None] * t + col["poi_shift_n"][:, None] * n
-    config = c._replace(poi_x=poi[:, 0], poi_y=poi[:, 1], cp_angle=cp,
-                        restitution=col["restitution"],
-                        contact_friction=col["contact_friction"], **fields)
+    config = ImpactConfig.from_columns(**{
+        **c, **fields, "poi_x": poi[:, 0], "poi_y": poi[:, 1], "cp_angle": cp,
+        "restitution": col["restitution"], "contact_friction": col["contact_friction"]})
     imp = solve_impact(config)
-    veh = [v._replace(mass=getattr(config, f"m{i}"), yaw_inertia=getattr(config, f"izz{i}"))
+    cols = config.columns()
+    veh = [v._replace(mass=cols[f"m{i}"], yaw_inertia=cols[f"izz{i}"])
            for i, v in ((1, cases.vehicle1), (2, cases.vehicle2))]
-    states = [RunoutState(getattr(config, f"x{i}"), getattr(config, f"y{i}"),
-                          getattr(config, f"yaw{i}"), getattr(imp, f"vx{i}_post"),
-                          getattr(imp, f"vy{i}_post"), getattr(imp, f"yaw_rate{i}_post"))
+    states = [RunoutState(cols[f"x{i}"], cols[f"y{i}"],
+                          cols[f"yaw{i}"], imp.vx_post[:, i - 1],
+                          imp.vy_post[:, i - 1], imp.yaw_rate_post[:, i - 1])
               for i in (1, 2)]
     ro = run_out_pair(veh[0], veh[1], states[0], states[1], col["road_friction"],
                       RunoutParams(), np.repeat(col["wheel_brake1"][:, None], 4, 1),
                       np.repeat(col["wheel_brake2"][:, None], 4, 1))
-    out = {"delta_v1": imp.delta_v1, "delta_v2": imp.delta_v2, "ees1": imp.ees1,
-           "ees2": imp.ees2, "energy_loss": imp.energy_loss,
-           "velocity_angle_change1": imp.velocity_angle_change1,
-           "post_speed2": np.hypot(imp.vx2_post, imp.vy2_post),
-           "pdof1": imp.pdof1, "sliding": (imp.impact_type == 2).astype(float)}
-    for i, r in ((1, ro.result1), (2, ro.result2)):
-        out[f"rest_x{i}"], out[f"rest_y{i}"] = r.rest_x, r.rest_y
-        out[f"rest_yaw{i}"] = r.rest_yaw
-        out[f"runout_distance{i}"] = np.hypot(r.rest_x - getattr(config, f"x{i}"),
-                                            r.rest_y - getattr(config, f"y{i}"))
+    out = {"delta_v1": imp.delta_v[:, 0], "delta_v2": imp.delta_v[:, 1], "ees1": imp.ees[:, 0],
+           "ees2": imp.ees[:, 1], "energy_loss": imp.energy_loss,
+           "velocity_angle_change1": imp.velocity_angle_change[:, 0],
+           "post_speed2": np.hypot(imp.vx_post[:, 1], imp.vy_post[:, 1]),
+           "pdof1": imp.pdof[:, 0], "sliding": (imp.impact_type == 2).astype(float)}
+    for i in (1, 2):
+        rest_x, rest_y = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
+        out[f"rest_x{i}"], out[f"rest_y{i}"] = rest_x, rest_y
+        out[f"rest_yaw{i}"] = ro.rest_yaw[:, i - 1]
+        out[f"runout_distance{i}"] = np.hypot(rest_x - cols[f"x{i}"],
+                                            rest_y - cols[f"y{i}"])
     return out
 
 

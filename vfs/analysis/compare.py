@@ -935,9 +935,9 @@ def _paired_table(values: Mapping[str, tuple[np.ndarray, np.ndarray]], group_cas
 
 
 def _table1(paired: pd.DataFrame) -> pd.DataFrame:
-    """The Momentum Based Impact Model paper's Table 1: paired t-tests of delta-v, EES and change
-    of velocity
-    angle for full and sliding impacts (same type in both), km/h and degrees.
+    """The Momentum Based Impact Model paper's Table 1: paired t-tests of delta-v, EES and
+    change of velocity angle for full and sliding impacts (same type in both), km/h and
+    degrees.
     """
     rows = []
     kind = {GROUP_FULL: "full impacts", GROUP_SLIDING: "sliding impacts"}

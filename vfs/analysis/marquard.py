@@ -70,16 +70,16 @@ def marquard_check(batch: Any, results: Any, params: Any = None) -> pd.DataFrame
     rows = []
     fixed = getattr(batch, "fixed_object", None)
     brake = np.asarray(results.wheel_brake, float)  # (N, 2, 4)
-    for i, (veh, rr) in enumerate(((batch.vehicle1, run.result1), (batch.vehicle2, run.result2))):
+    for i, veh in enumerate((batch.vehicle1, batch.vehicle2)):
         x0, y0 = pre.impact_state.x[hit, i], pre.impact_state.y[hit, i]
         yaw0 = pre.impact_state.yaw[hit, i]
-        vx = getattr(imp, f"vx{i + 1}_post")[hit]
-        vy = getattr(imp, f"vy{i + 1}_post")[hit]
-        dist = np.hypot(rr.rest_x[hit] - x0, rr.rest_y[hit] - y0)
-        rot = rr.rest_yaw[hit] - yaw0
+        vx = imp.vx_post[hit, i]
+        vy = imp.vy_post[hit, i]
+        dist = np.hypot(run.rest_x[hit, i] - x0, run.rest_y[hit, i] - y0)
+        rot = run.rest_yaw[hit, i] - yaw0
         length = np.asarray(veh.length, float)[hit]
         mu = braking_friction(np.asarray(batch.road_friction, float)[hit], brake[hit, i], f_r)
-        at_rest = np.asarray(rr.at_rest, bool)[hit]
+        at_rest = np.asarray(run.at_rest, bool)[hit, i]
         v_m = np.where(at_rest, post_impact_speed(dist, rot, length, mu), np.nan)
         speed = np.hypot(vx, vy)
         keep = np.ones(hit.size, bool) if fixed is None else ~np.asarray(fixed, bool)[hit, i]

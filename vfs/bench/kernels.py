@@ -149,12 +149,12 @@ def bench_timestep_convergence(quick: bool) -> dict[str, Any]:
     b = simulate_cases(batch, controller=controller, params=fine)
     both = a.precrash.collided & b.precrash.collided
     change = np.concatenate([
-        np.hypot(a.runout.result1.rest_x - b.runout.result1.rest_x,
-                 a.runout.result1.rest_y - b.runout.result1.rest_y)[both],
-        np.hypot(a.runout.result2.rest_x - b.runout.result2.rest_x,
-                 a.runout.result2.rest_y - b.runout.result2.rest_y)[both],
+        np.hypot(a.runout.rest_x[:, 0] - b.runout.rest_x[:, 0],
+                 a.runout.rest_y[:, 0] - b.runout.rest_y[:, 0])[both],
+        np.hypot(a.runout.rest_x[:, 1] - b.runout.rest_x[:, 1],
+                 a.runout.rest_y[:, 1] - b.runout.rest_y[:, 1])[both],
     ])
-    dv = np.abs(a.impact.delta_v1 - b.impact.delta_v1)[both]
+    dv = np.abs(a.impact.delta_v[:, 0] - b.impact.delta_v[:, 0])[both]
     return {
         "cases": n, "collided_in_both": int(both.sum()),
         "collision_outcome_changed": int((a.precrash.collided != b.precrash.collided).sum()),

@@ -62,25 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"vfs {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for add in COMMAND_GROUPS:
+    for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
         add(subparsers)
-    from vfs.cli.common import add_strict_option
-
-    for sub in _input_parsers(subparsers):  # every reader of a database or table: --strict
-        add_strict_option(sub)
     return parser
-
-
-def _input_parsers(action: argparse._SubParsersAction) -> list[argparse.ArgumentParser]:
-    """The (sub-)commands that read a database (``--db``) or an impact table (``--input``)."""
-    out = []
-    for sub in action.choices.values():
-        if any({"--db", "--input"} & set(a.option_strings) for a in sub._actions):
-            out.append(sub)
-        for child in sub._actions:
-            if isinstance(child, argparse._SubParsersAction):
-                out.extend(_input_parsers(child))
-    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:

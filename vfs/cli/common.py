@@ -66,19 +66,17 @@ def out_folder(args: argparse.Namespace, command: str, *names: str) -> str:
     return str(args.out)
 
 
-def add_db_options(p: argparse.ArgumentParser, *, required: bool = True,
-                   where: bool = True) -> None:
-    """Add ``--db`` (and ``--where``) to a command."""
-    p.add_argument("--db", required=required, help=DB_HELP)
-    if where:
-        p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
-    add_strict_option(p)
+def add_input_option(p: argparse.ArgumentParser, flag: str = "--db", *, help: str = DB_HELP,
+                     required: bool = True) -> None:
+    """Declare that command ``p`` reads a database (``--db``) or a table (``--input``).
 
-
-def add_strict_option(p: argparse.ArgumentParser) -> None:
-    """Add ``--strict`` (plausibility warnings of the input are errors), once."""
-    if not any("--strict" in a.option_strings for a in p._actions):
-        p.add_argument("--strict", action="store_true", help=STRICT_HELP)
+    Adds ``flag`` and ``--strict`` (the input's plausibility warnings become errors,
+    :func:`input_messages`).  Each command that reads input calls it on its own parser, as
+    a command that draws calls :func:`add_figure_options`, so no command that reads can
+    lack ``--strict``.
+    """
+    p.add_argument(flag, required=required, help=help)
+    p.add_argument("--strict", action="store_true", help=STRICT_HELP)
 
 
 @contextlib.contextmanager

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from vfs.cli.common import add_figure_options, out_option
+from vfs.cli.common import add_figure_options, add_input_option, out_option
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
@@ -25,8 +25,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "CSV/Parquet tables, report.md, report.html and figures. Details: docs/compare.md.",
     )
     add_figure_options(p)  # draws figures
-    p.add_argument("--db", required=True,
-                   help="database folder (Parquet, CSV or PCM) or 'default' for the bundled one")
+    add_input_option(p, help="database folder (Parquet, CSV or PCM) or 'default' for the "
+                     "bundled one")  # reads a database
     p.add_argument("--run", metavar="DIR",
                    help="results folder of 'vfs study' (its runs.parquet, rows with system == "
                    "'baseline') or a run table file; default: simulate the cases now")

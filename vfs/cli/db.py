@@ -15,6 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from vfs.cli.common import add_input_option
 from vfs.database.io import save_csv_folder, save_database
 from vfs.database.pcm import export_pcm, import_pcm
 from vfs.database.source import FORMATS, load_any, resolve_database_path
@@ -240,7 +241,7 @@ def add_parsers(
         "with --run STUDY exactly as that study simulated it. Needs the optional extra: "
         'pip install "vfs[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
         "case_1.xosc. See docs/interop.md.")
-    export.add_argument("--db", required=True, help="database folder, or 'default'")
+    add_input_option(export, help="database folder, or 'default'")  # reads a database
     export.add_argument("--case", required=True, nargs="+", metavar="ID", help="case id(s)")
     export.add_argument("--out", required=True, type=Path, help="output folder")
     export.add_argument("--run", metavar="STUDY", type=Path,

@@ -10,7 +10,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from vfs.analysis.diagnose_spec import Correction, Parameters
-from vfs.cli.common import add_figure_options, load_plugins, out_folder, out_option
+from vfs.cli.common import (
+    add_figure_options,
+    add_input_option,
+    load_plugins,
+    out_folder,
+    out_option,
+)
 from vfs.errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -217,8 +223,8 @@ def cmd_ledger(args: argparse.Namespace) -> int:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--db", required=True,
-                   help="database folder (Parquet or CSV), or 'default' for the bundled one")
+    add_input_option(p, help="database folder (Parquet or CSV), or 'default' for the bundled "
+                     "one")  # reads a database
     p.add_argument("--outputs", default=None,
                    help="compared outputs, comma separated (default: all available): "
                    "delta_v, ees, energy_loss, post_speed, velocity_angle_change, pdof, "

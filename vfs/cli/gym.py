@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from vfs.cli.common import add_figure_options, out_folder, out_option
+from vfs.cli.common import add_figure_options, add_input_option, out_folder, out_option
 
 
 def cmd_evaluate_policy(args: argparse.Namespace) -> int:
@@ -85,7 +85,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help='environment settings as in gymnasium.make, e.g. \'{"action_repeat": '
                    '10, "privileged": true, "sensor": {"range": 100}}\' (over those a saved '
                    'policy carries)')
-    p.add_argument("--db", required=True, help="database folder or 'default'")
+    add_input_option(p, help="database folder or 'default'")  # reads a database
     p.add_argument("--split", choices=("train", "test", "all"), default="test",
                    help="cases of the environment's split (default test)")
     p.add_argument("--test-share", type=float, default=0.2,

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from vfs.cli.common import add_input_option
+
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``vfs impact``."""
@@ -12,7 +14,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description="Solve every row of an impact table with the Kudlich-Slibar model. "
         "Columns and units: docs/data-format.md, section 'Impact tables'.",
     )
-    p.add_argument("--input", required=True, help="input table (.parquet or .csv)")
+    add_input_option(p, "--input", help="input table (.parquet or .csv)")  # reads a table
     p.add_argument("--output", required=True, help="output table (.parquet or .csv)")
     p.add_argument("--on-error", choices=("raise", "record"), default="raise",
                    help="'raise': stop on the first bad table and list every bad row; "

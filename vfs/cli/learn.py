@@ -9,7 +9,7 @@ import json
 import time
 from pathlib import Path
 
-from vfs.cli.common import out_folder, out_option, say
+from vfs.cli.common import add_input_option, out_folder, out_option, say
 from vfs.errors import ParameterError
 
 
@@ -100,7 +100,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
             "by the _sd scales), a chi^2 + 1 interval (noise scale estimated, --noise) and "
             "identifiability flags. Writes "
             "identified.parquet, identified.csv and units.json into --out."))
-    p.add_argument("--db", required=True, help="database folder, or 'default'")
+    add_input_option(p, help="database folder, or 'default'")  # reads a database
     p.add_argument("--parameters", default="all",
                    help="channels, comma separated, or 'all' (default)")
     p.add_argument("--outputs", default=None, help="compared outputs (default all available)")

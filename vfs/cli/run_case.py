@@ -6,7 +6,7 @@ import argparse
 import math
 from typing import Any
 
-from vfs.cli.common import add_figure_options
+from vfs.cli.common import add_figure_options, add_input_option
 from vfs.physics.precrash import PrecrashParams
 from vfs.units import KMH_PER_MS
 
@@ -20,8 +20,9 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "built-in example (head-on with partial overlap in a bend) is used.",
     )
     add_figure_options(p)  # draws figures
-    p.add_argument("--db", help=("database folder (Parquet or CSV), or 'default' for the "
-                                 "bundled synthetic database; default: built-in example"))
+    add_input_option(p, required=False, help=(  # reads a database
+        "database folder (Parquet or CSV), or 'default' for the bundled synthetic database; "
+        "default: built-in example"))
     p.add_argument("--case", help="case_id (default: the first case)")
     p.add_argument("--plot", metavar="FILE", help="write a top-view figure (PNG/SVG/PDF)")
     p.add_argument("--brake-at-s", type=float, metavar="T",

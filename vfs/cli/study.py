@@ -12,7 +12,7 @@ import argparse
 import sys
 import time
 
-from vfs.cli.common import DB_HELP, WHERE_HELP, add_figure_options, out_option
+from vfs.cli.common import WHERE_HELP, add_figure_options, add_input_option, out_option
 from vfs.errors import ParameterError, VfsError
 
 
@@ -137,7 +137,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     from vfs.study.layout import DEFAULT_CHUNK_SIZE
     from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource
 
-    p.add_argument("--db", required=True, help=DB_HELP)
+    add_input_option(p)  # reads a database
     p.add_argument("--systems", required=True, metavar="NAMES",
                    help="comma-separated AEB systems: names or definition files, e.g. "
                    "three-stage,adas/my-aeb.toml; a name is looked up in ./adas/NAME.toml "

@@ -10,7 +10,7 @@ import argparse
 import math
 from typing import Any
 
-from vfs.cli.common import add_figure_options, out_folder, out_option
+from vfs.cli.common import add_figure_options, add_input_option, out_folder, out_option
 from vfs.errors import ParameterError
 from vfs.units import KMH_PER_MS
 
@@ -67,8 +67,8 @@ def _config(args: argparse.Namespace) -> Any:
 
 
 def _common(p: argparse.ArgumentParser, max_cases_default: int | None = None) -> None:
-    p.add_argument("--db", required=True,
-                   help="database folder (Parquet, CSV or PCM) or 'default' for the bundled one")
+    add_input_option(p, help="database folder (Parquet, CSV or PCM) or 'default' for the "
+                     "bundled one")  # reads a database
     p.add_argument("--cases", metavar="IDS", help="case ids, comma separated (default: every "
                    "case with a reconstruction)")
     p.add_argument("--where", metavar="SQL", help="SQL predicate on the cases table, e.g. "
@@ -275,8 +275,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "set, its 5-95 % spread and the optimum with its scaled residuals. Details: "
         "docs/uncertainty.md.")
     add_figure_options(r)  # draws figures
-    r.add_argument("--db", required=True,
-                   help="database folder (Parquet, CSV or PCM) or 'default' for the bundled one")
+    add_input_option(r, help="database folder (Parquet, CSV or PCM) or 'default' for the "
+                     "bundled one")  # reads a database
     r.add_argument("--case", action="append", required=True, metavar="ID",
                    help="case to reconstruct (repeatable)")
     r.add_argument("--observe", default="rest_position,rest_yaw",

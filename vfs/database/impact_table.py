@@ -18,6 +18,7 @@ import pandas as pd
 
 from vfs.errors import DataError, DataProblem
 from vfs.physics.impact import (
+    CONFIG_COLUMNS,
     ImpactConfig,
     config_problems,
     describe_range,
@@ -27,7 +28,7 @@ from vfs.physics.impact import (
 from vfs.units import wrap_angle
 
 #: Required input columns (SI): per vehicle i = 1, 2 and per impact.
-INPUT_COLUMNS: tuple[str, ...] = ("case_id", *ImpactConfig._fields)
+INPUT_COLUMNS: tuple[str, ...] = ("case_id", *CONFIG_COLUMNS)
 
 #: Output columns added by :func:`solve_impact_table`, with units.
 OUTPUT_COLUMNS: dict[str, str] = {
@@ -122,8 +123,8 @@ def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
 
     with np.errstate(invalid="ignore", divide="ignore"):
         for i in (1, 2):
-            m, izz, yaw = (getattr(config, f"{f}{i}") for f in ("m", "izz", "yaw"))
-            vx, vy = getattr(config, f"vx{i}"), getattr(config, f"vy{i}")
+            m, izz, yaw = (getattr(config, f)[:, i - 1] for f in ("m", "izz", "yaw"))
+            vx, vy = config.vx[:, i - 1], config.vy[:, i - 1]
             free = np.isfinite(m)
             light = free & (m < MIN_VEHICLE_MASS)
             add(f"m{i}", light, [f"m{i}={v:g} kg is below the {MIN_VEHICLE_MASS:g} kg of the "
@@ -155,13 +156,14 @@ def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
             add(f"vx{i}", fast, [f"speed {v:.4g} m/s of vehicle {i} is above the "
                                  f"{MAX_SPEED:g} m/s of road vehicles in a crash: km/h? (m/s "
                                  "required)" for v in speed[fast]])
-        gap = np.hypot(config.x1 - config.x2, config.y1 - config.y2)
+        x1, x2, y1, y2 = config.x[:, 0], config.x[:, 1], config.y[:, 0], config.y[:, 1]
+        gap = np.hypot(x1 - x2, y1 - y2)
         close = gap < MIN_CG_DISTANCE
         add("x2", close, [f"the centres of gravity of both vehicles are {g:.3g} m apart "
                           f"(below {MIN_CG_DISTANCE:g} m): two vehicles cannot share one point"
                           for g in gap[close]])
-        poi = np.minimum(np.hypot(config.poi_x - config.x1, config.poi_y - config.y1),
-                         np.hypot(config.poi_x - config.x2, config.poi_y - config.y2))
+        poi = np.minimum(np.hypot(config.poi_x - x1, config.poi_y - y1),
+                         np.hypot(config.poi_x - x2, config.poi_y - y2))
         far = poi > MAX_POI_DISTANCE
         add("poi_x", far, [f"the POI is {d:.4g} m from the nearer centre of gravity (above "
                            f"{MAX_POI_DISTANCE:g} m): outside both vehicles" for d in poi[far]])
@@ -223,14 +225,15 @@ def solve_impact_table(
                                       for c in missing])
     df = df.reset_index(drop=True)
     problems: list[DataProblem] = []
-    arrays = {f: _numeric_column(df, f, table, problems) for f in ImpactConfig._fields}
-    config = ImpactConfig.from_arrays(**arrays)
+    arrays = {f: _numeric_column(df, f, table, problems) for f in CONFIG_COLUMNS}
+    config = ImpactConfig.from_columns(**arrays)
+    columns = config.columns()
     bad_rows = np.zeros(len(df), dtype=bool)
     messages = np.full(len(df), "", dtype=object)
     for field, mask in config_problems(config).items():
         bad_rows |= mask
         for row in np.flatnonzero(mask):
-            value = float(getattr(config, field)[row])
+            value = float(columns[field][row])
             text = f"{field}={value!r} not allowed ({describe_range(field)})"
             messages[row] = f"{messages[row]}; {text}" if messages[row] else text
             problems.append(DataProblem(table, field, int(row), df["case_id"].iloc[row],
@@ -256,11 +259,13 @@ def solve_impact_table(
     if bad_rows.any():
         found = [p for p in found if p.row is None or not bad_rows[p.row]]
     # solve valid rows only; bad rows are filled with a harmless configuration
-    safe = ImpactConfig(*(np.where(bad_rows, 0.0, a) for a in config))
-    safe = safe._replace(x2=np.where(bad_rows, 1.0, safe.x2),  # at rest, apart: no impact
-
-        m1=np.where(bad_rows, 1.0, safe.m1), m2=np.where(bad_rows, 1.0, safe.m2),
-        izz1=np.where(bad_rows, 1.0, safe.izz1), izz2=np.where(bad_rows, 1.0, safe.izz2),
+    bad_pairs = bad_rows[:, None]
+    safe = ImpactConfig(*(np.where(bad_pairs if a.ndim == 2 else bad_rows, 0.0, a)
+                          for a in config))
+    apart = np.where(bad_pairs, [0.0, 1.0], safe.x)  # at rest, apart: no impact
+    safe = safe._replace(
+        x=apart,
+        m=np.where(bad_pairs, 1.0, safe.m), izz=np.where(bad_pairs, 1.0, safe.izz),
         restitution=np.where(bad_rows, 0.0, safe.restitution),
         contact_friction=np.where(bad_rows, 0.0, safe.contact_friction),
     )
@@ -269,7 +274,7 @@ def solve_impact_table(
     impact_type = impact_type_names(result.impact_type).astype(object)
     impact_type[bad_rows] = "error"
     out["impact_type"] = impact_type
-    rd = result._asdict()
+    rd = result.columns()
     for col in OUTPUT_COLUMNS:
         if col in ("impact_type", "error"):
             continue

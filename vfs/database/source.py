@@ -5,12 +5,11 @@
     db = open_database("default")                         # the bundled database
     db = open_database("path/to/folder", where="accident_type = 241")
 
-Bundled databases are the folders ``scenarios/databases/<name>`` of the
-catalogue (:mod:`vfs.catalog`: the repository's folder in a clone, the copy
-inside the package of a wheel, read with :mod:`importlib.resources`), so they
-work from any install.  A
-Parquet database can also be named by an fsspec URL (``file:///data/db``,
-``memory://db``, ``s3://bucket/db``; :func:`vfs.database.io.is_url`).
+Bundled databases are the folders ``scenarios/databases/<name>`` of the catalogue
+(:mod:`vfs.catalog`: the repository's folder in a clone, the copy inside the package of a
+wheel, read with :mod:`importlib.resources`), so they work from any install.  A Parquet
+database can also be named by an fsspec URL (``file:///data/db``, ``memory://db``,
+``s3://bucket/db``; :func:`vfs.database.io.is_url`).
 
 A ``--db`` value has two forms: its *reference* (:func:`database_reference`:
 the bundled name, the URL, or the absolute folder), which is what study tasks

@@ -31,7 +31,8 @@ penetration           ``penetration(ctx: ContactContext, t) -> t``: penetration 
 impact_configuration  ``impact_configuration(ctx, config) -> config``: POI, contact plane
 impact_parameters     ``impact_parameters(ctx, config) -> config``: eps, mu
 contact_impulse       ``contact_impulse(ctx, config, result) -> VelocityChange``:
-                      external impulses during the contact phase
+                      external impulses during the contact phase ((n, 2)
+                      arrays, vehicle axis 1)
 energy_split          ``energy_split(ctx, config, result, e1, e2) -> (e1, e2)``:
                       deformation energies [J] behind the EES
 post_impact           ``post_impact(ctx, config, result, b1, b2) -> (b1, b2)``:
@@ -51,7 +52,7 @@ import numpy as np
 
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError
-from vfs.physics.impact import ImpactConfig, ImpactResult
+from vfs.physics.impact import ImpactConfig, ImpactResult, add_vehicle_aliases
 from vfs.registry import Registry
 
 #: Simulation stages an effect can hook into, in the order they run.
@@ -114,27 +115,41 @@ class EffectParameter:
 
 
 class VelocityChange(NamedTuple):
-    """Velocity changes from external impulses (arrays (n,)), added after the impact.
+    """Velocity changes from external impulses, added after the impact.
 
-    dvx1, dvy1, dvx2, dvy2 in m/s (global frame); dw1, dw2 in rad/s.
+    Arrays (n, 2) whose axis 1 is the vehicle (vehicle 1 at index 0), as the
+    per-vehicle fields of :class:`vfs.physics.impact.ImpactResult`.
+
+    Attributes
+    ----------
+    dvx, dvy : ndarray (n, 2)
+        Change of the CG velocity [m/s], global frame.
+    dw : ndarray (n, 2)
+        Change of the yaw rate [rad/s].
+
+    Notes
+    -----
+    The former names ``dvx1``, ``dvy1``, ``dw1``, ``dvx2``, ``dvy2``, ``dw2`` remain as
+    read-only, deprecated aliases (``dvx1`` is ``dvx[:, 0]``) for plugins written against
+    the one-array-per-vehicle record; vfs itself does not use them.
     """
 
-    dvx1: np.ndarray
-    dvy1: np.ndarray
-    dw1: np.ndarray
-    dvx2: np.ndarray
-    dvy2: np.ndarray
-    dw2: np.ndarray
+    dvx: np.ndarray
+    dvy: np.ndarray
+    dw: np.ndarray
 
     @classmethod
     def zeros(cls, n: int) -> VelocityChange:
         """No change for n cases."""
-        return cls(*(np.zeros(n) for _ in range(6)))
+        return cls(*(np.zeros((n, 2)) for _ in range(3)))
 
     def __add__(self, other: object) -> VelocityChange:
         if not isinstance(other, VelocityChange):
             return NotImplemented
         return VelocityChange(*(a + b for a, b in zip(self, other, strict=True)))
+
+
+add_vehicle_aliases(VelocityChange, ("dvx", "dvy", "dw"))
 
 
 class Effect:

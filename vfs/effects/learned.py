@@ -272,7 +272,7 @@ class ChannelLaw(Effect):
             return config._replace(cp_angle=self.value(ctx, config, config.cp_angle))
         if ch == "yaw_inertia_factor":
             factor = self.value(ctx, config, np.ones(ctx.size))
-            return config._replace(izz1=config.izz1 * factor, izz2=config.izz2 * factor)
+            return config._replace(izz=config.izz * factor[:, None])
         return config
 
     def impact_parameters(self, ctx: ImpactContext, config: ImpactConfig) -> ImpactConfig:
@@ -290,8 +290,9 @@ class ChannelLaw(Effect):
         """Split E1 + E2 by the stiffness ratio k1 / k2 of the law."""
         if self.law["channel"] != "ees_stiffness_ratio":
             return e1, e2
-        ratio = self.value(ctx, config, config.m1 / config.m2)
-        return energy_split(e1 + e2, config.m1, config.m2, stiffness_ratio=ratio)
+        m1, m2 = config.m[:, 0], config.m[:, 1]
+        ratio = self.value(ctx, config, m1 / m2)
+        return energy_split(e1 + e2, m1, m2, stiffness_ratio=ratio)
 
 
     def contact_impulse(self, ctx: ImpactContext, config: ImpactConfig,

@@ -73,8 +73,8 @@ class TyreImpulse(Effect):
     lasts about 0.08-0.15 s, during which braked tyres keep pulling against
     the motion.  Each vehicle receives the extra impulse
     -b mu_road m g T u/|u| (u: its velocity before the impact), never more
-    than would stop it.  The Front-to-Side Energy Balance paper (Table 2): tyre-road work during the
-    contact is 5-9 % of the initial kinetic energy.
+    than would stop it.  The Front-to-Side Energy Balance paper (Table 2): tyre-road work
+    during the contact is 5-9 % of the initial kinetic energy.
     """
 
     name = "tyre_impulse"
@@ -101,32 +101,28 @@ def braking_impulse(config: ImpactConfig, result: ImpactResult,
     u / |u|, never more than its post-impact velocity component along u (the
     tyres stop, they do not reverse the motion); no yaw change.
     """
-    out = []
-    for vx, vy, vxp, vyp in ((config.vx1, config.vy1, result.vx1_post, result.vy1_post),
-                             (config.vx2, config.vy2, result.vx2_post, result.vy2_post)):
-        speed = np.hypot(vx, vy)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
-        # no more than the post-impact velocity component along u
-        along = np.maximum(vxp * ux + vyp * uy, 0.0)
-        mag = np.minimum(speed_loss, along)
-        out += [-mag * ux, -mag * uy, np.zeros_like(mag)]
-    return VelocityChange(*out)
+    vx, vy = config.vx, config.vy
+    speed = np.hypot(vx, vy)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ux, uy = np.where(speed > 0, vx / speed, 0.0), np.where(speed > 0, vy / speed, 0.0)
+    # no more than the post-impact velocity component along u
+    along = np.maximum(result.vx_post * ux + result.vy_post * uy, 0.0)
+    mag = np.minimum(np.asarray(speed_loss, float)[..., None], along)
+    return VelocityChange(-mag * ux, -mag * uy, np.zeros_like(mag))
 
 
 @register_effect
 class BodyFriction(Effect):
     """Friction work between the bodies.
 
-    Part of the energy the impulse exchange dissipates is friction between
-    the sliding bodies, not deformation; the EES (which measures deformation
-    energy) is smaller than the model's, which attributes the whole loss to
-    deformation.  Friction work W = |S_t| |u_t + u_t'| / 2 (tangential
-    impulse times the mean tangential sliding speed at the POI); a share f of
-    it is taken from the deformation energies in proportion to their split.
-    The Front-to-Side Energy Balance paper (Table 2): friction between the bodies is 2-5 % of the
-    initial
-    energy and deformation work only 70-75 % of the contact-phase loss.
+    Part of the energy the impulse exchange dissipates is friction between the sliding
+    bodies, not deformation; the EES (which measures deformation energy) is smaller than the
+    model's, which attributes the whole loss to deformation.  Friction work
+    W = |S_t| |u_t + u_t'| / 2 (tangential impulse times the mean tangential sliding speed at
+    the POI); a share f of it is taken from the deformation energies in proportion to their
+    split.  The Front-to-Side Energy Balance paper (Table 2): friction between the bodies
+    is 2-5 % of the initial energy and deformation work only 70-75 % of the contact-phase
+    loss.
     """
 
     name = "body_friction"
@@ -141,9 +137,9 @@ class BodyFriction(Effect):
                      e1: np.ndarray, e2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Remove f W from the deformation energies."""
         f = contact_frame(config)
-        ux, uy = poi_relative_velocity(config, result.vx1_post, result.vy1_post,
-                                       result.yaw_rate1_post, result.vx2_post,
-                                       result.vy2_post, result.yaw_rate2_post)
+        ux, uy = poi_relative_velocity(config, result.vx_post[:, 0], result.vy_post[:, 0],
+                                       result.yaw_rate_post[:, 0], result.vx_post[:, 1],
+                                       result.vy_post[:, 1], result.yaw_rate_post[:, 1])
         u_t_post = ux * f.tx + uy * f.ty
         work = np.abs(result.impulse_t) * np.abs(f.u_t + u_t_post) / 2.0
         total = e1 + e2
@@ -157,15 +153,13 @@ class BodyFriction(Effect):
 class PenetrationDepth(Effect):
     """Penetration depth growing with closing speed and falling overlap.
 
-    Instead of a fixed time (30 ms, the Momentum Based Impact Model paper) the outlines penetrate
-    to a
-    depth d = d_0 (v_c / 20 m/s)^a (1 + c (1 - overlap)), i.e. for the time
+    Instead of a fixed time (30 ms, the Momentum Based Impact Model paper) the outlines
+    penetrate to a depth d = d_0 (v_c / 20 m/s)^a (1 + c (1 - overlap)), i.e. for the time
     d / v_c, clipped to [5, 150] ms; v_c = |v1 - v2| at first contact,
-    overlap = :func:`vfs.physics.geometry.swept_overlap` at first contact.  The Momentum Based
-    Impact Model paper
-    (outlook): "it would be necessary to find a correlation between the
-    closing speed, the overlap and the penetration depth".  With d_0 = 0.6 m,
-    a = 1, c = 0 it is the fixed 30 ms.
+    overlap = :func:`vfs.physics.geometry.swept_overlap` at first contact.  The Momentum
+    Based Impact Model paper (outlook): "it would be necessary to find a correlation between
+    the closing speed, the overlap and the penetration depth".  With d_0 = 0.6 m, a = 1,
+    c = 0 it is the fixed 30 ms.
     """
 
     name = "penetration_depth"
@@ -355,9 +349,9 @@ class EESStiffness(Effect):
         """Re-split the total E1 + E2 with E1 / E2 = k2 / k1."""
         side = (ctx.faces == FACE_LEFT) | (ctx.faces == FACE_RIGHT)
         f = np.where(side, self["side_factor"], 1.0)
-        k1 = config.m1 ** self["mass_exponent"] * f[:, 0]
-        k2 = config.m2 ** self["mass_exponent"] * f[:, 1]
-        return energy_split(e1 + e2, config.m1, config.m2, stiffness_ratio=k1 / k2)
+        k = config.m ** self["mass_exponent"] * f
+        return energy_split(e1 + e2, config.m[:, 0], config.m[:, 1],
+                            stiffness_ratio=k[:, 0] / k[:, 1])
 
 
 @register_effect
@@ -365,15 +359,13 @@ class YawInertia(Effect):
     """Yaw inertia different from the model's default formula.
 
     Where the data give no yaw inertia the model uses I = m L1 L2 (the Front-to-Side Energy
-    Balance paper);
-    the box formula m (l^2 + w^2) / 12 (openPASS) and 0.1269 m R L (Zeidler)
-    differ from it by 10-30 %.  This effect scales the unknown inertias by a
-    factor.  Its nominal value 0.86 is the one measured yaw inertia in the
-    source papers: the NHTSA Mercedes C300 of "Modeling head-on collisions",
-    2771 kg m^2 against m L1 L2 = 3243 kg m^2 for its 1703 kg and 2.76 m
-    wheelbase with the centre of gravity at mid-wheelbase (the paper gives no
-    CG position; 10 % of the wheelbase forward of it gives 3188 kg m^2): 13-15 %
-    below the default formula.
+    Balance paper); the box formula m (l^2 + w^2) / 12 (openPASS) and 0.1269 m R L (Zeidler)
+    differ from it by 10-30 %.  This effect scales the unknown inertias by a factor.  Its
+    nominal value 0.86 is the one measured yaw inertia in the source papers: the NHTSA
+    Mercedes C300 of "Modeling head-on collisions", 2771 kg m^2 against
+    m L1 L2 = 3243 kg m^2 for its 1703 kg and 2.76 m wheelbase with the centre of gravity at
+    mid-wheelbase (the paper gives no CG position; 10 % of the wheelbase forward of it gives
+    3188 kg m^2): 13-15 % below the default formula.
     """
 
     name = "yaw_inertia"

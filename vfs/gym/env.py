@@ -349,7 +349,7 @@ class EpisodeBatch:
     def risk(self, imp: Any) -> np.ndarray:
         """Injury risk per impact (expected injured drivers, or the ego's risk)."""
         e = self.config.ego
-        dv = np.stack([imp.delta_v1, imp.delta_v2], axis=1)
+        dv = imp.delta_v
         p = np.nan_to_num(self.curve.probability(np.abs(dv)), nan=0.0)
         if self.config.reward.risk_of == "ego":
             return np.where(imp.impact_type != 0, p[:, e - 1], 0.0)
@@ -403,9 +403,8 @@ class EpisodeBatch:
         if imp is not None and imp_rows is not None and imp_rows.size:
             order = np.argsort(rows, kind="stable")
             pos = order[np.searchsorted(rows[order], imp_rows)]
-            dv = (imp.delta_v1, imp.delta_v2)
-            info["delta_v"][pos] = dv[e]
-            info["delta_v_other"][pos] = dv[1 - e]
+            info["delta_v"][pos] = imp.delta_v[:, e]
+            info["delta_v_other"][pos] = imp.delta_v[:, 1 - e]
             info["closing_speed"][pos] = imp.closing_speed
             info["impact_type"][pos] = impact_type_names(imp.impact_type).tolist()
             if risk is not None:

@@ -462,10 +462,9 @@ def contact_plane(
 
     Rules (codes of :data:`CP_RULES`):
 
-    1. Exactly two distinct intersection points: the CP is the line through
-       them (the Momentum Based Impact Model paper, section 3.2.1).  This covers one corner
-       penetrating an
-       edge (both points lie on that edge) and corner-to-corner overlaps.
+    1. Exactly two distinct intersection points: the CP is the line through them (the
+       Momentum Based Impact Model paper, section 3.2.1).  This covers one corner
+       penetrating an edge (both points lie on that edge) and corner-to-corner overlaps.
     2. More than two points (an outline crossing the other completely, a
        deep penetration): the line through the two points farthest apart,
        i.e. along the widest extent of the contact zone.
@@ -576,14 +575,12 @@ def swept_overlap(outline1: npt.ArrayLike, outline2: npt.ArrayLike,
                   direction: npt.ArrayLike) -> np.ndarray:
     """Overlap ratio [-] of two outlines seen along a direction of approach.
 
-    Both outlines (N, K, 2) are projected on the axis perpendicular to
-    ``direction`` (N, 2), e.g. the relative velocity v1 - v2; the ratio is the
-    length of the common part of the two projections divided by the shorter
-    projection, in [0, 1].  For a head-on or rear-end collision this is the
-    usual lateral overlap (width of the engaged front over the vehicle
-    width, the Momentum Based Impact Model paper); for a front-to-side collision it is the engaged
-    share
-    of the striking front.  NaN where ``direction`` is zero.
+    Both outlines (N, K, 2) are projected on the axis perpendicular to ``direction`` (N, 2),
+    e.g. the relative velocity v1 - v2; the ratio is the length of the common part of the
+    two projections divided by the shorter projection, in [0, 1].  For a head-on or rear-end
+    collision this is the usual lateral overlap (width of the engaged front over the vehicle
+    width, the Momentum Based Impact Model paper); for a front-to-side collision it is the
+    engaged share of the striking front.  NaN where ``direction`` is zero.
     """
     o1 = np.asarray(outline1, float)
     o2 = np.asarray(outline2, float)

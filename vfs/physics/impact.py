@@ -97,11 +97,10 @@ class ImpactParams:
         ("applicable for a wide range of closing speeds"); the Reconstruction
         chapter gives 0.1-0.3 for real crashes.
     contact_friction : float
-        Friction coefficient between the bodies at the POI (tan rho of the
-        friction cone, the Collision Calculation Uncertainty paper), >= 0.  Default 0.6; there is
-        no firm
-        source for a universal value (openPASS hard-codes 0.3), so studies
-        should vary it (see `vfs uncertainty`).
+        Friction coefficient between the bodies at the POI (tan rho of the friction cone,
+        the Collision Calculation Uncertainty paper), >= 0.  Default 0.6; there is no firm
+        source for a universal value (openPASS hard-codes 0.3), so studies should vary it
+        (see `vfs uncertainty`).
     restitution_mode : {"impulse", "normal"}
         How eps enters (:data:`RESTITUTION_MODES`).  ``"impulse"`` (default): the
         Kudlich-Slibar/PC-Crash convention, S = (1 + eps) S_C for both impulse
@@ -142,121 +141,98 @@ class ImpactParams:
             raise ParameterError(f"contact_friction={self.contact_friction} must be >= 0")
 
 
-class ImpactConfig(NamedTuple):
-    """N impact configurations as arrays of shape (N,); names are the table columns.
+#: Table column of each per-vehicle field of :class:`ImpactResult` (``{i}`` = 1, 2): the
+#: names of the files and reports (:meth:`ImpactResult.columns`).
+RESULT_COLUMNS: dict[str, str] = {
+    "vx_post": "vx{i}_post", "vy_post": "vy{i}_post", "yaw_rate_post": "yaw_rate{i}_post",
+    "delta_vx": "delta_vx{i}", "delta_vy": "delta_vy{i}", "delta_v": "delta_v{i}",
+    "ees": "ees{i}", "velocity_angle_change": "velocity_angle_change{i}", "pdof": "pdof{i}",
+    "pdof_clock": "pdof_clock{i}",
+}
 
-    Attributes
-    ----------
-    m1, m2 : ndarray
-        Masses [kg].
-    izz1, izz2 : ndarray
-        Yaw inertias about the CG [kg m^2].
-    x1, y1, x2, y2 : ndarray
-        CG positions [m].
-    yaw1, yaw2 : ndarray
-        Headings [rad].
-    vx1, vy1, vx2, vy2 : ndarray
-        CG velocities [m/s], global frame.
-    yaw_rate1, yaw_rate2 : ndarray
-        Yaw rates [rad/s] (real pre-crash values, not zero).
-    poi_x, poi_y : ndarray
-        Point of impact [m].
-    cp_angle : ndarray
-        Contact-plane tangent direction [rad] (orientation irrelevant).
-    restitution : ndarray
-        Impulse ratio eps [-], in [0, 1].
-    contact_friction : ndarray
-        Inter-vehicle friction mu [-], >= 0.
+
+def add_vehicle_aliases(cls: type, fields: tuple[str, ...]) -> None:
+    """Give record ``cls`` the deprecated read-only aliases ``<field><i>`` (i = 1, 2; the
+    table names of :data:`RESULT_COLUMNS` for the fields listed there) of its per-vehicle
+    ``fields`` (:func:`deprecated_vehicle_field`).
     """
+    for field in fields:
+        for j in (0, 1):
+            setattr(cls, RESULT_COLUMNS.get(field, field + "{i}").format(i=j + 1),
+                    deprecated_vehicle_field(field, j))
 
-    m1: np.ndarray
-    izz1: np.ndarray
-    x1: np.ndarray
-    y1: np.ndarray
-    yaw1: np.ndarray
-    vx1: np.ndarray
-    vy1: np.ndarray
-    yaw_rate1: np.ndarray
-    m2: np.ndarray
-    izz2: np.ndarray
-    x2: np.ndarray
-    y2: np.ndarray
-    yaw2: np.ndarray
-    vx2: np.ndarray
-    vy2: np.ndarray
-    yaw_rate2: np.ndarray
-    poi_x: np.ndarray
-    poi_y: np.ndarray
-    cp_angle: np.ndarray
-    restitution: np.ndarray
-    contact_friction: np.ndarray
 
-    @classmethod
-    def from_arrays(cls, **columns: npt.ArrayLike) -> ImpactConfig:
-        """Build from keyword arrays (broadcast to a common 1-D shape)."""
-        missing = [f for f in cls._fields if f not in columns]
-        if missing:
-            raise ParameterError(f"missing impact configuration fields: {missing}")
-        arrays = np.broadcast_arrays(
-            *(np.atleast_1d(np.asarray(columns[f], dtype=float)) for f in cls._fields)
-        )
-        return cls(*(np.array(a, dtype=float) for a in arrays))
+def deprecated_vehicle_field(field: str, j: int) -> property:
+    """Read-only alias, named with the vehicle number, of ``field[:, j]`` of a record with a
+    vehicle axis (vehicle 1 at j = 0), kept for plugins written against the former
+    one-array-per-vehicle records; reading it warns (``DeprecationWarning``).
+    """
+    old = RESULT_COLUMNS.get(field, field + "{i}").format(i=j + 1)
 
-    def swapped(self) -> ImpactConfig:
-        """The same configurations with vehicles 1 and 2 exchanged."""
-        d = self._asdict()
-        out = dict(d)
-        for f in ("m", "izz", "x", "y", "yaw", "vx", "vy", "yaw_rate"):
-            out[f"{f}1"], out[f"{f}2"] = d[f"{f}2"], d[f"{f}1"]
-        return ImpactConfig(**out)
+    def get(self: tuple) -> np.ndarray:
+        warnings.warn(f"{type(self).__name__}.{old} is deprecated: use {field}[:, {j}] "
+                      "(vehicle axis 1, vehicle 1 at index 0)", DeprecationWarning,
+                      stacklevel=2)
+        return getattr(self, field)[:, j]
 
-    @property
-    def size(self) -> int:
-        """Number of configurations N."""
-        return int(self.m1.shape[0])
+    get.__doc__ = f"Deprecated alias of ``{field}[:, {j}]``."
+    get.vehicle_alias = (field, j)  # type: ignore[attr-defined]
+    return property(get)
 
 
 class ImpactResult(NamedTuple):
-    """Result of :func:`solve_impact` for N configurations, arrays of shape (N,).
+    """Result of :func:`solve_impact` for N configurations.
+
+    Fields of the impact as a whole are arrays (N,); fields of each vehicle are
+    arrays (N, 2) whose axis 1 is the vehicle (vehicle 1 at index 0), as in
+    :class:`vfs.physics.precrash_result.KinematicState`.  :meth:`columns` gives the
+    table columns (``delta_v1``, ``ees2``, ...).
 
     Attributes
     ----------
-    impact_type : ndarray of int
+    impact_type : ndarray of int (N,)
         0 none (separating), 1 full, 2 sliding (:data:`IMPACT_TYPE_NAMES`).
-    normal_x, normal_y : ndarray
+    normal_x, normal_y : ndarray (N,)
         Unit normal n of the contact plane, from vehicle 2 towards vehicle 1.
-    closing_speed : ndarray
+    closing_speed : ndarray (N,)
         Normal approach speed at the POI, -u.n [m/s] (> 0 for an impact).
-    sliding_speed : ndarray
+    sliding_speed : ndarray (N,)
         Tangential relative POI speed before the impact, u.t [m/s].
-    impulse_t, impulse_n : ndarray
+    impulse_t, impulse_n : ndarray (N,)
         Total impulse on vehicle 1 in contact-plane components [N s]
         (T and N; vehicle 2 receives the opposite).
-    impulse_x, impulse_y : ndarray
+    impulse_x, impulse_y : ndarray (N,)
         Total impulse on vehicle 1, global components [N s].
-    vx1_post, vy1_post, vx2_post, vy2_post : ndarray
+    vx_post, vy_post : ndarray (N, 2)
         Post-impact CG velocities [m/s].
-    yaw_rate1_post, yaw_rate2_post : ndarray
+    yaw_rate_post : ndarray (N, 2)
         Post-impact yaw rates [rad/s].
-    delta_vx1, delta_vy1, delta_vx2, delta_vy2 : ndarray
+    delta_vx, delta_vy : ndarray (N, 2)
         Velocity change of each CG [m/s].
-    delta_v1, delta_v2 : ndarray
+    delta_v : ndarray (N, 2)
         Magnitude of the CG velocity change [m/s].
-    energy_loss : ndarray
+    energy_loss : ndarray (N,)
         Kinetic energy lost, translational plus rotational [J] (>= 0).
-    ees1, ees2 : ndarray
+    ees : ndarray (N, 2)
         Energy equivalent speed [m/s]: E_i = m_i EES_i^2 / 2 (the Reconstruction chapter) with
         the loss split by :func:`energy_split`.
-    velocity_angle_change1, velocity_angle_change2 : ndarray
+    velocity_angle_change : ndarray (N, 2)
         Angle between the CG velocity vectors before and after [rad], in
         [0, pi]; NaN when either speed is below 1 mm/s.
-    pdof1, pdof2 : ndarray
+    pdof : ndarray (N, 2)
         Principal direction of force [rad] in the vehicle's frame: the
         direction the impulse comes from, 0 = straight from ahead (frontal),
         positive clockwise seen from above (pi/2 = from the right), in
         (-pi, pi].
-    pdof_clock1, pdof_clock2 : ndarray of int
+    pdof_clock : ndarray of int (N, 2)
         PDOF as a clock direction 1-12 (12 = frontal, 3 = right side).
+
+    Notes
+    -----
+    The names with the vehicle number of the former one-array-per-vehicle record
+    (``vx1_post``, ``delta_v2``, ``ees1``, ``pdof_clock2``, ...) remain as read-only
+    attributes for plugins written against it; they are deprecated (a
+    ``DeprecationWarning``) and vfs itself does not use them.
     """
 
     impact_type: np.ndarray
@@ -268,32 +244,177 @@ class ImpactResult(NamedTuple):
     impulse_n: np.ndarray
     impulse_x: np.ndarray
     impulse_y: np.ndarray
-    vx1_post: np.ndarray
-    vy1_post: np.ndarray
-    yaw_rate1_post: np.ndarray
-    vx2_post: np.ndarray
-    vy2_post: np.ndarray
-    yaw_rate2_post: np.ndarray
-    delta_vx1: np.ndarray
-    delta_vy1: np.ndarray
-    delta_vx2: np.ndarray
-    delta_vy2: np.ndarray
-    delta_v1: np.ndarray
-    delta_v2: np.ndarray
+    vx_post: np.ndarray
+    vy_post: np.ndarray
+    yaw_rate_post: np.ndarray
+    delta_vx: np.ndarray
+    delta_vy: np.ndarray
+    delta_v: np.ndarray
     energy_loss: np.ndarray
-    ees1: np.ndarray
-    ees2: np.ndarray
-    velocity_angle_change1: np.ndarray
-    velocity_angle_change2: np.ndarray
-    pdof1: np.ndarray
-    pdof2: np.ndarray
-    pdof_clock1: np.ndarray
-    pdof_clock2: np.ndarray
+    ees: np.ndarray
+    velocity_angle_change: np.ndarray
+    pdof: np.ndarray
+    pdof_clock: np.ndarray
 
     @property
     def impact_type_name(self) -> np.ndarray:
         """Impact type as strings 'none', 'full', 'sliding'."""
         return impact_type_names(self.impact_type)
+
+    @property
+    def size(self) -> int:
+        """Number of impacts N."""
+        return int(self.impact_type.shape[0])
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The fields as table columns (N,): the per-vehicle fields as two columns named
+        by :data:`RESULT_COLUMNS` (``delta_v1``, ``delta_v2``, ...), vehicle 1's first.
+        """
+        out: dict[str, np.ndarray] = {}
+        for name, values in zip(self._fields, self, strict=True):
+            if name in RESULT_COLUMNS:
+                for i in (1, 2):
+                    out[RESULT_COLUMNS[name].format(i=i)] = values[:, i - 1]
+            else:
+                out[name] = values
+        return out
+
+
+
+#: Per-vehicle fields of :class:`ImpactConfig` ((N, 2) arrays, vehicle axis 1).
+CONFIG_VEHICLE_FIELDS: tuple[str, ...] = ("m", "izz", "x", "y", "yaw", "vx", "vy", "yaw_rate")
+
+#: Fields of :class:`ImpactConfig` that describe the impact as a whole ((N,) arrays).
+CONFIG_IMPACT_FIELDS: tuple[str, ...] = ("poi_x", "poi_y", "cp_angle", "restitution",
+                                         "contact_friction")
+
+#: Table columns of an impact configuration, in the order of the files (impact tables, the
+#: reconstruction table): vehicle 1's columns ``m1`` ... ``yaw_rate1``, vehicle 2's, then the
+#: impact's (:meth:`ImpactConfig.from_columns`, :meth:`ImpactConfig.columns`).
+CONFIG_COLUMNS: tuple[str, ...] = (
+    *(f"{f}{i}" for i in (1, 2) for f in CONFIG_VEHICLE_FIELDS), *CONFIG_IMPACT_FIELDS)
+
+
+def _vehicle_pairs(values: npt.ArrayLike) -> np.ndarray:
+    """A per-vehicle input as (n, 2) float: a scalar (both vehicles), a pair (2,) (one
+    impact) or an (N, 2) array.
+    """
+    a = np.asarray(values, dtype=float)
+    if a.ndim == 0 or a.shape == (2,):
+        return np.atleast_2d(a)
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise ParameterError(f"a per-vehicle field must be a scalar, a pair or (N, 2), not "
+                             f"shape {a.shape}")
+    return a
+
+
+class ImpactConfig(NamedTuple):
+    """N impact configurations.
+
+    Fields of each vehicle are arrays (N, 2) whose axis 1 is the vehicle (vehicle 1 at
+    index 0), as in :class:`vfs.physics.precrash_result.KinematicState`; fields of the
+    impact as a whole are arrays (N,).  Tables name the columns ``m1``, ``izz2``, ...
+    (:data:`CONFIG_COLUMNS`, :meth:`from_columns`, :meth:`columns`).
+
+    Attributes
+    ----------
+    m : ndarray (N, 2)
+        Masses [kg].
+    izz : ndarray (N, 2)
+        Yaw inertias about the CG [kg m^2].
+    x, y : ndarray (N, 2)
+        CG positions [m].
+    yaw : ndarray (N, 2)
+        Headings [rad].
+    vx, vy : ndarray (N, 2)
+        CG velocities [m/s], global frame.
+    yaw_rate : ndarray (N, 2)
+        Yaw rates [rad/s] (real pre-crash values, not zero).
+    poi_x, poi_y : ndarray (N,)
+        Point of impact [m].
+    cp_angle : ndarray (N,)
+        Contact-plane tangent direction [rad] (orientation irrelevant).
+    restitution : ndarray (N,)
+        Impulse ratio eps [-], in [0, 1].
+    contact_friction : ndarray (N,)
+        Inter-vehicle friction mu [-], >= 0.
+
+    Notes
+    -----
+    The names with the vehicle number of the former one-array-per-vehicle record (``m1``,
+    ``izz2``, ``vx1``, ``yaw_rate2``, ...) remain as read-only attributes for plugins
+    written against it; they are deprecated (a ``DeprecationWarning``) and vfs itself
+    does not use them.
+    """
+
+    m: np.ndarray
+    izz: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    yaw_rate: np.ndarray
+    poi_x: np.ndarray
+    poi_y: np.ndarray
+    cp_angle: np.ndarray
+    restitution: np.ndarray
+    contact_friction: np.ndarray
+
+    @classmethod
+    def from_arrays(cls, **fields: npt.ArrayLike) -> ImpactConfig:
+        """Build from keyword arrays: per-vehicle fields a scalar (both vehicles), a pair
+        (one impact) or (N, 2); impact fields a scalar or (N,).  Broadcast to N impacts,
+        float copies.
+        """
+        unknown = sorted(set(fields) - set(cls._fields))
+        if unknown:
+            raise ParameterError(f"unknown impact configuration fields: {unknown} (per-vehicle "
+                                 "table columns such as m1: ImpactConfig.from_columns)")
+        missing = [f for f in cls._fields if f not in fields]
+        if missing:
+            raise ParameterError(f"missing impact configuration fields: {missing}")
+        pairs = [_vehicle_pairs(fields[f]) for f in CONFIG_VEHICLE_FIELDS]
+        single = [np.atleast_1d(np.asarray(fields[f], dtype=float))
+                  for f in CONFIG_IMPACT_FIELDS]
+        n = np.broadcast_shapes(*(a.shape[:1] for a in pairs), *(a.shape for a in single))
+        return cls(*(np.array(np.broadcast_to(a, (*n, 2)), dtype=float) for a in pairs),
+                   *(np.array(np.broadcast_to(a, n), dtype=float) for a in single))
+
+    @classmethod
+    def from_columns(cls, **columns: npt.ArrayLike) -> ImpactConfig:
+        """Build from table columns (:data:`CONFIG_COLUMNS`: ``m1``, ..., ``yaw_rate2``,
+        ``poi_x``, ...), broadcast to a common 1-D shape: the file edge of the vehicle axis.
+        """
+        missing = [f for f in CONFIG_COLUMNS if f not in columns]
+        if missing:
+            raise ParameterError(f"missing impact configuration fields: {missing}")
+        arrays = dict(zip(CONFIG_COLUMNS, np.broadcast_arrays(
+            *(np.atleast_1d(np.asarray(columns[f], dtype=float)) for f in CONFIG_COLUMNS)),
+            strict=True))
+        return cls(*(np.stack([arrays[f"{f}1"], arrays[f"{f}2"]], axis=1)
+                     for f in CONFIG_VEHICLE_FIELDS),
+                   *(np.array(arrays[f], dtype=float) for f in CONFIG_IMPACT_FIELDS))
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The fields as table columns (N,) named by :data:`CONFIG_COLUMNS`."""
+        out = {f"{f}{i}": getattr(self, f)[:, i - 1]
+               for i in (1, 2) for f in CONFIG_VEHICLE_FIELDS}
+        out.update({f: getattr(self, f) for f in CONFIG_IMPACT_FIELDS})
+        return out
+
+    def swapped(self) -> ImpactConfig:
+        """The same configurations with vehicles 1 and 2 exchanged."""
+        return self._replace(**{f: getattr(self, f)[:, ::-1] for f in CONFIG_VEHICLE_FIELDS})
+
+    @property
+    def size(self) -> int:
+        """Number of configurations N."""
+        return int(self.poi_x.shape[0])
+
+
+add_vehicle_aliases(ImpactConfig, CONFIG_VEHICLE_FIELDS)
+add_vehicle_aliases(ImpactResult, tuple(RESULT_COLUMNS))
 
 
 # ----------------------------------------------------------------------------
@@ -342,14 +463,15 @@ def config_problems(config: ImpactConfig) -> dict[str, np.ndarray]:
     Returns
     -------
     dict
-        field name -> boolean array (N,) marking the bad rows (only fields
-        with at least one bad row are listed).
+        table column (:data:`CONFIG_COLUMNS`, e.g. ``m2``) -> boolean array (N,)
+        marking the bad rows (only columns with at least one bad row are listed).
     """
     bad: dict[str, np.ndarray] = {}
-    fixed1 = fixed_object(config.m1, config.izz1)
-    fixed2 = fixed_object(config.m2, config.izz2)
-    for name in ImpactConfig._fields:
-        v = getattr(config, name)
+    fixed = fixed_object(config.m, config.izz)
+    fixed1, fixed2 = fixed[:, 0], fixed[:, 1]
+    columns = config.columns()
+    for name in CONFIG_COLUMNS:
+        v = columns[name]
         mask = ~np.isfinite(v)
         lo, hi = CONFIG_RANGES.get(name, (-np.inf, np.inf))
         with np.errstate(invalid="ignore"):
@@ -433,6 +555,11 @@ def ees_from_energy(energy: npt.ArrayLike, mass: npt.ArrayLike) -> np.ndarray:
 # ----------------------------------------------------------------------------
 
 
+def _pair(one: np.ndarray, two: np.ndarray) -> np.ndarray:
+    """(N, 2) array of a per-vehicle value: vehicle 1 in column 0."""
+    return np.stack([one, two], axis=1)
+
+
 def _pdof(ix: np.ndarray, iy: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """PDOF [rad] and clock direction of an impulse (ix, iy) on a vehicle with heading yaw."""
     # direction the force comes from (-impulse), relative to the heading,
@@ -478,14 +605,16 @@ class ContactFrame(NamedTuple):
 def contact_frame(config: ImpactConfig) -> ContactFrame:
     """Contact frame and relative POI velocity before the impact (module conventions)."""
     c = config
+    x1, x2, y1, y2 = c.x[:, 0], c.x[:, 1], c.y[:, 0], c.y[:, 1]
+    w1, w2 = c.yaw_rate[:, 0], c.yaw_rate[:, 1]
     nx0, ny0 = -np.sin(c.cp_angle), np.cos(c.cp_angle)
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
-    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    r1x, r1y = c.poi_x - x1, c.poi_y - y1
+    r2x, r2y = c.poi_x - x2, c.poi_y - y2
     # POI velocities, v + omega x r
-    u_x = (c.vx1 - c.yaw_rate1 * r1y) - (c.vx2 - c.yaw_rate2 * r2y)
-    u_y = (c.vy1 + c.yaw_rate1 * r1x) - (c.vy2 + c.yaw_rate2 * r2x)
-    side = nx0 * (c.x1 - c.x2) + ny0 * (c.y1 - c.y2)
-    scale = np.sqrt((c.x1 - c.x2) ** 2 + (c.y1 - c.y2) ** 2)
+    u_x = (c.vx[:, 0] - w1 * r1y) - (c.vx[:, 1] - w2 * r2y)
+    u_y = (c.vy[:, 0] + w1 * r1x) - (c.vy[:, 1] + w2 * r2x)
+    side = nx0 * (x1 - x2) + ny0 * (y1 - y2)
+    scale = np.sqrt((x1 - x2) ** 2 + (y1 - y2) ** 2)
     # CGs on the plane line: orient n against the relative POI velocity instead
     degenerate = np.abs(side) <= 1e-9 * np.maximum(scale, 1.0)
     sign = np.where(degenerate, np.where(nx0 * u_x + ny0 * u_y <= 0.0, 1.0, -1.0),
@@ -502,34 +631,28 @@ def poi_relative_velocity(config: ImpactConfig, vx1: np.ndarray, vy1: np.ndarray
     (e.g. the post-impact ones) at the configuration's poses and POI.
     """
     c = config
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
-    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    r1x, r1y = c.poi_x - c.x[:, 0], c.poi_y - c.y[:, 0]
+    r2x, r2y = c.poi_x - c.x[:, 1], c.poi_y - c.y[:, 1]
     return ((vx1 - w1 * r1y) - (vx2 - w2 * r2y), (vy1 + w1 * r1x) - (vy2 + w2 * r2x))
 
 
-def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx1: np.ndarray,
-                 vy1: np.ndarray, w1: np.ndarray, vx2: np.ndarray, vy2: np.ndarray,
-                 w2: np.ndarray, e1: np.ndarray | None = None,
-                 e2: np.ndarray | None = None) -> ImpactResult:
-    """Result with changed post-impact velocities [m/s, rad/s] and, optionally,
-    deformation energies e1, e2 [J]; delta-v, EES and the change of velocity
-    angle follow.  The impulse, impact type, energy loss and PDOF describe
-    the impulse exchange and stay as they are.
+def with_outcome(config: ImpactConfig, result: ImpactResult, *, vx: np.ndarray,
+                 vy: np.ndarray, yaw_rate: np.ndarray,
+                 energy: np.ndarray | None = None) -> ImpactResult:
+    """Result with changed post-impact velocities ``vx``, ``vy`` [m/s] and ``yaw_rate``
+    [rad/s] and, optionally, deformation energies ``energy`` [J], each (N, 2) (vehicle
+    axis 1); delta-v, EES and the change of velocity angle follow.  The impulse, impact
+    type, energy loss and PDOF describe the impulse exchange and stay as they are.
     """
-    dvx1, dvy1 = vx1 - config.vx1, vy1 - config.vy1
-    dvx2, dvy2 = vx2 - config.vx2, vy2 - config.vy2
-    none = result.impact_type == IMPACT_NONE
-    keep = {k: getattr(result, k) for k in ImpactResult._fields}
-    keep.update(
-        vx1_post=vx1, vy1_post=vy1, yaw_rate1_post=w1, vx2_post=vx2, vy2_post=vy2,
-        yaw_rate2_post=w2, delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
-        velocity_angle_change1=angle_between(config.vx1, config.vy1, vx1, vy1),
-        velocity_angle_change2=angle_between(config.vx2, config.vy2, vx2, vy2),
-    )
-    if e1 is not None and e2 is not None:
-        keep["ees1"] = np.where(none, result.ees1, ees_from_energy(e1, config.m1))
-        keep["ees2"] = np.where(none, result.ees2, ees_from_energy(e2, config.m2))
+    vx0, vy0 = config.vx, config.vy
+    dvx, dvy = vx - vx0, vy - vy0
+    keep = result._asdict()
+    keep.update(vx_post=vx, vy_post=vy, yaw_rate_post=yaw_rate, delta_vx=dvx, delta_vy=dvy,
+                delta_v=velocity_change(dvx, dvy),
+                velocity_angle_change=angle_between(vx0, vy0, vx, vy))
+    if energy is not None:
+        none = (result.impact_type == IMPACT_NONE)[:, None]
+        keep["ees"] = np.where(none, result.ees, ees_from_energy(energy, config.m))
     return ImpactResult(**keep)
 
 
@@ -537,10 +660,10 @@ def deformation_energies(config: ImpactConfig,
                          result: ImpactResult) -> tuple[np.ndarray, np.ndarray]:
     """Deformation energies e1, e2 [J] behind the EES of a result: E = m EES^2 / 2."""
     with np.errstate(invalid="ignore"):  # a fixed object (m = inf) has EES 0 and E 0
-        e1 = deformation_energy(config.m1, result.ees1)
-        e2 = deformation_energy(config.m2, result.ees2)
-    return (np.where(np.isposinf(config.m1), 0.0, e1),
-            np.where(np.isposinf(config.m2), 0.0, e2))
+        e1 = deformation_energy(config.m[:, 0], result.ees[:, 0])
+        e2 = deformation_energy(config.m[:, 1], result.ees[:, 1])
+    return (np.where(np.isposinf(config.m[:, 0]), 0.0, e1),
+            np.where(np.isposinf(config.m[:, 1]), 0.0, e2))
 
 
 def solve_impact(config: ImpactConfig,
@@ -587,12 +710,13 @@ def _solve_block(config: ImpactConfig,
                  normal_only: bool = False) -> ImpactResult:
     """Solve one block of impacts (see :func:`solve_impact`)."""
     c = config
-    m1, m2, i1, i2 = c.m1, c.m2, c.izz1, c.izz2
+    m1, m2, i1, i2 = c.m[:, 0], c.m[:, 1], c.izz[:, 0], c.izz[:, 1]
+    vx1, vx2, vy1, vy2 = c.vx[:, 0], c.vx[:, 1], c.vy[:, 0], c.vy[:, 1]
     eps, mu = c.restitution, c.contact_friction
     f = contact_frame(c)
     nx, ny, tx, ty, u_t, u_n = f.nx, f.ny, f.tx, f.ty, f.u_t, f.u_n
-    r1x, r1y = c.poi_x - c.x1, c.poi_y - c.y1
-    r2x, r2y = c.poi_x - c.x2, c.poi_y - c.y2
+    r1x, r1y = c.poi_x - c.x[:, 0], c.poi_y - c.y[:, 0]
+    r2x, r2y = c.poi_x - c.x[:, 1], c.poi_y - c.y[:, 1]
     approaching = u_n < 0.0
 
     r1t, r1n = r1x * tx + r1y * ty, r1x * nx + r1y * ny
@@ -631,12 +755,12 @@ def _solve_block(config: ImpactConfig,
 
     # momentum and angular momentum balances (the Collision Calculation Uncertainty paper, eqs.
     # 6-11)
-    vx1p = c.vx1 + impulse_x / m1
-    vy1p = c.vy1 + impulse_y / m1
-    vx2p = c.vx2 - impulse_x / m2
-    vy2p = c.vy2 - impulse_y / m2
-    w1p = c.yaw_rate1 + (r1x * impulse_y - r1y * impulse_x) / i1
-    w2p = c.yaw_rate2 - (r2x * impulse_y - r2y * impulse_x) / i2
+    vx1p = vx1 + impulse_x / m1
+    vy1p = vy1 + impulse_y / m1
+    vx2p = vx2 - impulse_x / m2
+    vy2p = vy2 - impulse_y / m2
+    w1p = c.yaw_rate[:, 0] + (r1x * impulse_y - r1y * impulse_x) / i1
+    w2p = c.yaw_rate[:, 1] - (r2x * impulse_y - r2y * impulse_x) / i2
 
     # energy loss from the impulse alone, E = -(S.u + S^T K S / 2), which is
     # the difference of the kinetic energies without their cancellation
@@ -651,10 +775,10 @@ def _solve_block(config: ImpactConfig,
         loss < -1e-12 * (np.abs(s_t * u_t) + np.abs(s_n * u_n)))
     loss = np.maximum(loss, 0.0)  # rounding only; the model never gains energy
     e1, e2 = energy_split(loss, m1, m2, stiffness_ratio)
-    dvx1, dvy1 = vx1p - c.vx1, vy1p - c.vy1
-    dvx2, dvy2 = vx2p - c.vx2, vy2p - c.vy2
-    pdof1, clock1 = _pdof(impulse_x, impulse_y, c.yaw1)
-    pdof2, clock2 = _pdof(-impulse_x, -impulse_y, c.yaw2)
+    dvx1, dvy1 = vx1p - vx1, vy1p - vy1
+    dvx2, dvy2 = vx2p - vx2, vy2p - vy2
+    pdof1, clock1 = _pdof(impulse_x, impulse_y, c.yaw[:, 0])
+    pdof2, clock2 = _pdof(-impulse_x, -impulse_y, c.yaw[:, 1])
     none = ~approaching
     nan = np.full(m1.shape, np.nan)
     result = ImpactResult(
@@ -662,18 +786,17 @@ def _solve_block(config: ImpactConfig,
         normal_x=nx, normal_y=ny,
         closing_speed=-u_n, sliding_speed=u_t,
         impulse_t=s_t, impulse_n=s_n, impulse_x=impulse_x, impulse_y=impulse_y,
-        vx1_post=vx1p, vy1_post=vy1p, yaw_rate1_post=w1p,
-        vx2_post=vx2p, vy2_post=vy2p, yaw_rate2_post=w2p,
-        delta_vx1=dvx1, delta_vy1=dvy1, delta_vx2=dvx2, delta_vy2=dvy2,
-        delta_v1=velocity_change(dvx1, dvy1), delta_v2=velocity_change(dvx2, dvy2),
-        energy_loss=loss, ees1=ees_from_energy(e1, m1), ees2=ees_from_energy(e2, m2),
-        velocity_angle_change1=angle_between(c.vx1, c.vy1, vx1p, vy1p),
-        velocity_angle_change2=angle_between(c.vx2, c.vy2, vx2p, vy2p),
-        pdof1=np.where(none, nan, pdof1), pdof2=np.where(none, nan, pdof2),
-        pdof_clock1=np.where(none, 0, clock1), pdof_clock2=np.where(none, 0, clock2),
+        vx_post=_pair(vx1p, vx2p), vy_post=_pair(vy1p, vy2p), yaw_rate_post=_pair(w1p, w2p),
+        delta_vx=_pair(dvx1, dvx2), delta_vy=_pair(dvy1, dvy2),
+        delta_v=_pair(velocity_change(dvx1, dvy1), velocity_change(dvx2, dvy2)),
+        energy_loss=loss, ees=_pair(ees_from_energy(e1, m1), ees_from_energy(e2, m2)),
+        velocity_angle_change=_pair(angle_between(vx1, vy1, vx1p, vy1p),
+                                    angle_between(vx2, vy2, vx2p, vy2p)),
+        pdof=_pair(np.where(none, nan, pdof1), np.where(none, nan, pdof2)),
+        pdof_clock=_pair(np.where(none, 0, clock1), np.where(none, 0, clock2)),
     )
     if np.any(created):
         fallback = _solve_block(config, stiffness_ratio, False)
-        result = ImpactResult(*(np.where(created, b, a)
+        result = ImpactResult(*(np.where(created.reshape((-1,) + (1,) * (a.ndim - 1)), b, a)
                                 for a, b in zip(result, fallback, strict=True)))
     return result

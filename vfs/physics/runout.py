@@ -1,15 +1,13 @@
 """Post-crash run-out: vehicles sliding and rolling from the separation to rest.
 
-After the impact each vehicle moves as a planar rigid body with three degrees
-of freedom (CG position x, y and yaw) on four wheels, steering angle 0, until
-the tyre forces have dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash
-movement"): whether a vehicle was "rolling or sliding ... has a huge influence
-on the amount of energy dissipated", which is why a time-forward vehicle model
-replaces an assumed mean deceleration; the Collision Calculation Uncertainty paper: the rest
-positions are the
-criterion a simulation is judged by (its Marquard run-out is the energy-only
-alternative); the Modeling Head-On Collisions paper: frontal deformation can lock wheels, hence a
-brake
+After the impact each vehicle moves as a planar rigid body with three degrees of freedom (CG
+position x, y and yaw) on four wheels, steering angle 0, until the tyre forces have
+dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash movement"): whether a
+vehicle was "rolling or sliding ... has a huge influence on the amount of energy
+dissipated", which is why a time-forward vehicle model replaces an assumed mean
+deceleration; the Collision Calculation Uncertainty paper: the rest positions are the
+criterion a simulation is judged by (its Marquard run-out is the energy-only alternative);
+the Modeling Head-On Collisions paper: frontal deformation can lock wheels, hence a brake
 factor per wheel.
 
 Wheels sit at (L1, +-track/2) and (-L2, +-track/2) in the vehicle frame, in the
@@ -260,12 +258,34 @@ class RunoutResult(NamedTuple):
 
 
 class PairRunoutResult(NamedTuple):
-    """Result of :func:`run_out_pair` for N collisions.
+    """Result of :func:`run_out_pair` for N collisions: the fields of :class:`RunoutResult`
+    with a vehicle axis.
+
+    Axis 1, after the case axis, is the vehicle (vehicle 1 at index 0), as in
+    :class:`vfs.physics.precrash_result.KinematicState`: ``field[:, 0]`` is vehicle 1's
+    :class:`RunoutResult` field and ``field[:, 1]`` vehicle 2's.
 
     Attributes
     ----------
-    result1, result2 : RunoutResult
-        Run-out of vehicle 1 and of vehicle 2 (same path times).
+    rest_x, rest_y : ndarray (N, 2)
+        CG rest position [m] (where ``at_rest`` is False: the position at the
+        end of the simulated time).
+    rest_yaw : ndarray (N, 2)
+        Rest heading [rad], not wrapped (the accumulated yaw angle).
+    time_to_rest : ndarray (N, 2)
+        Time from the start of the run-out to rest [s]; NaN where the vehicle
+        was still moving at the end of the simulated time.
+    distance : ndarray (N, 2)
+        Length of the CG path [m].
+    at_rest : ndarray of bool (N, 2)
+        True where the vehicle came to rest within ``max_time``.
+    path : ndarray (N, 2, K, 3)
+        CG pose (x [m], y [m], yaw [rad]) every ``path_interval``, from t = 0;
+        after a vehicle has stopped its samples repeat the rest pose.
+    path_t : ndarray (K,)
+        Times of the path samples [s] (both vehicles).
+    kinetic_energy : ndarray (N, 2, K)
+        Kinetic energy, translational plus rotational [J], at the path samples.
     secondary_collision : ndarray of bool (N,)
         True where the outlines, after having separated (overlap area <=
         :data:`vfs.physics.geometry.AREA_TOLERANCE`), overlapped again.
@@ -274,10 +294,29 @@ class PairRunoutResult(NamedTuple):
         NaN where there is none.
     """
 
-    result1: RunoutResult
-    result2: RunoutResult
+    rest_x: np.ndarray
+    rest_y: np.ndarray
+    rest_yaw: np.ndarray
+    time_to_rest: np.ndarray
+    distance: np.ndarray
+    at_rest: np.ndarray
+    path: np.ndarray
+    path_t: np.ndarray
+    kinetic_energy: np.ndarray
     secondary_collision: np.ndarray
     secondary_collision_time: np.ndarray
+
+    @classmethod
+    def from_batch(cls, result: RunoutResult, secondary_collision: np.ndarray,
+                   secondary_collision_time: np.ndarray) -> PairRunoutResult:
+        """Pair result from the :class:`RunoutResult` of a batch of 2N vehicles that holds
+        every vehicle 1 (rows 0..N-1) before every vehicle 2 (rows N..2N-1).
+        """
+        n = result.rest_x.shape[0] // 2
+        fields = {name: a if name == "path_t" else np.stack([a[:n], a[n:]], axis=1)
+                  for name, a in zip(RunoutResult._fields, result, strict=True)}
+        return cls(**fields, secondary_collision=secondary_collision,
+                   secondary_collision_time=secondary_collision_time)
 
 
 # ----------------------------------------------------------------------------
@@ -972,8 +1011,4 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
                     on_step=tracker)
-    first = RunoutResult(*(a if name == "path_t" else a[:n]
-                           for name, a in zip(RunoutResult._fields, res, strict=True)))
-    second = RunoutResult(*(a if name == "path_t" else a[n:]
-                            for name, a in zip(RunoutResult._fields, res, strict=True)))
-    return PairRunoutResult(first, second, tracker.secondary, tracker.time)
+    return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

@@ -252,9 +252,8 @@ def plot_poi_positions(comparison: Comparison, path: str | os.PathLike[str]) -> 
 
 def plot_boxplots(comparison: Comparison, path: str | os.PathLike[str]) -> None:
     """The Momentum Based Impact Model paper's Figure 6: boxplots of delta-v, EES and the change
-    of velocity angle
-    for (a) both full and (b) both sliding, reconstruction vs VFS, equal axes;
-    whiskers at the minimum and maximum.
+    of velocity angle for (a) both full and (b) both sliding, reconstruction vs VFS, equal
+    axes; whiskers at the minimum and maximum.
     """
     pairs = comparison.pairs
     names = [o for o in TABLE1_OUTCOMES if f"reference_{o}" in pairs.columns]

@@ -283,7 +283,7 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
     layers: list[Layer] = []
     focus: list[np.ndarray] = []
     near: list[np.ndarray] = []
-    for j, (veh, res) in enumerate(((batch.vehicle1, ro.result1), (batch.vehicle2, ro.result2))):
+    for j, veh in enumerate((batch.vehicle1, batch.vehicle2)):
         color = COLORS[j]
         p = batch.paths
         row = i + j * n
@@ -305,16 +305,15 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
             st = pre.impact_state
             x0 = np.array([st.x[i, j], st.y[i, j]])
             pre_v = np.array([st.vx[i, j], st.vy[i, j]])
-            post_v = np.array([getattr(imp, f"vx{j + 1}_post")[i],
-                               getattr(imp, f"vy{j + 1}_post")[i]])
+            post_v = np.array([imp.vx_post[i, j], imp.vy_post[i, j]])
             layers.append(Layer("arrow", np.array([x0, x0 + ARROW_TIME * pre_v]), color, "-",
                                 overview=False))
             layers.append(Layer("arrow", np.array([x0, x0 + ARROW_TIME * post_v]), color, "--",
                                 overview=False))
-            if not np.isnan(res.rest_x[i]):
-                layers.append(Layer("path", np.asarray(res.path[i])[:, :2], color, "-",
+            if not np.isnan(ro.rest_x[i, j]):
+                layers.append(Layer("path", np.asarray(ro.path[i, j])[:, :2], color, "-",
                                     "run-out path", size=0.8))
-                o = vehicle_outline(v, [res.rest_x[i]], [res.rest_y[i]], [res.rest_yaw[i]])[0]
+                o = vehicle_outline(v, [ro.rest_x[i, j]], [ro.rest_y[i, j]], [ro.rest_yaw[i, j]])[0]
                 layers.append(_outline_layer(o, color, "-", "at rest", 0.35))
                 near.append(o)
         else:
@@ -332,11 +331,11 @@ def case_scene(batch: Any, results: Any, index: int = 0, *, trace: Any = None,
         layers.append(_contact_plane(poi, float(pre.cp_angle[i]), "black", "contact plane"))
         layers.append(Layer("marker", poi[None, :], "black", "*", "POI", size=12.0))
         kind = IMPACT_TYPE_NAMES[int(imp.impact_type[i])]
-        info = (f"{kind} impact, delta-v {imp.delta_v1[i] * KMH_PER_MS:.1f} / "
-                f"{imp.delta_v2[i] * KMH_PER_MS:.1f} km/h")
+        info = (f"{kind} impact, delta-v {imp.delta_v[i, 0] * KMH_PER_MS:.1f} / "
+                f"{imp.delta_v[i, 1] * KMH_PER_MS:.1f} km/h")
         if label is None:  # a panel of several (a label) has the EES in its page's table
-            info += (f", EES {imp.ees1[i] * KMH_PER_MS:.1f} / "
-                     f"{imp.ees2[i] * KMH_PER_MS:.1f} km/h")
+            info += (f", EES {imp.ees[i, 0] * KMH_PER_MS:.1f} / "
+                     f"{imp.ees[i, 1] * KMH_PER_MS:.1f} km/h")
     else:
         info = f"no collision, closest approach {pre.min_distance[i]:.2f} m"
     pts = np.vstack(focus) if focus else np.zeros((0, 2))

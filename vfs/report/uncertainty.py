@@ -96,8 +96,7 @@ def _pct(v: Any) -> str:
 
 def plot_relative_half_widths(bands: pd.DataFrame, path: Path) -> Path:
     """Box plots of the relative half-width (the +- % of the Collision Calculation Uncertainty
-    paper) per ratio outcome,
-    full and sliding nominal impacts side by side.
+    paper) per ratio outcome, full and sliding nominal impacts side by side.
     """
     data = bands[bands["kind"] == "ratio"]
     outcomes = list(dict.fromkeys(data["outcome"]))

@@ -400,18 +400,18 @@ def reconstruction_rows(batch: CaseBatch, res: CaseResults, rows: np.ndarray,
     cols["impact_type"] = impact_type_names(imp.impact_type[rows])
     for i in (1, 2):
         for name in ("vx", "vy", "yaw_rate"):
-            cols[f"{name}{i}_post"] = getattr(imp, f"{name}{i}_post")[rows]
+            cols[f"{name}{i}_post"] = getattr(imp, f"{name}_post")[rows, i - 1]
     for name in ("delta_v", "ees"):
         for i in (1, 2):
-            cols[f"{name}{i}"] = getattr(imp, f"{name}{i}")[rows]
+            cols[f"{name}{i}"] = getattr(imp, name)[rows, i - 1]
     cols["energy_loss"] = imp.energy_loss[rows]
     for i in (1, 2):
-        cols[f"pdof{i}"] = getattr(imp, f"pdof{i}")[rows]
+        cols[f"pdof{i}"] = imp.pdof[rows, i - 1]
     for i in (1, 2):
-        cols[f"velocity_angle_change{i}"] = getattr(imp, f"velocity_angle_change{i}")[rows]
-    for i, r in ((1, ro.result1), (2, ro.result2)):
-        cols[f"rest_x{i}"], cols[f"rest_y{i}"] = r.rest_x[rows], r.rest_y[rows]
-        cols[f"rest_yaw{i}"] = r.rest_yaw[rows]
+        cols[f"velocity_angle_change{i}"] = imp.velocity_angle_change[rows, i - 1]
+    for i in (1, 2):
+        cols[f"rest_x{i}"], cols[f"rest_y{i}"] = ro.rest_x[rows, i - 1], ro.rest_y[rows, i - 1]
+        cols[f"rest_yaw{i}"] = ro.rest_yaw[rows, i - 1]
     return pd.DataFrame(cols)
 
 
@@ -533,7 +533,7 @@ def generate_database(preset: str | Preset = "default", n_cases: int | None = No
     if p.frontal_only:
         frontal = np.zeros(13, dtype=bool)  # index = clock direction 1-12 (0: none)
         frontal[[10, 11, 12, 1, 2]] = True
-        keep &= frontal[res.impact.pdof_clock1] & frontal[res.impact.pdof_clock2]
+        keep &= frontal[res.impact.pdof_clock[:, 0]] & frontal[res.impact.pdof_clock[:, 1]]
     chosen = np.flatnonzero(keep)[:n]
     if chosen.shape[0] < n:
         raise ParameterError(

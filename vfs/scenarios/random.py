@@ -33,7 +33,7 @@ def random_impact_configs(rng: np.random.Generator, n: int) -> Any:
     from vfs.physics.impact import ImpactConfig
 
     m = rng.uniform(800, 2600, (2, n))
-    return ImpactConfig.from_arrays(
+    return ImpactConfig.from_columns(
         m1=m[0], izz1=m[0] * rng.uniform(1.5, 2.2, n), x1=rng.uniform(-2, 0, n),
         y1=rng.uniform(-1, 1, n), yaw1=rng.uniform(-np.pi, np.pi, n),
         vx1=rng.uniform(-30, 30, n), vy1=rng.uniform(-30, 30, n),

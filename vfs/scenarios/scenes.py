@@ -3,14 +3,13 @@
 This module (entry point :func:`generate_scenes`; the concepts live in
 :mod:`~vfs.scenarios.fleet`, :mod:`~vfs.scenarios.catalogue`,
 :mod:`~vfs.scenarios.speed_profile`, :mod:`~vfs.scenarios.road`,
-:mod:`~vfs.scenarios.placement` and :mod:`~vfs.scenarios.designs`) builds the *scenes*
-of a synthetic accident database: two passenger cars per case
+:mod:`~vfs.scenarios.placement` and :mod:`~vfs.scenarios.designs`) builds the *scenes* of a
+synthetic accident database: two passenger cars per case
 (:data:`vfs.scenarios.fleet.FLEET`), the road (friction, surface, curvature) and
 PreCrash-Matrix-like trajectories of both participants that collide at a designed time t*
-(or pass each other
-at a designed lateral gap, for near misses).  Reconstructions (impact outcomes) are not
-computed here.  Everything is SI inside (m, s, kg, rad, m/s); speeds given in km/h in the
-documentation are converted where the defaults are defined.
+(or pass each other at a designed lateral gap, for near misses).  Reconstructions (impact
+outcomes) are not computed here.  Everything is SI inside (m, s, kg, rad, m/s); speeds given
+in km/h in the documentation are converted where the defaults are defined.
 
 Accident types (codes of the German/Austrian accident-type catalogue,
 :data:`vfs.scenarios.catalogue.SCENARIO_TYPES`;

@@ -1,19 +1,16 @@
 """Monte-Carlo bands of the collision outcomes and their summary statistics.
 
-The Collision Calculation Uncertainty paper (Krzemien et al., uncertainty of vehicle collision
-calculations) shows
-that impact speeds back-calculated from a Kudlich-Slibar impact and a
-post-impact motion by different methods deviate by up to +-13 % even for a
-documented crash test and up to +-28 % when the road friction is sampled; it
-samples the unknowns uniformly by Monte-Carlo and keeps the combinations
-consistent with the rest positions.
-:func:`run_uncertainty` propagates the uncertain inputs
-(:mod:`vfs.uncertainty.config`, :mod:`vfs.uncertainty.sampling`) through the
-model (:mod:`vfs.uncertainty.model`) and reports, per case and outcome, the
-median, the 5-95 % band and the relative half-width (p95 - p5) / (2 median),
-the "+- %" of the Collision Calculation Uncertainty paper; :func:`band_summary`
-and :func:`coverage` summarise the bands over the cases.  SI units inside; km/h
-and degrees only in reports.
+The Collision Calculation Uncertainty paper (Krzemien et al., uncertainty of vehicle
+collision calculations) shows that impact speeds back-calculated from a Kudlich-Slibar
+impact and a post-impact motion by different methods deviate by up to +-13 % even for a
+documented crash test and up to +-28 % when the road friction is sampled; it samples the
+unknowns uniformly by Monte-Carlo and keeps the combinations consistent with the rest
+positions. :func:`run_uncertainty` propagates the uncertain inputs
+(:mod:`vfs.uncertainty.config`, :mod:`vfs.uncertainty.sampling`) through the model
+(:mod:`vfs.uncertainty.model`) and reports, per case and outcome, the median, the 5-95 %
+band and the relative half-width (p95 - p5) / (2 median), the "+- %" of the Collision
+Calculation Uncertainty paper; :func:`band_summary` and :func:`coverage` summarise the bands
+over the cases.  SI units inside; km/h and degrees only in reports.
 """
 
 from __future__ import annotations

@@ -154,17 +154,17 @@ class CaseSet(NamedTuple):
 
         eps, mu = impact_parameters_or_default(col("restitution"), col("contact_friction"),
                                                ImpactParams())
-        config = ImpactConfig.from_arrays(
+        config = ImpactConfig.from_columns(
             m1=v1.mass, izz1=v1.yaw_inertia, m2=v2.mass, izz2=v2.yaw_inertia,
             **{k: col(k) for k in ("x1", "y1", "yaw1", "vx1", "vy1", "yaw_rate1", "x2", "y2",
                                    "yaw2", "vx2", "vy2", "yaw_rate2", "poi_x", "poi_y",
                                    "cp_angle")},
             restitution=eps, contact_friction=mu)
         pen, ok = estimate_penetration(v1, v2, config)
-        o1 = vehicle_outline(v1, config.x1, config.y1, config.yaw1)
-        o2 = vehicle_outline(v2, config.x2, config.y2, config.yaw2)
-        geo = contact_geometry(o1, o2, np.stack([config.x1, config.y1], 1),
-                               np.stack([config.x2, config.y2], 1))
+        o1 = vehicle_outline(v1, config.x[:, 0], config.y[:, 0], config.yaw[:, 0])
+        o2 = vehicle_outline(v2, config.x[:, 1], config.y[:, 1], config.yaw[:, 1])
+        geo = contact_geometry(o1, o2, np.stack([config.x[:, 0], config.y[:, 0]], 1),
+                               np.stack([config.x[:, 1], config.y[:, 1]], 1))
         sd = _database_sd(r, config)
         return cls(ids, v1, v2, config, cases["road_friction"].to_numpy(float),
                    cases["road_surface"].astype(str).to_numpy(),
@@ -190,7 +190,7 @@ def _database_sd(r: pd.DataFrame, c: ImpactConfig) -> dict[str, np.ndarray]:
     out["poi_shift_t"] = np.hypot(sx * ct, sy * st)
     out["poi_shift_n"] = np.hypot(sx * st, sy * ct)
     for i in (1, 2):
-        vx, vy = getattr(c, f"vx{i}"), getattr(c, f"vy{i}")
+        vx, vy = c.vx[:, i - 1], c.vy[:, i - 1]
         speed = np.hypot(vx, vy)
         with np.errstate(invalid="ignore", divide="ignore"):
             out[f"speed{i}"] = np.where(speed > 1e-6,
@@ -202,10 +202,10 @@ def _database_sd(r: pd.DataFrame, c: ImpactConfig) -> dict[str, np.ndarray]:
 def _shifted_outlines(v1: VehicleArrays, v2: VehicleArrays, c: ImpactConfig,
                       tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outlines with both vehicles moved kinematically by ``tau`` [s] (negative: back)."""
-    o1 = vehicle_outline(v1, c.x1 + tau * c.vx1, c.y1 + tau * c.vy1,
-                         c.yaw1 + tau * c.yaw_rate1)
-    o2 = vehicle_outline(v2, c.x2 + tau * c.vx2, c.y2 + tau * c.vy2,
-                         c.yaw2 + tau * c.yaw_rate2)
+    t = np.asarray(tau)[..., None]
+    x, y, yaw = c.x + t * c.vx, c.y + t * c.vy, c.yaw + t * c.yaw_rate
+    o1 = vehicle_outline(v1, x[:, 0], y[:, 0], yaw[:, 0])
+    o2 = vehicle_outline(v2, x[:, 1], y[:, 1], yaw[:, 1])
     return o1, o2
 
 

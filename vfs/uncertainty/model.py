@@ -132,15 +132,15 @@ def _velocities(c0: ImpactConfig, col: Mapping[str, np.ndarray]
     """
     vel = {}
     for i in (1, 2):
-        vx, vy = getattr(c0, f"vx{i}"), getattr(c0, f"vy{i}")
+        vx, vy = c0.vx[:, i - 1], c0.vy[:, i - 1]
         speed = np.hypot(vx, vy)
-        yaw = getattr(c0, f"yaw{i}")
+        yaw = c0.yaw[:, i - 1]
         moving = speed > 1e-3
         dx = np.where(moving, vx / np.where(moving, speed, 1.0), np.cos(yaw))
         dy = np.where(moving, vy / np.where(moving, speed, 1.0), np.sin(yaw))
         s = col[f"speed{i}"]
         scale = np.where(speed > 0.5, s / np.where(speed > 0.5, speed, 1.0), 1.0)
-        vel[i] = (dx * s, dy * s, getattr(c0, f"yaw_rate{i}") * scale)
+        vel[i] = (dx * s, dy * s, c0.yaw_rate[:, i - 1] * scale)
     return vel
 
 
@@ -155,8 +155,8 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     pose = {}
     for i in (1, 2):
         vx, vy, w = vel[i]
-        pose[i] = (getattr(c0, f"x{i}") + tau * vx, getattr(c0, f"y{i}") + tau * vy,
-                   getattr(c0, f"yaw{i}") + tau * w)
+        pose[i] = (c0.x[:, i - 1] + tau * vx, c0.y[:, i - 1] + tau * vy,
+                   c0.yaw[:, i - 1] + tau * w)
     poi_x, poi_y, cp = c0.poi_x.copy(), c0.poi_y.copy(), c0.cp_angle.copy()
     fallback = np.zeros(rows.shape[0], dtype=bool)
     moved = np.flatnonzero(np.abs(tau) > 1e-12)
@@ -179,24 +179,26 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     cp = cp + col["cp_angle"]
     # masses; the yaw inertia keeps its radius of gyration
     m1, m2 = col["mass1"], col["mass2"]
-    izz1, izz2 = c0.izz1 * m1 / c0.m1, c0.izz2 * m2 / c0.m2
+    izz1, izz2 = c0.izz[:, 0] * m1 / c0.m[:, 0], c0.izz[:, 1] * m2 / c0.m[:, 1]
+
+    def pair(one: np.ndarray, two: np.ndarray) -> np.ndarray:
+        return np.stack([one, two], axis=1)
+
     # POI shift along the turned plane's angle and along its normal from vehicle 2
     # towards vehicle 1 (the impact model's contact frame)
     turned = ImpactConfig(
-        m1, izz1, pose[1][0], pose[1][1], pose[1][2], vel[1][0], vel[1][1], vel[1][2],
-        m2, izz2, pose[2][0], pose[2][1], pose[2][2], vel[2][0], vel[2][1], vel[2][2],
-        poi_x, poi_y, cp, col["restitution"], col["contact_friction"])
+        m=pair(m1, m2), izz=pair(izz1, izz2), x=pair(pose[1][0], pose[2][0]),
+        y=pair(pose[1][1], pose[2][1]), yaw=pair(pose[1][2], pose[2][2]),
+        vx=pair(vel[1][0], vel[2][0]), vy=pair(vel[1][1], vel[2][1]),
+        yaw_rate=pair(vel[1][2], vel[2][2]), poi_x=poi_x, poi_y=poi_y, cp_angle=cp,
+        restitution=col["restitution"], contact_friction=col["contact_friction"])
     frame = contact_frame(turned)
     poi_x = poi_x + col["poi_shift_t"] * np.cos(cp) + col["poi_shift_n"] * frame.nx
     poi_y = poi_y + col["poi_shift_t"] * np.sin(cp) + col["poi_shift_n"] * frame.ny
     # the simulation's impact and run-out stages, without effects
     k = rows.shape[0]
-
-    def both(name: str) -> np.ndarray:
-        return np.stack([getattr(turned, f"{name}1"), getattr(turned, f"{name}2")], axis=1)
-
-    vx, vy = both("vx"), both("vy")
-    state = KinematicState(both("x"), both("y"), both("yaw"), vx, vy, both("yaw_rate"),
+    vx, vy = turned.vx, turned.vy
+    state = KinematicState(turned.x, turned.y, turned.yaw, vx, vy, turned.yaw_rate,
                            np.hypot(vx, vy))
     runs = _Cases(v1._replace(mass=m1, yaw_inertia=izz1), v2._replace(mass=m2, yaw_inertia=izz2),
                   col["road_friction"])
@@ -211,14 +213,14 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                       secondary_collisions=False)
     columns: dict[str, np.ndarray] = {"energy_loss": res.energy_loss,
                                       "closing_speed": res.closing_speed}
-    for i, r in ((1, ro.result1), (2, ro.result2)):
+    for i in (1, 2):
         columns[f"x{i}"], columns[f"y{i}"] = pose[i][0], pose[i][1]
         for name in ("delta_v", "ees", "pdof", "velocity_angle_change"):
-            columns[f"{name}{i}"] = getattr(res, f"{name}{i}")
-        columns[f"vx{i}_post"] = getattr(res, f"vx{i}_post")
-        columns[f"vy{i}_post"] = getattr(res, f"vy{i}_post")
-        columns[f"rest_x{i}"], columns[f"rest_y{i}"] = r.rest_x, r.rest_y
-        columns[f"rest_yaw{i}"] = r.rest_yaw
+            columns[f"{name}{i}"] = getattr(res, name)[:, i - 1]
+        columns[f"vx{i}_post"] = res.vx_post[:, i - 1]
+        columns[f"vy{i}_post"] = res.vy_post[:, i - 1]
+        columns[f"rest_x{i}"], columns[f"rest_y{i}"] = ro.rest_x[:, i - 1], ro.rest_y[:, i - 1]
+        columns[f"rest_yaw{i}"] = ro.rest_yaw[:, i - 1]
     derived = from_results(columns, sorted({o.vocabulary for o in OUTCOMES} - {"sliding"}))
     out: dict[str, np.ndarray] = {}
     for o in OUTCOMES:
@@ -227,8 +229,7 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
     # an indicator over every run: a separating run is not sliding (0, not NaN)
     out["sliding"] = (res.impact_type == IMPACT_SLIDING).astype(float)
     ordered = {name: out[name] for name in OUTCOME_NAMES}
-    at_rest = np.stack([ro.result1.at_rest, ro.result2.at_rest], axis=1)
-    return ModelRuns(ordered, res.impact_type, at_rest, fallback)
+    return ModelRuns(ordered, res.impact_type, ro.at_rest, fallback)
 
 
 def nominal_runs(cases: CaseSet, config: UncertaintyConfig) -> ModelRuns:

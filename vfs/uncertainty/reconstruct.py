@@ -8,17 +8,14 @@ tolerances, and report that *feasible set* and its spread rather than a
 single number.
 
 The Collision Calculation Uncertainty paper (Krzemien et al.) samples the pre-impact speeds
-uniformly by
-Monte-Carlo, runs the Kudlich-Slibar impact and the post-impact motion and
-keeps the speed pairs that reach the observed rest positions; it shows that
-the built-in optimisers of commercial programs combine incomparable
-quantities (angles, distances, EES) in one weighted error whose "percentage"
-means nothing physically.  Here every observation enters as a *scaled
-residual* r_k = (model_k - observed_k) / sigma_k, where sigma_k is the stated
-standard deviation of that observation (the database's ``<column>_sd``, a
-command-line flag or a documented default) combined with a model-error floor;
-angles are wrapped to (-pi, pi] before scaling.  Residuals are never summed
-raw.
+uniformly by Monte-Carlo, runs the Kudlich-Slibar impact and the post-impact motion and
+keeps the speed pairs that reach the observed rest positions; it shows that the built-in
+optimisers of commercial programs combine incomparable quantities (angles, distances, EES)
+in one weighted error whose "percentage" means nothing physically.  Here every observation
+enters as a *scaled residual* r_k = (model_k - observed_k) / sigma_k, where sigma_k is the
+stated standard deviation of that observation (the database's ``<column>_sd``, a
+command-line flag or a documented default) combined with a model-error floor; angles are
+wrapped to (-pi, pi] before scaling.  Residuals are never summed raw.
 
 1. **Monte-Carlo acceptance.**  The unknowns are the impact speeds (prior:
    uniform, by default 0.5-1.5 times the database's speed, direction kept)
@@ -33,19 +30,17 @@ raw.
    in normal scores: the most plausible point, well defined although there
    are more unknowns than observations); the Jacobian is a batched forward
    difference (one vectorised model call per iteration).
-3. **Exploring the feasible set.**  The feasible set is a thin, often
-   curved region of the input space (the Collision Calculation Uncertainty paper, Figs. 10-11: a
-   lower road
-   friction with a lower speed reaches the same rest position), which prior
-   samples rarely hit.  Parallel random-walk chains, started from the
-   accepted prior samples and the accepted samples of Gaussians around the
-   distinct optima (or from accepted optima), move inside it (ABC-MCMC, Marjoram
-   et al. 2003): a proposal z' = z + s L e is taken when it is feasible and
-   with probability min(1, p(z') / p(z)) (p the prior), which leaves the
-   prior restricted to the feasible set invariant -- the distribution plain
-   acceptance sampling would give, with far fewer model runs.  Covariance
-   L L^T and scale s adapt during the burn-in only (towards a move rate of
-   0.234); every step is one vectorised model call for all chains.
+3. **Exploring the feasible set.**  The feasible set is a thin, often curved region of the
+   input space (the Collision Calculation Uncertainty paper, Figs. 10-11: a lower road
+   friction with a lower speed reaches the same rest position), which prior samples rarely
+   hit.  Parallel random-walk chains, started from the accepted prior samples and the
+   accepted samples of Gaussians around the distinct optima (or from accepted optima), move
+   inside it (ABC-MCMC, Marjoram et al. 2003): a proposal z' = z + s L e is taken when it is
+   feasible and with probability min(1, p(z') / p(z)) (p the prior), which leaves the prior
+   restricted to the feasible set invariant -- the distribution plain acceptance sampling
+   would give, with far fewer model runs.  Covariance L L^T and scale s adapt during the
+   burn-in only (towards a move rate of 0.234); every step is one vectorised model call for
+   all chains.
 
 The *feasible set* is the accepted prior samples plus the chain states after
 the burn-in; the band of an unknown is its 5-95 % range there.  The optimum

@@ -152,8 +152,8 @@ def nominal_inputs(cases: CaseSet, config: UncertaintyConfig) -> np.ndarray:
         "contact_friction": c.contact_friction,
         "poi_shift_t": np.zeros(n), "poi_shift_n": np.zeros(n), "cp_angle": np.zeros(n),
         "penetration_time": cases.penetration,
-        "speed1": np.hypot(c.vx1, c.vy1), "speed2": np.hypot(c.vx2, c.vy2),
-        "mass1": c.m1, "mass2": c.m2,
+        "speed1": np.hypot(c.vx[:, 0], c.vy[:, 0]), "speed2": np.hypot(c.vx[:, 1], c.vy[:, 1]),
+        "mass1": c.m[:, 0], "mass2": c.m[:, 1],
         "wheel_brake1": np.full(n, config.wheel_brake),
         "wheel_brake2": np.full(n, config.wheel_brake),
     }

@@ -138,12 +138,13 @@ def _run_loop(mass: np.ndarray, inertia: np.ndarray, lf: np.ndarray, lr: np.ndar
         if not is_moving:
             cvx = cvy = cr = 0.0
         step = 0
+        col = 0  # next path sample column
+        until_sample = 0  # steps to the next path sample
         # the accelerations "of the previous steps" at t = 0 (load transfer): a trial step
         trial = load_transfer and is_moving
         while True:
             if not trial:
-                if cap > 0 and step % per_sample == 0 and step // per_sample < cap:
-                    col = step // per_sample
+                if until_sample == 0 and col < cap:
                     path[i, col, 0] = px
                     path[i, col, 1] = py
                     path[i, col, 2] = pyaw
@@ -244,6 +245,10 @@ def _run_loop(mass: np.ndarray, inertia: np.ndarray, lf: np.ndarray, lr: np.ndar
             pvx, pvy, pr = cvx, cvy, cr
             cvx, cvy, cr = vx_new, vy_new, r_new
             step += 1
+            if until_sample == 0:
+                until_sample = per_sample
+                col += 1
+            until_sample -= 1
             corner = cr * radius[i]
             if cvx * cvx + cvy * cvy < v2 and corner * corner < v2:
                 is_moving = False

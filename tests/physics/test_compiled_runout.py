@@ -47,10 +47,11 @@ def _batch(seed: int, n: int) -> tuple:
 
 
 def _both(monkeypatch: pytest.MonkeyPatch, *args: object) -> tuple:
-    monkeypatch.setenv(compiled_runout.ENV_SWITCH, "0")
-    assert not compiled_runout.enabled()
+    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "0")
+    assert not compiled_runout.runout_enabled()
     ref = run_out(*args)  # type: ignore[arg-type]
-    monkeypatch.setenv(compiled_runout.ENV_SWITCH, "1")
+    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "1")
+    assert compiled_runout.runout_enabled()
     fast = run_out(*args)  # type: ignore[arg-type]
     return ref, fast
 
@@ -96,7 +97,7 @@ def test_compiled_runout_monte_carlo_settings(monkeypatch: pytest.MonkeyPatch) -
 
 def test_compiled_runout_closed_form(monkeypatch: pytest.MonkeyPatch) -> None:
     """A straight slide on locked wheels stops after v^2 / (2 mu g) in both paths."""
-    monkeypatch.setenv(compiled_runout.ENV_SWITCH, "1")
+    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "1")
     car = stack_vehicles([VehicleParams()])
     res = run_out(car, RunoutState.from_arrays(0, 0, 0, 10.0, 0, 0), 0.8,
                   wheel_brake=(1, 1, 1, 1))

@@ -21,8 +21,13 @@ to a tolerance that allows for an ulp in the step and its amplification over
 the steps to rest, and reports bit identity separately).
 
 numba is an optional extra (``pip install vfs[fast]``).  :func:`enabled` says
-whether :func:`vfs.physics.runout.run_out` uses this kernel: where numba is
-installed and the environment variable ``VFS_COMPILED`` is not ``0``.
+whether the bit-identical compiled kernels run (:mod:`vfs.gym.compiled`): where
+numba is installed and the environment variable ``VFS_COMPILED`` is not ``0``.
+This kernel agrees with the reference only to rounding and gave no single-core
+gain on the machine it was measured on (docs/performance-kernels.md), so
+:func:`vfs.physics.runout.run_out` uses it only on request,
+``VFS_COMPILED_RUNOUT=1`` (:func:`runout_enabled`).  Its blocks of vehicles run in
+numba's threads (OpenMP where available: do not fork a process that has used it).
 """
 
 from __future__ import annotations
@@ -43,6 +48,9 @@ AVAILABLE = importlib.util.find_spec("numba") is not None
 #: Environment variable that switches the compiled kernels off ("0").
 ENV_SWITCH = "VFS_COMPILED"
 
+#: Environment variable that switches the compiled run-out on ("1").
+RUNOUT_SWITCH = "VFS_COMPILED_RUNOUT"
+
 #: Path samples [samples] held in the first pass, all vehicles together (at least 64 per
 #: vehicle); the vehicles that need more columns run again with room for all of theirs.
 _FIRST_PASS_SAMPLES = 2**21
@@ -51,6 +59,11 @@ _FIRST_PASS_SAMPLES = 2**21
 def enabled() -> bool:
     """True where numba is installed and ``VFS_COMPILED`` is not "0" (read at every call)."""
     return AVAILABLE and os.environ.get(ENV_SWITCH, "1") != "0"
+
+
+def runout_enabled() -> bool:
+    """True where :func:`enabled` and ``VFS_COMPILED_RUNOUT`` is "1" (read at every call)."""
+    return enabled() and os.environ.get(RUNOUT_SWITCH, "0") == "1"
 
 
 numba_prange = range  # numba.prange inside the compiled kernel

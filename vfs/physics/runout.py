@@ -686,13 +686,14 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
               params: RunoutParams, on_step: StepCallback | None = None) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
-    Without ``on_step`` the vehicles never interact, and where numba is
-    installed the compiled kernel (:mod:`vfs.physics.compiled_runout`) runs
-    them; this loop is the reference it is tested against.
+    Without ``on_step`` the vehicles never interact; on request
+    (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
+    :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
+    reference it is tested against.
     """
     n = state.x.shape[0]
     w = _prepare(vehicles, state, mu, brake, params)
-    if on_step is None and n and compiled_runout.enabled():
+    if on_step is None and n and compiled_runout.runout_enabled():
         return _simulate_compiled(w, params)
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()

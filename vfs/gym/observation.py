@@ -14,6 +14,8 @@ import numpy as np
 from vfs.adas.params import SensorParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, time_to_collision
+from vfs.gym.compiled import rectangle_distance_compiled
+from vfs.physics.compiled_runout import enabled as compiled_enabled
 from vfs.physics.geometry import rectangle_distance
 from vfs.physics.precrash import PrecrashObservation
 
@@ -249,7 +251,8 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: ObservationSettings) 
     ecx, ecy = e_c * ce, e_c * se  # geometric centres, relative to the ego CG
     ocx, ocy = ox + o_c * co, oy + o_c * so
     ehl, ohl = 0.5 * (ef + er), 0.5 * (of + orr)
-    gap = rectangle_distance(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
+    distance = rectangle_distance_compiled if compiled_enabled() else rectangle_distance
+    gap = distance(ecx, ecy, eyaw, ehl, 0.5 * ew, ocx, ocy, oyaw, ohl, 0.5 * ow)
     # object centre relative to the ego's front-bumper centre, ego frame
     dx, dy = ocx - ef * ce, ocy - ef * se
     dvx, dvy = vx[:, o] - vx[:, e], vy[:, o] - vy[:, e]

@@ -55,6 +55,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.physics import compiled_runout
 from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
 from vfs.physics.vehicle import VehicleArrays
 from vfs.units import G
@@ -722,9 +723,17 @@ StepCallback = Callable[[float, RunoutState, np.ndarray], None]
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
               params: RunoutParams, on_step: StepCallback | None = None) -> RunoutResult:
-    """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`."""
+    """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
+
+    Without ``on_step`` the vehicles never interact; on request
+    (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
+    :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
+    reference it is tested against.
+    """
     n = state.x.shape[0]
     w = _prepare(vehicles, state, mu, brake, params)
+    if on_step is None and n and compiled_runout.runout_enabled():
+        return _simulate_compiled(w, params)
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     vx, vy, r = state.vx.copy(), state.vy.copy(), state.yaw_rate.copy()
@@ -790,6 +799,22 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     path = np.stack(poses, axis=1) if n else np.zeros((0, len(poses), 3))
     kinetic = np.stack(energies, axis=1) if n else np.zeros((0, len(energies)))
     path_t = np.arange(len(poses)) * (per_sample * params.dt)
+    return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
+
+
+def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
+    """:func:`_simulate` without step callback, by the compiled kernel (same arithmetic)."""
+    arrays = (w.mass, w.inertia, w.lf, w.lr, w.half_track, w.front_share, w.rear_share,
+              w.lon_transfer, w.lat_transfer, w.radius, w.mu, w.brake_coef.T, w.locked.T,
+              w.static_load.T)
+    consts = (params.dt, params.cornering_stiffness, params.v_stop, SLIP_SPEED_REGULARISATION,
+              SLIP_ANGLE_SPEED_FLOOR, _TINY, _GAMMA)
+    x, y, yaw, _, _, _, steps, distance, moving, path, kinetic = compiled_runout.run_to_rest(
+        arrays, (w.x, w.y, w.yaw, w.vx, w.vy, w.r), consts, params.max_steps,
+        params.steps_per_sample, params.load_transfer)
+    time_to_rest = np.where(moving, np.nan, steps * params.dt)
+    per_sample = params.steps_per_sample
+    path_t = np.arange(path.shape[1]) * (per_sample * params.dt)
     return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
 
 

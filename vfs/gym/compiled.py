@@ -7,7 +7,7 @@ operations, which cost the single environment more than the arithmetic (one
 row) and the vector environment a pass over memory each (many rows).  This
 kernel does the same per row in one loop: the same corner order, the same
 products and sums in the same order of evaluation, float64 throughout, NaN
-propagated as numpy's maximum and minimum propagate it.  cos and sin are the
+propagated as numpy's maximum and minimum propagate it.  The cosine and sine are the
 only functions numpy and the kernel may evaluate with different code; where
 they agree (numpy's float64 cos and sin call the C library's routines on the
 machines we measured) the gaps are bit-identical, which

@@ -56,27 +56,31 @@ def _largest_difference(a: pd.DataFrame, b: pd.DataFrame) -> float:
     return worst
 
 
-def _plot(records: list[dict[str, Any]], path: Path) -> None:
-    import matplotlib
+def plot_sets(sets: dict[str, list[dict[str, Any]]], path: Path) -> None:
+    """Speed-up against workers, one line per labelled set of records (the serial run
+    at 1 worker; the ideal and the 0.75-efficiency lines).
+    """
     from matplotlib.figure import Figure
 
-    matplotlib.rcParams.setdefault("font.size", 10)
     fig = Figure(figsize=(5.5, 4.0))
     ax = fig.add_subplot()
-    top = max(r["workers"] for r in records)
+    top = max(r["workers"] for rs in sets.values() for r in rs)
     ax.plot([1, top], [1, top], color="0.6", ls="--", lw=1, label="ideal")
     ax.plot([1, top], [0.75, 0.75 * top], color="0.8", ls=":", lw=1, label="0.75 efficiency")
-    for engine, marker in (("process", "o"), ("dask", "s")):
-        rs = sorted((r for r in records if r["engine"] in (engine, "serial")),
-                    key=lambda r: r["workers"])
-        if any(r["engine"] == engine for r in rs):
-            ax.plot([r["workers"] for r in rs], [r["speedup"] for r in rs], marker=marker,
-                    label=f"--engine {engine}")
+    markers = iter("os^vD")
+    for label, records in sets.items():
+        for engine in ("process", "dask"):
+            rs = sorted((r for r in records if r["engine"] == engine), key=lambda r: r["workers"])
+            if not rs:
+                continue
+            xs = [1] + [r["workers"] for r in rs]
+            ys = [1.0] + [r["speedup"] for r in rs]
+            ax.plot(xs, ys, marker=next(markers, "o"), label=f"{label}, --engine {engine}")
     ax.set_xlabel("workers (processes)")
     ax.set_ylabel("speed-up of the wall time against --engine serial")
-    n = records[0]["cases"]
-    ax.set_title(f"vfs study, {n:,} cases x {records[0]['runs_per_case']} runs")
-    ax.legend(frameon=False)
+    first = next(iter(sets.values()))[0]
+    ax.set_title(f"vfs study, {first['cases']:,} cases x {first['runs_per_case']} runs")
+    ax.legend(frameon=False, fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=150)
@@ -92,9 +96,16 @@ def main() -> None:  # noqa: D103
                         help="wall seconds of the serial run measured earlier on this machine: "
                              "the serial run is skipped (and the comparison of runs.parquet)")
     parser.add_argument("--out", default="docs/figures")
+    parser.add_argument("--combine", nargs="+", metavar="LABEL=FILE",
+                        help="only draw core_scaling.png from earlier core_scaling.json files")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.combine:
+        sets = {label: json.loads(Path(f).read_text())
+                for label, f in (item.split("=", 1) for item in args.combine)}
+        plot_sets(sets, out / "core_scaling.png")
+        return
     runs_per_case = 1 + len(args.systems.split(","))
     workers = [int(w) for w in args.workers.split(",")]
     plan = ([] if args.serial_wall else [("serial", 1)]) + [("process", w) for w in workers]
@@ -131,7 +142,7 @@ def main() -> None:  # noqa: D103
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     (out / "core_scaling.json").write_text(json.dumps(records, indent=1))
-    _plot(records, out / "core_scaling.png")
+    plot_sets({"this run": records}, out / "core_scaling.png")
 
 
 if __name__ == "__main__":

@@ -26,8 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from vfs.errors import ParameterError
-from vfs.physics.compiled_runout import AVAILABLE
+from vfs.physics.compiled_runout import require_numba
 
 #: Corner signs along the long and the short axis, in the order of
 #: :func:`vfs.physics.geometry.outline_corners` (as ``geometry._UNIT_CORNERS``).
@@ -133,8 +132,7 @@ def rectangle_distance_compiled(ax: npt.ArrayLike, ay: npt.ArrayLike, ayaw: npt.
     ParameterError
         Where numba is not installed.
     """
-    if not AVAILABLE:
-        raise ParameterError("the compiled kernels need numba: pip install 'vfs[fast]'")
+    require_numba()
     args = [np.asarray(a, dtype=float) for a in (ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl,
                                                  bhw)]
     shape = args[0].shape

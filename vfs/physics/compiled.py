@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from vfs.errors import ParameterError
+from vfs.physics.compiled_runout import require_numba
 from vfs.physics.geometry import AREA_TOLERANCE, Overlap, Polygons
 
 try:  # pragma: no cover - depends on the environment
@@ -187,8 +187,7 @@ def overlap_compiled(outline1: npt.ArrayLike, outline2: npt.ArrayLike) -> Overla
     ParameterError
         Where numba is not installed.
     """
-    if not AVAILABLE:
-        raise ParameterError("the compiled kernels need numba: pip install 'vfs[fast]'")
+    require_numba()
     o1 = np.ascontiguousarray(outline1, dtype=float)
     o2 = np.ascontiguousarray(outline2, dtype=float)
     n, k = o1.shape[:2]

@@ -45,6 +45,14 @@ from vfs.errors import ParameterError
 #: costs a few tenths of a second that a command without a run-out need not pay).
 AVAILABLE = importlib.util.find_spec("numba") is not None
 
+
+def require_numba() -> None:
+    """Raise :class:`vfs.errors.ParameterError` where numba (extra ``fast``) is missing: the
+    one check of every compiled kernel (run-out, overlap clip, the gym's gap).
+    """
+    if not AVAILABLE:
+        raise ParameterError("the compiled kernels need numba: pip install 'vfs[fast]'")
+
 #: Environment variable that switches the compiled kernels off ("0").
 ENV_SWITCH = "VFS_COMPILED"
 
@@ -328,8 +336,7 @@ def run_to_rest(arrays: tuple[np.ndarray, ...], state: tuple[np.ndarray, ...],
     ParameterError
         Where numba is not installed.
     """
-    if not AVAILABLE:
-        raise ParameterError("the compiled kernels need numba: pip install 'vfs[fast]'")
+    require_numba()
     loop = _kernel()
     cols = np.ascontiguousarray
     per = tuple(cols(a, dtype=float) for a in arrays[:11])

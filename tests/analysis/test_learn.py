@@ -378,22 +378,3 @@ def test_gcv_smoothing_follows_the_noise():
     lams = [gcv_smoothing(x, 1.0 + 0.5 * x + s * e + 0.3 * np.sin(x), np.ones(60))
             for s in (0.01, 0.3)]
     assert lams[0] < lams[1]
-
-
-def test_spline_is_not_extrapolated_beyond_the_cases_it_was_fitted_on():
-    """Cases of zero weight (rejected by the robust fit) at the end of the feature's range
-    do not extend the spline: its prediction there is the end value of the fitted cases,
-    not the cubic continued into them (which ran to -0.29 rad of contact-plane turn on a
-    battery database where the truth was 0)."""
-    from vfs.analysis.learn import _spline_ls, predict_spline
-
-    x = np.concatenate([np.zeros(8), np.linspace(1.2, 3.1, 60)])
-    y = np.concatenate([np.zeros(8), 0.22 * np.sin(2.0 * np.linspace(1.2, 3.1, 60))])
-    w = np.concatenate([np.zeros(8), np.ones(60)])  # the cluster at 0 rejected
-    spl = _spline_ls(x, y, w)
-    end = predict_spline(spl, np.array([1.2]), 0.0, 3.1)[0]
-    assert (spl.lo, spl.hi) == (1.2, 3.1)
-    np.testing.assert_allclose(predict_spline(spl, np.array([0.0, 0.5]), 0.0, 3.1), end)
-    assert abs(end - 0.22 * np.sin(2.4)) < 0.02
-    # the cubic itself, continued to 0, is far from both the end value and the data
-    assert abs(spl(np.array([0.0]))[0] - end) > 0.05

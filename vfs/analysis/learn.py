@@ -182,26 +182,9 @@ def _fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
 SPLINE_BINS = 80
 
 
-@dataclass(frozen=True)
-class FittedSpline:
-    """A smoothing spline and the abscissas it was fitted on: ``lo``, ``hi`` (the
-    feature's unit) are the smallest and largest x of the cases of positive weight,
-    outside which :func:`predict_spline` holds its end values.
-    """
-
-    spline: Any
-    lo: float
-    hi: float
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        """Spline values at x (no clipping)."""
-        return np.asarray(self.spline(x), float)
-
-
-def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> FittedSpline | None:
+def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
     """Smoothing spline through weighted means of equal x (increasing abscissas; more
-    than :data:`SPLINE_BINS` distinct ones pooled into that many consecutive groups);
-    None with fewer than 5 distinct abscissas of positive weight.
+    than :data:`SPLINE_BINS` distinct ones pooled into that many consecutive groups).
     """
     from scipy.interpolate import make_smoothing_spline
 
@@ -221,8 +204,7 @@ def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> FittedSpline | No
         my = np.bincount(group, sw * my) / gw
         sw = gw
     wn = sw / sw.mean()
-    return FittedSpline(make_smoothing_spline(ux, my, w=wn, lam=gcv_smoothing(ux, my, wn)),
-                        float(xs[0]), float(xs[-1]))
+    return make_smoothing_spline(ux, my, w=wn, lam=gcv_smoothing(ux, my, wn))
 
 
 def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
@@ -279,16 +261,9 @@ def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
     return float(best.x)
 
 
-def predict_spline(spl: FittedSpline, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Spline values, held constant outside [lo, hi] and outside the abscissas the spline
-    was fitted on (no extrapolation: cases a robust fit gave no weight do not extend it;
-    a cluster of such cases at the end of the feature's range once received the
-    extrapolated spline, -0.29 rad of contact-plane turn where the truth was 0).
-    """
-    a, b = max(lo, spl.lo), min(hi, spl.hi)
-    if a > b:  # the fitted abscissas lie outside [lo, hi]: the nearer end value
-        a = b = spl.lo if spl.lo > hi else spl.hi
-    return spl(np.clip(x, a, b))
+def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Spline values, held constant outside [lo, hi] (no extrapolation)."""
+    return np.asarray(spl(np.clip(x, lo, hi)), float)
 
 def robust_scale(r: np.ndarray) -> float:
     """Normal-consistent median absolute deviation of residuals r (their unit)."""
@@ -887,7 +862,7 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
 
 __all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES", "LEARN_SCOPE",
            "MIN_LAW_CASES", "ROBUST_ITERATIONS", "SPLINE_BINS", "SPLINE_ROBUST_ITERATIONS",
-           "ChannelLaw", "FittedSpline",
+           "ChannelLaw",
            "cross_validate_law", "cross_validate_laws", "fit_form", "fold_law_effects", "law_rows",
            "laws_document", "learn",
            "learn_channel", "plugin_source", "predict_spline", "read_laws", "refit_law",

@@ -1,13 +1,14 @@
-"""Threads of the linear-algebra library (BLAS) under vfs's own jobs.
+"""Threads of the numerical libraries (BLAS, OpenMP) under vfs's own jobs.
 
 vfs's numerical work is many small problems (2x2 normal equations, 80x80
 eigenproblems of the spline smoothing, vectorised elementwise kernels), for
 which a multi-threaded BLAS only adds thread hand-offs: on a loaded 2-core
 machine an 80 x 80 ``numpy.linalg.eigh`` took 18 ms with OpenBLAS's
 threads against 0.8 ms with one.  The command line and the study's worker
-processes therefore run with one BLAS thread (:func:`single_threaded_blas`),
-unless the user chose a thread count with ``OPENBLAS_NUM_THREADS``,
-``OMP_NUM_THREADS`` or ``MKL_NUM_THREADS`` (kept as given).
+processes therefore run with one thread per library pool
+(:func:`single_threaded_blas` in this process, :func:`single_threaded_workers`
+for the processes it starts), unless the user chose a thread count with one of
+:data:`THREAD_VARIABLES` (kept as given).
 """
 
 from __future__ import annotations
@@ -16,8 +17,15 @@ import contextlib
 import os
 from collections.abc import Iterator
 
-#: Environment variables by which a user chooses the BLAS thread count (respected).
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: Environment variables by which a user chooses the thread count of a library's pool
+#: (BLAS and OpenMP pools; Arrow's CPU pool follows ``OMP_NUM_THREADS``); respected.
+THREAD_VARIABLES: tuple[str, ...] = (
+    "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS")
+#: What a worker process of a study gets set to 1 (:func:`single_threaded_workers`): the
+#: pools above and duckdb's through ``VFS_THREADS``. A worker is one single-threaded batch,
+#: and W workers with a pool of one thread per core each would oversubscribe the machine.
+WORKER_THREAD_VARIABLES: tuple[str, ...] = (*THREAD_VARIABLES, "VFS_THREADS")
 
 
 @contextlib.contextmanager
@@ -34,4 +42,22 @@ def single_threaded_blas() -> Iterator[None]:
         yield
 
 
-__all__ = ["THREAD_VARIABLES", "single_threaded_blas"]
+@contextlib.contextmanager
+def single_threaded_workers() -> Iterator[None]:
+    """Processes started inside this block get :data:`WORKER_THREAD_VARIABLES` = 1.
+
+    Variables the user has set are left alone; those added are removed again on
+    exit, so this process's environment is unchanged afterwards.
+    """
+    added = [name for name in WORKER_THREAD_VARIABLES if name not in os.environ]
+    for name in added:
+        os.environ[name] = "1"
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
+
+
+__all__ = ["THREAD_VARIABLES", "WORKER_THREAD_VARIABLES", "single_threaded_blas",
+           "single_threaded_workers"]

@@ -52,6 +52,18 @@ def momentum(c: ImpactConfig, vx1, vy1, vx2, vy2):
     return c.m[:, 0] * vx1 + c.m[:, 1] * vx2, c.m[:, 0] * vy1 + c.m[:, 1] * vy2
 
 
+def assert_momentum_conserved(c: ImpactConfig, r) -> np.ndarray:
+    """Linear momentum of the pair before and after the impact equal to 1e-9 of the
+    momentum magnitudes (the impulses on the two vehicles are opposite); returns that
+    scale, the sum of the momentum magnitudes [kg m/s]."""
+    px0, py0 = momentum(c, c.vx[:, 0], c.vy[:, 0], c.vx[:, 1], c.vy[:, 1])
+    px1, py1 = momentum(c, r.vx_post[:, 0], r.vy_post[:, 0], r.vx_post[:, 1], r.vy_post[:, 1])
+    scale = (c.m * np.hypot(c.vx, c.vy)).sum(axis=1)
+    np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
+    np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
+    return scale
+
+
 def angular_momentum(c: ImpactConfig, vx1, vy1, w1, vx2, vy2, w2):
     """About the global origin [kg m^2/s]."""
     return (c.izz[:, 0] * w1 + c.m[:, 0] * (c.x[:, 0] * vy1 - c.y[:, 0] * vx1)
@@ -160,11 +172,7 @@ seeds = st.integers(0, 2**32 - 1)
 def test_momentum_and_angular_momentum_conserved(seed, wide):
     c = random_configs(np.random.default_rng(seed), 256, wide)
     r = solve_impact(c)
-    px0, py0 = momentum(c, c.vx[:, 0], c.vy[:, 0], c.vx[:, 1], c.vy[:, 1])
-    px1, py1 = momentum(c, r.vx_post[:, 0], r.vy_post[:, 0], r.vx_post[:, 1], r.vy_post[:, 1])
-    scale = (c.m * np.hypot(c.vx, c.vy)).sum(axis=1)
-    np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
-    np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
+    scale = assert_momentum_conserved(c, r)
     l0 = angular_momentum(c, *pre_velocities(c))
     l1 = angular_momentum(c, *post_velocities(r))
     lscale = (c.izz[:, 0] * np.abs(c.yaw_rate[:, 0]) + c.izz[:, 1] * np.abs(c.yaw_rate[:, 1])
@@ -370,11 +378,7 @@ def test_normal_restitution_stops_sliding_inside_the_cone(seed, wide):
     assert (np.abs(r.impulse_t[full]) <= c.contact_friction[full] * r.impulse_n[full]
             + 1e-9 * size[full]).all()
     # momentum is conserved and energy never gained, as in the default mode
-    px0, py0 = momentum(c, c.vx[:, 0], c.vy[:, 0], c.vx[:, 1], c.vy[:, 1])
-    px1, py1 = momentum(c, r.vx_post[:, 0], r.vy_post[:, 0], r.vx_post[:, 1], r.vy_post[:, 1])
-    scale = (c.m * np.hypot(c.vx, c.vy)).sum(axis=1)
-    np.testing.assert_array_less(np.abs(px1 - px0), 1e-9 * scale)
-    np.testing.assert_array_less(np.abs(py1 - py0), 1e-9 * scale)
+    assert_momentum_conserved(c, r)
     e0 = kinetic(c, *pre_velocities(c))
     e1 = kinetic(c, *post_velocities(r))
     np.testing.assert_array_less(e1 - e0, 1e-9 * e0)

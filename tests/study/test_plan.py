@@ -162,7 +162,7 @@ def test_deferred_validation_refuses_invalid_data_before_any_chunk(tmp_path) -> 
 def test_workers_get_single_threaded_pools_unless_the_user_set_them(monkeypatch) -> None:  # noqa: ANN001
     import os
 
-    from vfs.study.executors import WORKER_THREAD_VARIABLES, single_threaded_workers
+    from vfs.blas import WORKER_THREAD_VARIABLES, single_threaded_workers
 
     for name in WORKER_THREAD_VARIABLES:
         monkeypatch.delenv(name, raising=False)

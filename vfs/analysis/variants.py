@@ -274,20 +274,20 @@ class VariantSimulator:
             if k not in self._cache and k not in todo:
                 todo[k] = tuple(m)
         items = list(todo.items())
-        for chunk in self._calls(items, lambda item: item[1]):
+        for chunk in self._calls(items):
             for (k, _), r in zip(chunk, self._simulate([m for _, m in chunk]), strict=True):
                 self._cache[k] = r
         return [self._cache[k] for k in keys]
 
-    def _calls(self, items: Sequence[Any], model: Any) -> list[list[Any]]:
-        """``items`` in stacked calls of at most ``max_cases`` cases: those whose model
+    def _calls(self, items: Sequence[tuple[Any, Model]]) -> list[list[tuple[Any, Model]]]:
+        """``(key, model)`` items in stacked calls of at most ``max_cases`` cases: those whose model
         leaves the pre-crash phase as it is (:func:`leaves_precrash`) apart from the
         others, so that their calls share the base model's pre-crash run.
         """
         per_call = max(1, self.max_cases // self.data.n)
-        out: list[list[Any]] = []
+        out: list[list[tuple[Any, Model]]] = []
         for shares in (True, False):
-            group = [it for it in items if leaves_precrash(model(it)) == shares]
+            group = [it for it in items if leaves_precrash(it[1]) == shares]
             out += [group[i:i + per_call] for i in range(0, len(group), per_call)]
         return out
 
@@ -297,7 +297,7 @@ class VariantSimulator:
         stacked calls of at most ``max_cases`` cases, counted in the statistics.
         """
         got: dict[int, np.ndarray] = {}
-        for chunk in self._calls(list(enumerate(models)), lambda item: item[1]):
+        for chunk in self._calls(list(enumerate(models))):
             got.update(zip((i for i, _ in chunk), self._simulate([m for _, m in chunk]),
                            strict=True))
         return [got[i] for i in range(len(models))]
@@ -331,9 +331,7 @@ class VariantSimulator:
         (:func:`leaves_precrash`).
         """
         if self._precrash is None:
-            base = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
-                                    runout=self.params.runout, effects=tuple(self.params.effects))
-            self._precrash = precrash_stage(open_cases(self.data.batch, base), base)
+            self._precrash = precrash_stage(open_cases(self.data.batch, self.params), self.params)
         return self._precrash
 
     def _simulate(self, models: Sequence[Model]) -> list[np.ndarray]:

@@ -38,15 +38,15 @@ import os
 import sys
 import threading
 import uuid
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from vfs.blas import single_threaded_workers
 from vfs.errors import ClusterError, ParameterError
 from vfs.registry import Registry
 from vfs.study.orphans import exit_with_parent
@@ -153,32 +153,6 @@ def _run_serial(tasks: Sequence[RunTask], on_result: OnResult,
                 options: ExecutorOptions) -> None:
     for task in tasks:
         on_result(task, run_task(task))
-
-
-#: Thread pools of the libraries a worker loads, one thread each in the workers of the process
-#: and local dask engines unless set by the user: a worker is one single-threaded batch, and W
-#: workers with a pool of one thread per core each would oversubscribe the machine (BLAS and
-#: OpenMP pools, Arrow's CPU pool through ``OMP_NUM_THREADS``, duckdb through ``VFS_THREADS``).
-WORKER_THREAD_VARIABLES: tuple[str, ...] = (
-    "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS", "VFS_THREADS")
-
-
-@contextmanager
-def single_threaded_workers() -> Iterator[None]:
-    """Processes started inside this block get :data:`WORKER_THREAD_VARIABLES` = 1.
-
-    Variables the user has set are left alone; those added are removed again on
-    exit, so this process's environment is unchanged afterwards.
-    """
-    added = [name for name in WORKER_THREAD_VARIABLES if name not in os.environ]
-    for name in added:
-        os.environ[name] = "1"
-    try:
-        yield
-    finally:
-        for name in added:
-            os.environ.pop(name, None)
 
 
 def _mp_context() -> Any:
@@ -369,7 +343,7 @@ def cpu_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-__all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT", "WORKER_THREAD_VARIABLES",
+__all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT",
            "Executor", "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count",
            "dashboard_link", "notify", "register_executor", "run_windowed",
-           "single_threaded_workers", "worker_versions"]
+           "worker_versions"]

@@ -25,6 +25,8 @@ from vfs.analysis.learn import (
     fit_form,
     learn_channel,
     plugin_source,
+    robust_spline,
+    running_median,
 )
 from vfs.effects import Effect, EffectParameter
 from vfs.effects.learned import (
@@ -149,6 +151,46 @@ def test_robust_fit_ignores_cases_identified_at_a_wrong_minimum():
     ys = np.where(x >= 0.5, 0.1, 0.35) + rng.normal(0, 0.01, x.size)
     c = fit_form("step", x, ys, np.ones_like(x))[2]
     assert x[x < 0.5].max() < c <= x[x >= 0.5].min()
+
+
+def test_running_median_follows_lines_and_steps_and_ignores_isolated_values():
+    # a straight line is its own running median everywhere, the ends included (the
+    # repeated-medians line there); a step too, away from its own window; isolated
+    # outliers do not move it
+    rng = np.random.default_rng(7)
+    x = np.sort(rng.uniform(0.0, 10.0, 200))
+    line = 0.3 - 0.8 * x
+    assert np.allclose(running_median(x, line), line, atol=1e-9)
+    step = np.where(x < 5.0, 0.0, 1.0)
+    assert np.array_equal(running_median(x, step), step)
+    noisy = line.copy()
+    noisy[::17] += 50.0  # one case in 17: never more than one in a window of 11
+    assert np.allclose(running_median(x, noisy)[1::17], line[1::17], atol=1e-9)
+    # the order of the cases does not matter
+    perm = rng.permutation(x.size)
+    assert np.array_equal(running_median(x[perm], noisy[perm]), running_median(x, noisy)[perm])
+
+
+def test_robust_spline_keeps_a_cluster_at_the_end_of_the_range():
+    # rear-end impacts: a cluster at feature 0 separated by a gap from the bulk, on the
+    # law; one of them identified at a wrong minimum.  The cluster is kept (it agrees with
+    # its neighbours), the wrong one rejected, and the spline passes through the cluster
+    # instead of continuing the bulk's curve into it
+    rng = np.random.default_rng(3)
+    bulk = rng.uniform(1.2, 3.1, 200)
+    x = np.concatenate([np.zeros(8), bulk])
+    truth = 0.4 * np.sin(x)
+    y = truth + rng.normal(0.0, 0.003, x.size)
+    y[0] = -0.4
+    bad = rng.choice(np.arange(8, x.size), 10, replace=False)
+    y[bad] += rng.choice([-1.0, 1.0], bad.size) * rng.uniform(0.2, 0.5, bad.size)
+    spl, rw, scale = robust_spline(x, y, np.ones_like(x))
+    assert rw[0] == 0.0 and np.all(rw[1:8] > 0.5)
+    assert np.all(rw[bad] == 0.0)
+    assert 0.5 * 0.003 < scale < 2.0 * 0.003
+    assert abs(float(spl(0.0))) < 0.02
+    grid = np.linspace(1.2, 3.1, 20)
+    assert np.max(np.abs(spl(grid) - 0.4 * np.sin(grid))) < 0.02
 
 
 def test_zoom_finds_values_at_least_as_good_as_the_grid():

@@ -20,6 +20,7 @@ from vfs.physics.runout import (
     RunoutParams,
     RunoutResult,
     RunoutState,
+    distinct_rows,
     kinetic_energy,
     run_out,
     run_out_pair,
@@ -237,6 +238,34 @@ def test_batch_equals_single():
         assert one.rest_y[0] == batch.rest_y[i]
         assert one.rest_yaw[0] == batch.rest_yaw[i]
         assert one.time_to_rest[0] == batch.time_to_rest[i] or not batch.at_rest[i]
+
+
+def test_repeated_vehicles_run_once_and_get_the_same_result():
+    # a batch of model variants repeats most vehicles: run_out runs each distinct one
+    # once; the copies must equal, bit for bit, the batch without repetitions
+    rng = np.random.default_rng(8)
+    n = 7
+    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
+    mu = rng.uniform(0.3, 1.0, n)
+    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    params = RunoutParams(load_transfer=True)
+    alone = run_out(vehicles, s, mu, params, wheel_brake=brake)
+    index = np.array([3, 0, 3, 6, 1, 0, 2, 5, 4, 3, 6])
+    rep = run_out(vehicles.take(index), RunoutState(*(a[index] for a in s)), mu[index],
+                  params, wheel_brake=brake[index])
+    for name in RunoutResult._fields:
+        got, want = getattr(rep, name), getattr(alone, name)
+        if name == "path_t":
+            assert np.array_equal(got, want)
+        else:
+            assert np.array_equal(got, want[index], equal_nan=True), name
+    # one changed number makes a vehicle distinct
+    brake2 = brake[index].copy()
+    brake2[2, 0] = 0.25
+    first, inverse = distinct_rows(*vehicles.take(index), *(a[index] for a in s), mu[index],
+                                   brake2)
+    assert first.size == n + 1 and np.array_equal(first[inverse][[1, 5]], [1, 1])
+    assert inverse[0] != inverse[2] and inverse[0] == inverse[9]
 
 
 def test_time_step_convergence():

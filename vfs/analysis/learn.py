@@ -79,10 +79,11 @@ MIN_LAW_CASES = 30
 #: for normal errors), in units of the robust scale of the standardised residuals.
 HUBER_C = 1.345
 BIWEIGHT_C = 4.685
-#: Most reweighting iterations of each stage of a robust fit (closed forms; smoothing
-#: splines, whose smoothness is chosen anew by generalised cross-validation each time).
+#: Most reweighting iterations of each stage of a robust fit of a closed form.
 ROBUST_ITERATIONS = 10
-SPLINE_ROBUST_ITERATIONS = 1
+#: Half-width (in cases, ranked by the feature) of the running median against which a
+#: smoothing spline's robust weights are taken: a window of 2 k + 1 neighbours.
+RUNNING_MEDIAN_HALF_WIDTH = 5
 
 
 def _wls(cols: Sequence[np.ndarray], y: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -340,29 +341,72 @@ def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
     return list(coef)
 
 
-def _robust_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray
-                   ) -> tuple[Any, np.ndarray, float]:
-    """Smoothing spline (:func:`_spline_ls`) fitted robustly as :func:`fit_form`: the
-    spline (None if too few distinct abscissas), the robust weights and the scale.
+def running_median(x: np.ndarray, y: np.ndarray,
+                   half_width: int = RUNNING_MEDIAN_HALF_WIDTH) -> np.ndarray:
+    """Robust local level of y at each case: the median over its 2 k + 1 neighbours ranked
+    by x (k = ``half_width``); for the k cases at each end, where no symmetric window
+    exists, the repeated-medians line through the 2 k + 1 end cases (Siegel 1982,
+    :func:`scipy.stats.siegelslopes`), so that a trend there is not taken for outliers.
+
+    Tukey's running median (*Exploratory Data Analysis*, 1977, ch. 7): it follows steps
+    and trends and ignores isolated values; y's unit.
     """
-    lo, hi = float(np.min(x)), float(np.max(x))
-    first = _spline_ls(x, y, w)
-    if first is None:
+    from numpy.lib.stride_tricks import sliding_window_view
+    from scipy.stats import siegelslopes
+
+    n = y.size
+    order = np.argsort(x, kind="stable")
+    xs, ys = x[order], y[order]
+    k = min(half_width, (n - 1) // 2)
+    med = np.empty(n)
+    if k < 1:
+        med[:] = np.median(ys)
+    else:
+        med[k:n - k] = np.median(sliding_window_view(ys, 2 * k + 1), axis=1)
+        for end in (slice(0, 2 * k + 1), slice(n - 2 * k - 1, n)):
+            xe, ye = xs[end], ys[end]
+            ends = slice(0, k) if end.start == 0 else slice(n - k, n)
+            if np.ptp(xe) > 0:
+                slope, icpt = siegelslopes(ye, xe)
+                med[ends] = icpt + slope * xs[ends]
+            else:
+                med[ends] = np.median(ye)
+    out = np.empty(n)
+    out[order] = med
+    return out
+
+
+def robust_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray
+                   ) -> tuple[Any, np.ndarray, float]:
+    """Smoothing spline (:func:`_spline_ls`) fitted robustly: the spline (None if too few
+    distinct abscissas), the robust weights (0 = rejected) and the scale of its
+    standardised residuals sqrt(w) (y - f(x)).
+
+    The weights are Tukey's biweight of the residuals from the :func:`running_median`
+    (standardised by their median absolute deviation): a case is rejected when it
+    disagrees with its neighbours along the feature, not with a global curve.  Reweighting
+    against the spline itself (as :func:`fit_form` does) rejected a whole cluster at the
+    end of a feature's range (rear-end impacts at impact angle 0) once the first spline,
+    drawn by the bulk, missed it, and the law was then extrapolated into it.
+    """
+    sw = np.sqrt(w)
+    r = sw * (y - running_median(x, y))
+    scale = robust_scale(r)
+    rw = _robust_weights(r / scale, "biweight") if scale > 0 else np.ones_like(y)
+    spl = _spline_ls(x, y, w * rw)
+    if spl is None:
+        spl = _spline_ls(x, y, w)
+    if spl is None:
         return None, np.ones_like(y), 0.0
-
-    def fit(wt: np.ndarray) -> Any:
-        s = _spline_ls(x, y, wt)
-        return first if s is None else s
-
-    return _irls(fit, lambda s: predict_spline(s, x, lo, hi), y, w,
-                 SPLINE_ROBUST_ITERATIONS, start=first)
+    lo, hi = float(np.min(x)), float(np.max(x))
+    return spl, rw, robust_scale(sw * (y - predict_spline(spl, x, lo, hi)))
 
 
 def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool = True) -> Any:
     """Smoothing spline (:func:`_spline_ls`), robust as :func:`fit_form`; None if too
     few distinct abscissas.
     """
-    return _robust_spline(x, y, w)[0] if robust else _spline_ls(x, y, w)
+    return robust_spline(x, y, w)[0] if robust else _spline_ls(x, y, w)
 
 
 @dataclass
@@ -646,7 +690,7 @@ def learn_channel(table: pd.DataFrame, channel: str,
     for feat in feats:
         x = t[feat].to_numpy(float)
         if np.isfinite(x).all() and np.ptp(x) > 0:
-            splines[feat] = _robust_spline(x, y, w)
+            splines[feat] = robust_spline(x, y, w)
     scale = _noise_scale([v[2] for v in splines.values() if v[0] is not None], y, w)
 
     def loss(pred: np.ndarray) -> np.ndarray:
@@ -861,9 +905,9 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
 
 
 __all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES", "LEARN_SCOPE",
-           "MIN_LAW_CASES", "ROBUST_ITERATIONS", "SPLINE_BINS", "SPLINE_ROBUST_ITERATIONS",
+           "MIN_LAW_CASES", "ROBUST_ITERATIONS", "RUNNING_MEDIAN_HALF_WIDTH", "SPLINE_BINS",
            "ChannelLaw",
            "cross_validate_law", "cross_validate_laws", "fit_form", "fold_law_effects", "law_rows",
            "laws_document", "learn",
            "learn_channel", "plugin_source", "predict_spline", "read_laws", "refit_law",
-           "robust_loss", "robust_scale"]
+           "robust_loss", "robust_scale", "robust_spline", "running_median"]

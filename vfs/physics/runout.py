@@ -865,7 +865,43 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     vehicles = _check_vehicles(vehicles, n, "vehicles")
     mu = _check_friction(road_friction, n)
     brake = _check_brake(wheel_brake, params, n)
-    return _simulate(vehicles, state, mu, brake, params)
+    first, inverse = distinct_rows(*vehicles, *state, mu, brake) if n > 1 else (
+        np.arange(n), np.arange(n))
+    if first.size == n:
+        return _simulate(vehicles, state, mu, brake, params)
+    # the vehicles never interact here: each distinct one runs once (a batch of model
+    # variants repeats most vehicles), and the copies get its result, bit for bit
+    res = _simulate(vehicles.take(first), RunoutState(*(a[first] for a in state)), mu[first],
+                    brake[first], params)
+    return RunoutResult(*(a if name == "path_t" else a[inverse]
+                          for name, a in zip(RunoutResult._fields, res, strict=True)))
+
+
+def distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The first row of each distinct combination of the columns' values, and each row's
+    index into those: ``first[inverse]`` repeats the rows.
+
+    Parameters
+    ----------
+    *columns : ndarray (N,) or (N, k)
+        Numbers of the N rows (compared bit for bit, as float64).
+
+    Returns
+    -------
+    first : ndarray of int (D,)
+        Rows in increasing order, one per distinct combination.
+    inverse : ndarray of int (N,)
+        For each row the position of its combination in ``first``.
+    """
+    n = np.asarray(columns[0]).shape[0]
+    table = np.ascontiguousarray(np.concatenate(
+        [np.asarray(c, np.float64).reshape(n, -1) for c in columns], axis=1))
+    rows = table.view(np.dtype((np.void, table.dtype.itemsize * table.shape[1]))).ravel()
+    _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # distinct rows in their first order
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return first[order], rank[np.asarray(inverse).ravel()]
 
 
 #: A corner of one outline this deep [m] inside the other proves an overlap area

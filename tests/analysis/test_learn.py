@@ -22,12 +22,10 @@ from vfs.analysis.calibrate import CalibrationData, VariantSimulator, kfold_indi
 from vfs.analysis.identify import identification_features, identify
 from vfs.analysis.learn import (
     cross_validate_law,
-    fit_form,
     learn_channel,
     plugin_source,
-    robust_spline,
-    running_median,
 )
+from vfs.analysis.robust_fit import fit_form, robust_spline, running_median
 from vfs.effects import Effect, EffectParameter
 from vfs.effects.learned import (
     FORMS,
@@ -395,7 +393,7 @@ def test_gcv_smoothing_matches_scipys_own_gcv_choice():
     (a search that found another minimum of the criterion would differ by far more)."""
     from scipy.interpolate import make_smoothing_spline
 
-    from vfs.analysis.learn import gcv_smoothing
+    from vfs.analysis.robust_fit import gcv_smoothing
 
     rng = np.random.default_rng(7)
     for _ in range(25):
@@ -412,7 +410,7 @@ def test_gcv_smoothing_matches_scipys_own_gcv_choice():
 def test_gcv_smoothing_follows_the_noise():
     """More noise, more smoothing: lam grows with the noise of a line's values (a straight
     line is in the spline's null space, so a noiseless line gets the smallest lam)."""
-    from vfs.analysis.learn import gcv_smoothing
+    from vfs.analysis.robust_fit import gcv_smoothing
 
     rng = np.random.default_rng(3)
     x = np.linspace(0.0, 10.0, 60)

@@ -600,6 +600,24 @@ def test_bootstrap_batched_equals_loop_and_manual() -> None:
     assert batched[1:] == pytest.approx(tuple(np.quantile(boot, [0.025, 0.975])))
 
 
+def test_bootstrap_counts_statistic_uses_the_same_draws() -> None:
+    # a statistic of the resampling counts (ratio of means by a matrix product) gives the
+    # interval of the same statistic on the copied samples, drawn alike
+    rng = np.random.default_rng(4)
+    a, b = rng.exponential(size=(60, 3)), rng.exponential(size=60)
+
+    def ratio(x: np.ndarray, y: np.ndarray, axis: int = 0) -> np.ndarray:
+        return np.mean(x[..., 1], axis=axis) / np.mean(y, axis=axis)
+
+    def ratio_counts(x: np.ndarray, y: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        return (counts @ x[:, 1]) / (counts @ y)
+
+    copied = bootstrap_ci(ratio, a, b, n_boot=700, rng=np.random.default_rng(9))
+    counted = bootstrap_ci(ratio_counts, a, b, n_boot=700, rng=np.random.default_rng(9))
+    assert counted == pytest.approx(copied, rel=1e-12)
+    assert counted[1] < counted[0] < counted[2]
+
+
 def test_bootstrap_resamples_pairs_jointly() -> None:
     rng = np.random.default_rng(2)
     ref = rng.normal(20, 5, 40)

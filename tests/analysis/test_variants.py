@@ -30,15 +30,19 @@ def test_shared_precrash_run_gives_the_variants_bit_for_bit(data, monkeypatch):
     residuals equal those of variants that each run their own pre-crash phase (stacked
     the same way), to the last bit. A variant with a penetration law runs its own and
     differs from the default model."""
-    models = [(), (RestitutionSpeed(),), (WheelLock(),), (PenetrationDepth(),)]
+    models = [(), (RestitutionSpeed(),), (WheelLock(),), (PenetrationDepth(),),
+              (YawInertia(factor=1.7),)]
     shared = VariantSimulator(data)
+    assert [shared.keeps_precrash(m) for m in models] == [True, True, True, False, True]
     got = shared.residuals(models)
     assert shared._precrash is not None  # noqa: SLF001 - the cache this test is about
     monkeypatch.setattr(variants, "leaves_precrash", lambda _model: False)
+    monkeypatch.setattr(VariantSimulator, "keeps_precrash", lambda _self, _model: False)
     own = VariantSimulator(data).residuals(models)
     for a, b in zip(got, own, strict=True):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(got[3], got[0], equal_nan=True)
+    assert not np.array_equal(got[4], got[0], equal_nan=True)  # the inertia acts at impact
 
 
 def test_precrash_take_repeats_cases_in_order(data):

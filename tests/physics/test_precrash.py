@@ -11,6 +11,7 @@ from vfs.errors import ParameterError
 from vfs.physics.geometry import outline_corners, outline_distance
 from vfs.physics.paths import concat_paths, pack_paths
 from vfs.physics.precrash import (
+    UNUSED_VEHICLE_FIELDS,
     BrakeActuatorParams,
     PrecrashParams,
     ScheduledBraking,
@@ -184,6 +185,39 @@ def test_batch_equals_single():
                      (one.min_distance, batch.min_distance[k:k + 1]),
                      (one.poi, batch.poi[k:k + 1])):
             np.testing.assert_array_equal(a, b)
+
+
+def test_vehicle_data_the_precrash_ignores_leave_it_bit_for_bit():
+    # the fields of UNUSED_VEHICLE_FIELDS scaled: the pre-crash phase (replayed and braked,
+    # the penetration included) is the same to the last bit; the length, which it reads,
+    # is the control
+    rng = np.random.default_rng(11)
+    recs1, recs2 = [], []
+    for _ in range(5):
+        v_a, v_b = rng.uniform(8, 25, 2)
+        recs1.append(straight(0.0, v_a, 0.0))
+        recs2.append(straight(4.2 + 4.0 * (v_a + v_b), v_b, np.pi, y0=rng.uniform(-1.5, 1.5)))
+    paths = pack(recs1 + recs2)
+    v1, v2 = cars(5)
+    ctl = ScheduledBraking(np.c_[rng.uniform(2.5, 4.0, 5), np.full(5, np.nan)],
+                           np.c_[np.full(5, 8.0), np.zeros(5)])
+    base = simulate_precrash(v1, v2, paths, np.full(5, 0.8), controller=ctl)
+    assert base.collided.any()
+
+    def scaled(v, fields, k):
+        return v._replace(**{f: getattr(v, f) * k for f in fields})
+
+    changed = simulate_precrash(scaled(v1, UNUSED_VEHICLE_FIELDS, 1.9),
+                                scaled(v2, UNUSED_VEHICLE_FIELDS, 0.6), paths,
+                                np.full(5, 0.8), controller=ctl)
+    for name in ("contact_time", "min_distance", "poi", "collided"):
+        np.testing.assert_array_equal(getattr(changed, name), getattr(base, name))
+    for name in ("x", "y", "yaw", "vx", "vy", "yaw_rate"):
+        np.testing.assert_array_equal(getattr(changed.impact_state, name),
+                                      getattr(base.impact_state, name))
+    longer = simulate_precrash(scaled(v1, ("length", "front_overhang"), 1.2), v2, paths,
+                               np.full(5, 0.8), controller=ctl)
+    assert not np.array_equal(longer.contact_time, base.contact_time, equal_nan=True)
 
 
 def test_outline_distance_closed_form():

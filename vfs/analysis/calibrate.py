@@ -730,14 +730,17 @@ def rmse_reduction(errors: np.ndarray, base: np.ndarray, group: int | None = Non
 
 def _batched_reduction(group: int | None, weights: np.ndarray | None
                        ) -> Callable[..., np.ndarray | float]:
-    """Statistic for :func:`vfs.analysis.stats.bootstrap_ci` (batched over samples)."""
+    """Statistic for :func:`vfs.analysis.stats.bootstrap_ci`: the RMSE reduction of
+    :func:`rmse_reduction` from the resampling counts of the cases (a matrix product per
+    batch of samples; non-finite errors are left out of their group's mean).
+    """
 
-    def stat(e: np.ndarray, b: np.ndarray, axis: int = 0) -> np.ndarray | float:
+    def stat(e: np.ndarray, b: np.ndarray, counts: np.ndarray) -> np.ndarray:
         def mse(x: np.ndarray) -> np.ndarray:
             ok = np.isfinite(x)
-            g = np.where(ok, x, 0.0).sum(axis=axis) / ok.sum(axis=axis)  # (..., n_groups)
+            g = (counts @ np.where(ok, x, 0.0)) / (counts @ ok.astype(float))  # (s, groups)
             if group is not None:
-                return g[..., group]
+                return g[:, group]
             w = np.ones(g.shape[-1]) if weights is None else np.asarray(weights, float)
             ww = np.where(np.isfinite(g), w, 0.0)
             return (np.where(np.isfinite(g), g, 0.0) * ww).sum(axis=-1) / ww.sum(axis=-1)
@@ -758,14 +761,15 @@ def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
     """
     from vfs.analysis.stats import bootstrap_ci
 
-    if not math.isfinite(float(_batched_reduction(group, weights)(errors, base))):
+    stat = _batched_reduction(group, weights)
+    if not math.isfinite(float(stat(errors, base, np.ones((1, errors.shape[0])))[0])):
         return float("nan"), float("nan"), float("nan")
     if group is not None:
         ok = np.isfinite(errors[:, group]) & np.isfinite(base[:, group])
         errors, base = errors[ok], base[ok]
         if errors.shape[0] < 2:
             return float("nan"), float("nan"), float("nan")
-    est, lo, hi = bootstrap_ci(_batched_reduction(group, weights), errors, base,
+    est, lo, hi = bootstrap_ci(stat, errors, base,
                                n_boot=n_boot, confidence=confidence, rng=rng)
     return est, lo, hi
 

@@ -14,23 +14,22 @@ grid, or are chaotic in it, a case can prefer a value far from the law
 often with a narrow interval, i.e. a large weight).  Least squares let
 these few cases pull the law (a 2-3 ms bias at small overlaps, enough to
 lose a third of the outcome-error reduction), so every fit is an
-M-estimate: iteratively reweighted least squares with Huber's, then
-Tukey's biweight weights of the standardised residuals sqrt(w) (y - f(x))
-(scale: their normal-consistent MAD), which gives the misidentified cases
-no weight.
+M-estimate (:mod:`vfs.analysis.robust_fit`): iteratively reweighted least squares with
+Huber's, then Tukey's biweight weights of the standardised residuals sqrt(w) (y - f(x))
+(scale: their normal-consistent MAD), which gives the misidentified cases no weight.
 
 For each numeric feature, k-fold cross-validation (seeded) of
 
 * a smoothing spline (:func:`scipy.interpolate.make_smoothing_spline`, its
   smoothness chosen by generalised cross-validation), with a bootstrap band;
-  its robust weights come from one robust fit over all cases per feature
-  (the folds and the band reuse them: each spline fit chooses its
-  smoothness anew and is costly);
+  its robust weights are Tukey's biweight of the residuals from a running median
+  along the feature, once per feature (the folds and the band reuse them);
 * the closed forms of :data:`vfs.effects.learned.FORMS` (constant, linear,
   power, exponential, saturating, step): the nonlinear coefficient by a
-  grid and :func:`scipy.optimize.minimize_scalar` (the step's threshold:
+  grid and nested grids around its best point (the step's threshold:
   the midpoints between the data values around the best grid point), the
-  linear ones by weighted least squares.
+  linear ones by weighted least squares; each fold's robust fit starts from
+  the robust fit on all cases.
 
 The CV error is the same robust loss: Tukey's biweight of the held-out
 standardised residuals (u^2 near 0, bounded for a misidentified case) at
@@ -58,7 +57,7 @@ applied; :func:`vfs.analysis.diagnose.diagnose`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,6 +65,15 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.calibrate import kfold_indices, reduction_ci
+from vfs.analysis.robust_fit import (
+    fit_form,
+    fit_spline,
+    predict_spline,
+    robust_loss,
+    robust_scale,
+    robust_spline,
+    smoothing_spline,
+)
 from vfs.effects.learned import CHANNELS, FORMS, LAW_FEATURES, evaluate_law, law_text
 from vfs.errors import ParameterError
 
@@ -75,340 +83,6 @@ LEARN_FEATURES: tuple[str, ...] = tuple(LAW_FEATURES)
 CLOSED_FORM_TOLERANCE = 0.02
 #: Fewest identifiable cases for a law.
 MIN_LAW_CASES = 30
-#: Tuning constants of the robust fits: Huber's and Tukey's biweight (95 % efficiency
-#: for normal errors), in units of the robust scale of the standardised residuals.
-HUBER_C = 1.345
-BIWEIGHT_C = 4.685
-#: Most reweighting iterations of each stage of a robust fit of a closed form.
-ROBUST_ITERATIONS = 10
-#: Half-width (in cases, ranked by the feature) of the running median against which a
-#: smoothing spline's robust weights are taken: a window of 2 k + 1 neighbours.
-RUNNING_MEDIAN_HALF_WIDTH = 5
-
-
-def _wls(cols: Sequence[np.ndarray], y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    a = np.stack(cols, axis=1) * np.sqrt(w)[:, None]
-    coef, *_ = np.linalg.lstsq(a, y * np.sqrt(w), rcond=None)
-    return np.asarray(coef, float)
-
-
-def _fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
-                 near: float | None = None) -> list[float]:
-    """Weighted least-squares coefficients of a closed form (:data:`FORMS`); ``near``
-    restricts the search of the nonlinear coefficient to the grid cells around it.
-    """
-    from scipy.optimize import minimize_scalar
-
-    one = np.ones_like(x)
-    if form == "constant":
-        return [float(np.sum(w * y) / np.sum(w))]
-    if form == "linear":
-        return [float(v) for v in _wls([one, x], y, w)]
-
-    sw, swy = float(np.sum(w)), w * y
-    sy = float(np.sum(swy))
-
-    def inner(c: float) -> tuple[float, list[float]]:
-        # weighted least squares of the linear coefficients for a given nonlinear one,
-        # by the normal equations of the one or two basis functions (lstsq where singular)
-        with np.errstate(over="ignore", invalid="ignore"):
-            if form == "power":
-                b = np.maximum(x, 1e-9) ** c
-            elif form == "exponential":
-                b = np.exp(c * x)
-            elif form == "saturating":
-                b = 1.0 - np.exp(-np.maximum(x, 0.0) / max(c, 1e-9))
-            else:  # step
-                b = (x >= c).astype(float)
-        if not np.isfinite(b).all():
-            return math.inf, []
-        wb = w * b
-        sbb, sby = float(np.dot(wb, b)), float(np.dot(wb, y))
-        if form in ("power", "exponential"):
-            if not sbb > 0:
-                return math.inf, []
-            a = sby / sbb
-            pred, coef = a * b, [a, c]
-        else:
-            sb = float(np.sum(wb))
-            det = sw * sbb - sb * sb
-            if det > 1e-12 * sw * sbb:
-                a0, a1 = (sbb * sy - sb * sby) / det, (sw * sby - sb * sy) / det
-            else:  # b constant on the weighted cases: the minimum-norm solution
-                a0, a1 = (float(v) for v in _wls([one, b], y, w))
-            pred, coef = a0 + a1 * b, [a0, a1, c]
-        sse = float(np.dot(w, (y - pred) ** 2))
-        return (sse if math.isfinite(sse) else math.inf), coef
-
-    span = float(np.ptp(x)) or 1.0
-    if form == "power":
-        grid = np.linspace(-3.0, 3.0, 25)
-    elif form == "exponential":
-        grid = np.linspace(-5.0, 5.0, 25) / span
-    elif form == "saturating":
-        grid = span * np.geomspace(0.02, 5.0, 25)
-    else:
-        grid = np.unique(np.quantile(x, np.linspace(0.05, 0.95, 37)))
-    if near is not None and math.isfinite(near):
-        k = int(np.argmin(np.abs(grid - near)))
-        grid = np.unique(np.append(grid[max(k - 2, 0):k + 3], near))
-    vals = [inner(float(c)) for c in grid]
-    k = int(np.argmin([v[0] for v in vals]))
-    best = vals[k]
-    if form == "step" and len(grid) > 1:
-        # the partition changes only between data values: try the midpoints between
-        # the distinct values of x in the grid cells around the best threshold
-        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
-        ux = np.unique(x[(x >= lo) & (x <= hi)])
-        for c in 0.5 * (ux[1:] + ux[:-1]):
-            cand = inner(float(c))
-            if cand[0] < best[0]:
-                best = cand
-    elif len(grid) > 2:
-        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, len(grid) - 1)])
-        if hi > lo:
-            r = minimize_scalar(lambda c: inner(c)[0], bounds=(lo, hi), method="bounded",
-                                options={"xatol": 1e-4 * (hi - lo)})
-            cand = inner(float(r.x))
-            if cand[0] < best[0]:
-                best = cand
-    if not best[1]:
-        return [float(np.sum(w * y) / np.sum(w))] + [0.0] * (len(FORMS[form][1]) - 1)
-    return best[1]
-
-
-#: Most abscissas of a smoothing spline: beyond, consecutive distinct abscissas are pooled
-#: into this many groups (weighted means); the smoothing parameter's GCV search costs
-#: O(n) Python steps per trial, and 80 groups keep a step's position to ~1 % of the cases.
-SPLINE_BINS = 80
-
-
-def _spline_ls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
-    """Smoothing spline through weighted means of equal x (increasing abscissas; more
-    than :data:`SPLINE_BINS` distinct ones pooled into that many consecutive groups).
-    """
-    from scipy.interpolate import make_smoothing_spline
-
-    keep = w > 0
-    order = np.argsort(x[keep], kind="stable")
-    xs, ys, ws = x[keep][order], y[keep][order], w[keep][order]
-    ux, inv = np.unique(np.round(xs, 9), return_inverse=True)
-    sw = np.bincount(inv, ws)
-    my = np.bincount(inv, ws * ys) / sw
-    if ux.size < 5:
-        return None
-    if ux.size > SPLINE_BINS:  # consecutive abscissas pooled: weighted means, summed weights
-        group = np.repeat(np.arange(SPLINE_BINS),
-                          [len(a) for a in np.array_split(ux, SPLINE_BINS)])
-        gw = np.bincount(group, sw)
-        ux = np.bincount(group, sw * ux) / gw
-        my = np.bincount(group, sw * my) / gw
-        sw = gw
-    wn = sw / sw.mean()
-    return make_smoothing_spline(ux, my, w=wn, lam=gcv_smoothing(ux, my, wn))
-
-
-def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
-    """Smoothing parameter of the cubic smoothing spline that minimises the generalised
-    cross-validation criterion: the criterion of :func:`scipy.interpolate.make_smoothing_spline`
-    (Wahba's GCV: mean squared residual over (1 - tr(A) / n)^2, the objective
-    sum w (y - f)^2 + lam int f''^2), evaluated in closed form for all lam at once.
-
-    The spline's values at the n abscissas are f = (W + lam K)^-1 W y with
-    K = Q R^-1 Q' the Reinsch penalty matrix (Green & Silverman, *Nonparametric
-    Regression and Generalized Linear Models*, sec. 2.1); with the eigenvectors U
-    and eigenvalues d of W^-1/2 K W^-1/2 the hat matrix has the eigenvalues
-    1 / (1 + lam d), so residuals and trace cost one matrix product per lam
-    (scipy's search costs O(n) Python steps per trial).  The search is scipy's:
-    a bounded Brent search over (0, n).
-
-    Parameters
-    ----------
-    x : ndarray (n,)
-        Increasing abscissas (n >= 5; the feature's unit).
-    y : ndarray (n,)
-        Values (the channel's unit).
-    w : ndarray (n,)
-        Positive weights.
-
-    Returns
-    -------
-    float
-        lam (unit of y^2 x^3).
-    """
-    from scipy.optimize import minimize_scalar
-
-    n = x.size
-    h = np.diff(x)
-    i = np.arange(n - 2)
-    q = np.zeros((n, n - 2))
-    q[i, i], q[i + 1, i], q[i + 2, i] = 1.0 / h[:-1], -1.0 / h[:-1] - 1.0 / h[1:], 1.0 / h[1:]
-    r = np.diag((h[:-1] + h[1:]) / 3.0) + np.diag(h[1:-1] / 6.0, 1) + np.diag(h[1:-1] / 6.0, -1)
-    k = q @ np.linalg.solve(r, q.T)
-    root = np.sqrt(w)
-    d, u = np.linalg.eigh(k / np.outer(root, root))
-    d = np.maximum(d, 0.0)
-    z = u.T @ (root * y)
-
-    def criterion(lams: np.ndarray) -> np.ndarray:
-        f = 1.0 / (1.0 + np.asarray(lams, float).reshape(-1, 1) * d)
-        resid = (((1.0 - f) * z) @ u.T) / root  # y - f(x), unweighted as scipy's
-        return np.asarray(np.sum(resid ** 2, axis=1) / n / (1.0 - f.sum(axis=1) / n) ** 2)
-
-    # scipy's search: bounded Brent over (0, n) (a grid would find the spurious minimum
-    # near lam = 0, where residuals and 1 - tr(A) / n vanish together)
-    best = minimize_scalar(lambda lam: float(criterion(np.array([lam]))[0]), bounds=(0.0, n),
-                           method="bounded")
-    return float(best.x)
-
-
-def predict_spline(spl: Any, x: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Spline values, held constant outside [lo, hi] (no extrapolation)."""
-    return np.asarray(spl(np.clip(x, lo, hi)), float)
-
-def robust_scale(r: np.ndarray) -> float:
-    """Normal-consistent median absolute deviation of residuals r (their unit)."""
-    r = r[np.isfinite(r)]
-    if r.size == 0:
-        return 0.0
-    return float(1.4826 * np.median(np.abs(r - np.median(r))))
-
-
-def _robust_weights(u: np.ndarray, kind: str) -> np.ndarray:
-    a = np.abs(u)
-    if kind == "huber":
-        return np.minimum(1.0, HUBER_C / np.maximum(a, 1e-300))
-    return np.where(a < BIWEIGHT_C, (1.0 - (u / BIWEIGHT_C) ** 2) ** 2, 0.0)
-
-
-def robust_loss(u: np.ndarray) -> np.ndarray:
-    """Tukey's biweight loss of standardised residuals u, scaled to u^2 near 0
-    (bounded by ``BIWEIGHT_C ** 2 / 3``).
-    """
-    a = np.minimum(np.abs(u) / BIWEIGHT_C, 1.0)
-    return BIWEIGHT_C ** 2 / 3.0 * (1.0 - (1.0 - a ** 2) ** 3)
-
-
-def _irls(fit: Callable[[np.ndarray], Any], predict: Callable[[Any], np.ndarray],
-          y: np.ndarray, w: np.ndarray, iterations: int = ROBUST_ITERATIONS,
-          start: Any = None) -> tuple[Any, np.ndarray, float]:
-    """Iteratively reweighted fit: Huber weights (scale re-estimated by the MAD of
-    the standardised residuals), then Tukey's biweight at the last scale; at most
-    ``iterations`` refits per stage; ``start``: the fit with weights w if known.
-
-    Returns the fit, the robust weights (0 = rejected) and the scale.
-    """
-    sw = np.sqrt(w)
-    rw = np.ones_like(y)
-    model = fit(w) if start is None else start
-    scale = 0.0
-    for kind in ("huber", "biweight"):
-        for _ in range(iterations):
-            r = sw * (y - predict(model))
-            if kind == "huber" or scale <= 0:
-                scale = robust_scale(r)
-            if not scale > 0:
-                return model, rw, scale
-            new_rw = _robust_weights(r / scale, kind)
-            if np.max(np.abs(new_rw - rw)) < 1e-2:
-                break
-            rw = new_rw
-            model = fit(w * rw)
-    return model, rw, scale
-
-
-def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
-             robust: bool = True) -> list[float]:
-    """Coefficients of a closed form (:data:`FORMS`) fitted to (x, y) with weights w.
-
-    Weighted least squares, or (``robust``) an M-estimate: iteratively
-    reweighted least squares with Huber's then Tukey's biweight weights of
-    the standardised residuals sqrt(w) (y - f(x)), so that cases whose
-    identification went to a wrong minimum do not pull the law.
-    """
-    if not robust:
-        return _fit_form_ls(form, x, y, w)
-    last: list[float] = []
-
-    def fit(wt: np.ndarray) -> list[float]:
-        # the nonlinear coefficient is searched near the previous one after the first fit
-        near = last[-1] if last and form not in ("constant", "linear") else None
-        last[:] = _fit_form_ls(form, x, y, wt, near)
-        return list(last)
-
-    coef, _, _ = _irls(fit, lambda c: evaluate_law({"form": form, "coefficients": c}, x),
-                       y, w)
-    return list(coef)
-
-
-def running_median(x: np.ndarray, y: np.ndarray,
-                   half_width: int = RUNNING_MEDIAN_HALF_WIDTH) -> np.ndarray:
-    """Robust local level of y at each case: the median over its 2 k + 1 neighbours ranked
-    by x (k = ``half_width``); for the k cases at each end, where no symmetric window
-    exists, the repeated-medians line through the 2 k + 1 end cases (Siegel 1982,
-    :func:`scipy.stats.siegelslopes`), so that a trend there is not taken for outliers.
-
-    Tukey's running median (*Exploratory Data Analysis*, 1977, ch. 7): it follows steps
-    and trends and ignores isolated values; y's unit.
-    """
-    from numpy.lib.stride_tricks import sliding_window_view
-    from scipy.stats import siegelslopes
-
-    n = y.size
-    order = np.argsort(x, kind="stable")
-    xs, ys = x[order], y[order]
-    k = min(half_width, (n - 1) // 2)
-    med = np.empty(n)
-    if k < 1:
-        med[:] = np.median(ys)
-    else:
-        med[k:n - k] = np.median(sliding_window_view(ys, 2 * k + 1), axis=1)
-        for end in (slice(0, 2 * k + 1), slice(n - 2 * k - 1, n)):
-            xe, ye = xs[end], ys[end]
-            ends = slice(0, k) if end.start == 0 else slice(n - k, n)
-            if np.ptp(xe) > 0:
-                slope, icpt = siegelslopes(ye, xe)
-                med[ends] = icpt + slope * xs[ends]
-            else:
-                med[ends] = np.median(ye)
-    out = np.empty(n)
-    out[order] = med
-    return out
-
-
-def robust_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray
-                   ) -> tuple[Any, np.ndarray, float]:
-    """Smoothing spline (:func:`_spline_ls`) fitted robustly: the spline (None if too few
-    distinct abscissas), the robust weights (0 = rejected) and the scale of its
-    standardised residuals sqrt(w) (y - f(x)).
-
-    The weights are Tukey's biweight of the residuals from the :func:`running_median`
-    (standardised by their median absolute deviation): a case is rejected when it
-    disagrees with its neighbours along the feature, not with a global curve.  Reweighting
-    against the spline itself (as :func:`fit_form` does) rejected a whole cluster at the
-    end of a feature's range (rear-end impacts at impact angle 0) once the first spline,
-    drawn by the bulk, missed it, and the law was then extrapolated into it.
-    """
-    sw = np.sqrt(w)
-    r = sw * (y - running_median(x, y))
-    scale = robust_scale(r)
-    rw = _robust_weights(r / scale, "biweight") if scale > 0 else np.ones_like(y)
-    spl = _spline_ls(x, y, w * rw)
-    if spl is None:
-        spl = _spline_ls(x, y, w)
-    if spl is None:
-        return None, np.ones_like(y), 0.0
-    lo, hi = float(np.min(x)), float(np.max(x))
-    return spl, rw, robust_scale(sw * (y - predict_spline(spl, x, lo, hi)))
-
-
-def _spline(x: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool = True) -> Any:
-    """Smoothing spline (:func:`_spline_ls`), robust as :func:`fit_form`; None if too
-    few distinct abscissas.
-    """
-    return robust_spline(x, y, w)[0] if robust else _spline_ls(x, y, w)
-
-
 @dataclass
 class ChannelLaw:
     """What :func:`learn_channel` found for one channel.
@@ -455,17 +129,21 @@ class ChannelLaw:
 
 
 def _cv_predictions(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
-                    held: Sequence[np.ndarray], robust: bool = True) -> np.ndarray:
+                    held: Sequence[np.ndarray], robust: bool = True,
+                    start: Sequence[float] | None = None) -> np.ndarray:
+    """Held-out predictions of a form fitted on the other folds (``start``: the robust fit
+    on all cases, from which each fold's robust fit starts, :func:`fit_form`).
+    """
     pred = np.full_like(y, np.nan)
     for h in held:
         tr = np.setdiff1d(np.arange(y.size), h)
         if form == "spline":
-            spl = _spline(x[tr], y[tr], w[tr], robust)
+            spl = fit_spline(x[tr], y[tr], w[tr], robust)
             if spl is None:
                 continue
             pred[h] = predict_spline(spl, x[h], x[tr].min(), x[tr].max())
         else:
-            coef = fit_form(form, x[tr], y[tr], w[tr], robust)
+            coef = fit_form(form, x[tr], y[tr], w[tr], robust, start=start)
             pred[h] = evaluate_law({"form": form, "coefficients": coef}, x[h])
     return pred
 
@@ -506,7 +184,7 @@ def refit_law(law: Mapping[str, Any], x: np.ndarray, y: np.ndarray, w: np.ndarra
     if name is not None:
         out["name"] = name
     if law["form"] == "table":
-        spl = _spline(x, y, w)
+        spl = fit_spline(x, y, w)
         xg = np.asarray(law["table"]["x"], float)
         if spl is not None:
             out["table"] = {"x": xg.tolist(),
@@ -707,24 +385,28 @@ def learn_channel(table: pd.DataFrame, channel: str,
             e0, null = em, "model"
     mse0 = float(np.mean(e0))
     rows: list[dict[str, Any]] = []
+    # per (feature, form): the robust fit on all cases and the held-out predictions
+    fits: dict[tuple[str, str], tuple[list[float], np.ndarray]] = {}
     for feat in splines:
         x = t[feat].to_numpy(float)
         rw = splines[feat][1]
         for form in [f for f in form_names if f != "constant"] + ["spline"]:
             if form == "power" and x.min() <= 0:
                 continue
+            coef: list[float] = []
             if form == "spline":
                 pred = _cv_predictions(form, x, y, w * rw, held, robust=False)
             else:
-                pred = _cv_predictions(form, x, y, w, held)
+                coef = fit_form(form, x, y, w)
+                pred = _cv_predictions(form, x, y, w, held, start=coef)
+            fits[feat, form] = (coef, pred)
             e = loss(pred)
             if not np.isfinite(e).all():
                 continue
             mse = float(np.mean(e))
             rows.append({"feature": feat, "form": form, "cv_mse": mse,
                          "reduction": 1.0 - math.sqrt(mse / mse0) if mse0 > 0 else math.nan,
-                         "coefficients": "" if form == "spline" else
-                         " ".join(f"{v:.5g}" for v in fit_form(form, x, y, w))})
+                         "coefficients": " ".join(f"{v:.5g}" for v in coef)})
     cand = pd.DataFrame(rows) if rows else empty
     if cand.empty:
         return ChannelLaw(channel, n, False, None, math.nan, math.nan, math.nan, cand,
@@ -740,8 +422,7 @@ def learn_channel(table: pd.DataFrame, channel: str,
         form = str(closed["form"].iloc[0])
     x = t[feat].to_numpy(float)
     spl, rw, _ = splines[feat]
-    pred = _cv_predictions(form, x, y, w * rw, held, robust=False) if form == "spline" \
-        else _cv_predictions(form, x, y, w, held)
+    coef, pred = fits[feat, form]
     e = loss(pred)
     level = 1.0 - (1.0 - confidence) / max(len(feats), 1)
     rng = np.random.default_rng(seed)
@@ -758,7 +439,7 @@ def learn_channel(table: pd.DataFrame, channel: str,
         boots = []
         for _ in range(band_boot):  # resampled cases, their robust weights held
             idx = rng.integers(0, n, n)
-            s = _spline_ls(x[idx], y[idx], (w * rw)[idx])
+            s = smoothing_spline(x[idx], y[idx], (w * rw)[idx])
             if s is not None:
                 boots.append(predict_spline(s, xg, x[idx].min(), x[idx].max()))
         b = np.array(boots) if boots else np.array([curve])
@@ -769,7 +450,7 @@ def learn_channel(table: pd.DataFrame, channel: str,
         law.update(form="table", table={"x": xg.tolist(), "y": band["y"]} if band else
                    {"x": [0.0, 1.0], "y": [float(np.mean(y))] * 2})
     else:
-        law.update(form=form, coefficients=fit_form(form, x, y, w))
+        law.update(form=form, coefficients=coef)
     law["cv"] = {"reduction_vs_constant": est, "null": null, "ci_low": lo, "ci_high": hi,
                  "confidence": level, "cases": n, "folds": folds}
     law["feature_range"] = [float(x.min()), float(x.max())]
@@ -904,10 +585,7 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["BIWEIGHT_C", "CLOSED_FORM_TOLERANCE", "HUBER_C", "LEARN_FEATURES", "LEARN_SCOPE",
-           "MIN_LAW_CASES", "ROBUST_ITERATIONS", "RUNNING_MEDIAN_HALF_WIDTH", "SPLINE_BINS",
-           "ChannelLaw",
-           "cross_validate_law", "cross_validate_laws", "fit_form", "fold_law_effects", "law_rows",
-           "laws_document", "learn",
-           "learn_channel", "plugin_source", "predict_spline", "read_laws", "refit_law",
-           "robust_loss", "robust_scale", "robust_spline", "running_median"]
+__all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE", "MIN_LAW_CASES",
+           "ChannelLaw", "cross_validate_law", "cross_validate_laws", "fold_law_effects",
+           "law_rows", "laws_document", "learn", "learn_channel", "plugin_source", "read_laws",
+           "refit_law"]

@@ -1004,7 +1004,9 @@ def bootstrap_ci(
         bootstraps the weighted estimator as it is computed on the data.
     vectorized : bool or None, optional
         Force (True) or forbid (False) the batched call; default: batched if
-        ``statistic`` has a parameter named ``axis``.
+        ``statistic`` has a parameter named ``axis``.  A statistic with a parameter
+        ``counts`` gets the original arrays and the (samples, n) numbers of draws of each
+        case (ones for the estimate): a matrix product for sums over cases, same draws.
     method : {"percentile", "bca"}, optional
         ``percentile`` (default) or ``bca``: bias-corrected and accelerated
         (:func:`vfs.analysis.intervals.bca_interval`), for skewed statistics such
@@ -1083,6 +1085,7 @@ def bootstrap_ci(
                 "weights given but the statistic has no 'weights' parameter "
                 "(use a weighted statistic such as numpy.average)"
             )
+    by_counts = case_weights is None and _accepts_keyword(statistic, "counts")
     batched = _accepts_keyword(statistic, "axis") if vectorized is None else bool(vectorized)
 
     def call(samples: Sequence[np.ndarray], w: np.ndarray | None, **kw: Any) -> Any:
@@ -1090,17 +1093,25 @@ def bootstrap_ci(
             kw["weights"] = w
         return statistic(*samples, **kw)
 
-    estimate = _as_scalar(call(data, case_weights, **({"axis": 0} if batched else {})))
+    if by_counts:
+        estimate = _as_scalar(np.asarray(statistic(*data, counts=np.ones((1, n))))[0])
+    else:
+        estimate = _as_scalar(call(data, case_weights, **({"axis": 0} if batched else {})))
 
     boot = np.empty(n_boot)
     chunk = max(1, _MAX_RESAMPLED_ELEMENTS // n)
     for start in range(0, n_boot, chunk):
         size = min(chunk, n_boot - start)
         index = rng.integers(0, n, size=(size, n))
-        samples = [a[index] for a in data]  # each (size, n, ...)
+        samples = [] if by_counts else [a[index] for a in data]  # each (size, n, ...)
         w_samples = None if case_weights is None else case_weights[index]
-        if batched:
-            values = np.asarray(call(samples, w_samples, axis=1), dtype=float)
+        if by_counts or batched:
+            if by_counts:
+                counts = np.bincount((np.arange(size)[:, None] * n + index).ravel(),
+                                     minlength=size * n).reshape(size, n).astype(float)
+                values = np.asarray(statistic(*data, counts=counts), dtype=float)
+            else:
+                values = np.asarray(call(samples, w_samples, axis=1), dtype=float)
             if values.shape != (size,):
                 raise ParameterError(
                     f"the batched statistic must return shape ({size},), got {values.shape}"
@@ -1133,9 +1144,6 @@ def bootstrap_ci(
 
 # ----------------------------------------------------------------------------
 # Multiple testing
-
-
-
 # ----------------------------------------------------------------------------
 
 

@@ -11,6 +11,7 @@ with a cache by parameter vector; it hands out outcome arrays, never tables.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Any, Protocol
@@ -19,7 +20,8 @@ import numpy as np
 
 from vfs.effects import STAGES, Effect, VelocityChange, hooks
 from vfs.errors import ParameterError
-from vfs.physics.precrash import PrecrashParams, PrecrashResult
+from vfs.physics.precrash import UNUSED_VEHICLE_FIELDS, PrecrashParams, PrecrashResult
+from vfs.physics.vehicle import VehicleArrays
 from vfs.simulation import (
     CaseBatch,
     CaseResults,
@@ -261,6 +263,7 @@ class VariantSimulator:
         self.max_cases = max(int(max_cases), data.n)
         self._cache: dict[tuple[Any, ...], np.ndarray] = {}
         self._precrash: PrecrashResult | None = None
+        self._opened: CaseBatch | None = None
         self.n_variants = 0
         self.n_case_runs = 0
         self.n_calls = 0
@@ -281,13 +284,14 @@ class VariantSimulator:
 
     def _calls(self, items: Sequence[tuple[Any, Model]]) -> list[list[tuple[Any, Model]]]:
         """``(key, model)`` items in stacked calls of at most ``max_cases`` cases: those whose model
-        leaves the pre-crash phase as it is (:func:`leaves_precrash`) apart from the
+        keeps the base model's pre-crash phase (:meth:`keeps_precrash`) apart from the
         others, so that their calls share the base model's pre-crash run.
         """
         per_call = max(1, self.max_cases // self.data.n)
         out: list[list[tuple[Any, Model]]] = []
+        keeps = [self.keeps_precrash(m) for _, m in items]
         for shares in (True, False):
-            group = [it for it in items if leaves_precrash(it[1]) == shares]
+            group = [it for it, k in zip(items, keeps, strict=True) if k == shares]
             out += [group[i:i + per_call] for i in range(0, len(group), per_call)]
         return out
 
@@ -319,11 +323,31 @@ class VariantSimulator:
                                   runout=self.params.runout, effects=effects,
                                   secondary_collisions=False)
         pre = None
-        if all(leaves_precrash(m) for m in models):  # one pre-crash run serves them all
+        if all(self.keeps_precrash(m) for m in models):  # one pre-crash run serves them all
             pre = self.base_precrash()
             if g > 1:
                 pre = pre.take(np.tile(np.arange(n), g))
         return simulate_cases(batch, params=params, precrash=pre)
+
+    def keeps_precrash(self, model: Model) -> bool:
+        """True if the base model's pre-crash run serves ``model``: its effects leave the
+        pre-crash phase as it is (:func:`leaves_precrash`), or none has a penetration hook
+        and their ``vehicles`` hooks change only vehicle data the pre-crash phase never
+        reads (:data:`vfs.physics.precrash.UNUSED_VEHICLE_FIELDS`, e.g. the yaw inertia).
+        """
+        if leaves_precrash(model):
+            return True
+        if hooks(model, "penetration"):
+            return False
+        if self._opened is None:
+            self._opened = open_cases(self.data.batch, self.params).batch
+        base = self._opened
+        own = open_cases(self.data.batch, dataclasses.replace(
+            self.params, effects=tuple(self.params.effects) + tuple(model))).batch
+        return all(
+            np.array_equal(getattr(getattr(own, v), f), getattr(getattr(base, v), f))
+            for v in ("vehicle1", "vehicle2") for f in VehicleArrays._fields
+            if f not in UNUSED_VEHICLE_FIELDS)
 
     def base_precrash(self) -> PrecrashResult:
         """The pre-crash run of the cases under the base parameters (run once, kept):

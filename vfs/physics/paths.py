@@ -120,8 +120,10 @@ class PathArrays(NamedTuple):
 
     def take(self, index: npt.ArrayLike) -> PathArrays:
         """Select paths by index or mask."""
-        return PathArrays(np.ascontiguousarray(self.knots[:, index]), self.count[index],
-                          self.t0[index], self.end_curvature[index])
+        rows = np.arange(self.size)[index]
+        # one contiguous copy (knots[:, rows] would lay the copy out along the rows first)
+        return PathArrays(np.take(self.knots, rows, axis=1), self.count[rows],
+                          self.t0[rows], self.end_curvature[rows])
 
     def last_knots(self) -> np.ndarray:
         """Each path's last valid knot, shape (N, 8) (compute once per simulation)."""

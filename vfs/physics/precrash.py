@@ -71,6 +71,7 @@ from vfs.physics.vehicle import VehicleArrays
 __all__ = [
     "CLOSE_RANGE",
     "GRAZE_SAMPLES",
+    "UNUSED_VEHICLE_FIELDS",
     "BrakeActuatorParams",
     "BrakeController",
     "KinematicState",
@@ -84,6 +85,12 @@ __all__ = [
     "friction_limited_deceleration",
     "simulate_precrash",
 ]
+
+#: Vehicle data the pre-crash phase never reads (:class:`~vfs.physics.vehicle.VehicleArrays`
+#: fields): the cars follow their records or brake along them, so the yaw inertia acts first
+#: at the impact.  A model that changes only these runs the same pre-crash phase
+#: (tests/physics/test_precrash.py checks it bit for bit).
+UNUSED_VEHICLE_FIELDS: tuple[str, ...] = ("yaw_inertia",)
 
 # ----------------------------------------------------------------------------
 # Parameters

@@ -45,6 +45,7 @@ from vfs.physics.precrash import (
 )
 from vfs.physics.runout import (
     PairRunoutResult,
+    RunoutMemo,
     RunoutParams,
     RunoutResult,
     RunoutState,
@@ -76,6 +77,11 @@ class SimulationParams:
         the same (secondary collisions are detected, not solved) and the
         results report none (the model-variant searches of :mod:`vfs.analysis`,
         whose outcomes do not include the flag).
+    runout_paths : bool
+        Record the run-out's path samples and kinetic energies (default True, the
+        figures of a case); False leaves them empty and keeps every other result to
+        the last bit (the model-variant searches: they compare rest poses); needs
+        ``secondary_collisions`` False (the check follows the paths).
     """
 
     precrash: PrecrashParams = field(default_factory=PrecrashParams)
@@ -83,9 +89,13 @@ class SimulationParams:
     runout: RunoutParams = field(default_factory=RunoutParams)
     effects: tuple[Effect, ...] = ()
     secondary_collisions: bool = True
+    runout_paths: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", check_effects(self.effects))
+        if not self.runout_paths and self.secondary_collisions:
+            raise ParameterError("runout_paths=False needs secondary_collisions=False: the "
+                                 "secondary-collision check follows the run-out paths")
 
 
 class CaseBatch(NamedTuple):
@@ -510,7 +520,8 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                    params: SimulationParams | None = None,
                    rng: np.random.Generator | SegmentedRandom | None = None,
-                   precrash: PrecrashResult | None = None) -> CaseResults:
+                   precrash: PrecrashResult | None = None,
+                   runout_memo: RunoutMemo | None = None) -> CaseResults:
     """Simulate N cases end to end (pre-crash, impact, run-out to rest).
 
     The effects of ``params.effects`` act at their stages (:mod:`vfs.effects`):
@@ -534,6 +545,9 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         ``params.precrash``, ``vehicles`` hooks and penetration rule; the run
         is then skipped (the model-variant searches of :mod:`vfs.analysis`
         reuse one pre-crash run for every variant that leaves it unchanged).
+    runout_memo : RunoutMemo, optional
+        Rest results of run-outs met before (with ``params.runout_paths`` False): the
+        variant searches keep one for all their calls.
 
     Returns
     -------
@@ -577,7 +591,8 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
         runout_stage(_with_inertia(batch.vehicle1.take(hit), config.izz[:, 0]),
                      _with_inertia(batch.vehicle2.take(hit), config.izz[:, 1]),
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
-                     secondary_collisions=params.secondary_collisions)
+                     secondary_collisions=params.secondary_collisions,
+                     paths=params.runout_paths, memo=runout_memo)
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
@@ -596,7 +611,8 @@ def _with_inertia(vehicles: VehicleArrays, izz: np.ndarray) -> VehicleArrays:
 def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state: KinematicState,
                  result: ImpactResult, road_friction: np.ndarray, params: RunoutParams,
                  wheel_brake1: np.ndarray, wheel_brake2: np.ndarray,
-                 secondary_collisions: bool = True) -> PairRunoutResult:
+                 secondary_collisions: bool = True, paths: bool = True,
+                 memo: RunoutMemo | None = None) -> PairRunoutResult:
     """Run-out to rest of M collisions from the poses at impact and the post-impact velocities.
 
     Parameters
@@ -617,6 +633,11 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         (:func:`vfs.physics.runout.run_out_pair`); False skips that check (the
         rest poses are the same: secondary collisions are detected, not solved),
         and the result reports none.
+    paths : bool
+        Record the path samples and kinetic energies (default); False (only without
+        the secondary-collision check) leaves them empty (:func:`vfs.physics.runout.run_out`).
+    memo : RunoutMemo, optional
+        Rest results of vehicles run before (only without paths).
 
     Returns
     -------
@@ -635,7 +656,8 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(post1, post2, strict=True)))
     mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
     res = run_out(both, state, np.concatenate([mu, mu]), params,
-                  wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]))
+                  wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]), paths=paths,
+                  memo=memo)
     return PairRunoutResult.from_batch(res, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 

@@ -17,11 +17,13 @@ from vfs.errors import ParameterError
 from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
 from vfs.physics.runout import (
     PairRunoutResult,
+    RunoutMemo,
     RunoutParams,
     RunoutResult,
     RunoutState,
     distinct_rows,
     kinetic_energy,
+    row_table,
     run_out,
     run_out_pair,
     static_wheel_loads,
@@ -262,10 +264,55 @@ def test_repeated_vehicles_run_once_and_get_the_same_result():
     # one changed number makes a vehicle distinct
     brake2 = brake[index].copy()
     brake2[2, 0] = 0.25
-    first, inverse = distinct_rows(*vehicles.take(index), *(a[index] for a in s), mu[index],
-                                   brake2)
+    first, inverse = distinct_rows(row_table(*vehicles.take(index), *(a[index] for a in s),
+                                             mu[index], brake2))
     assert first.size == n + 1 and np.array_equal(first[inverse][[1, 5]], [1, 1])
     assert inverse[0] != inverse[2] and inverse[0] == inverse[9]
+
+
+def test_run_out_without_path_samples_keeps_every_other_field():
+    rng = np.random.default_rng(12)
+    n = 9
+    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
+    mu = rng.uniform(0.3, 1.0, n)
+    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    index = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 2, 2, 5])  # repeated vehicles too
+    args = (vehicles.take(index), RunoutState(*(a[index] for a in s)), mu[index],
+            RunoutParams(load_transfer=True))
+    full = run_out(*args, wheel_brake=brake[index])
+    bare = run_out(*args, wheel_brake=brake[index], paths=False)
+    assert full.path.shape[1] > 1 and bare.path.shape == (index.size, 0, 3)
+    assert bare.kinetic_energy.shape == (index.size, 0) and bare.path_t.size == 0
+    for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+        assert np.array_equal(getattr(bare, name), getattr(full, name), equal_nan=True), name
+
+
+def test_memo_gives_vehicles_run_before_their_results_bit_for_bit():
+    # calls that meet vehicles of earlier calls (the model variants of a search) take
+    # their rest results from the memo: equal, bit for bit, to running them
+    rng = np.random.default_rng(13)
+    n = 8
+    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
+    mu = rng.uniform(0.3, 1.0, n)
+    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    params = RunoutParams(load_transfer=True)
+    memo = RunoutMemo()
+
+    def call(index, use_memo):
+        return run_out(vehicles.take(index), RunoutState(*(a[index] for a in s)), mu[index],
+                       params, wheel_brake=brake[index], paths=False,
+                       memo=memo if use_memo else None)
+
+    for index in (np.array([0, 1, 2, 2]), np.array([2, 3, 0, 4, 4]), np.arange(n)[::-1]):
+        got, want = call(index, True), call(index, False)
+        for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+            assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True)
+    assert (memo.misses, memo.hits) == (n, 0 + 2 + 5)  # distinct per call: 3, 4, 8
+    with pytest.raises(ParameterError, match="paths=False"):
+        run_out(vehicles, s, mu, params, wheel_brake=brake, memo=memo)
+    small = RunoutMemo(max_vehicles=2)
+    run_out(vehicles, s, mu, params, wheel_brake=brake, paths=False, memo=small)
+    assert small.misses == n and len(small._index) == 2  # noqa: SLF001 - the bound
 
 
 def test_time_step_convergence():

@@ -21,6 +21,7 @@ import numpy as np
 from vfs.effects import STAGES, Effect, VelocityChange, hooks
 from vfs.errors import ParameterError
 from vfs.physics.precrash import UNUSED_VEHICLE_FIELDS, PrecrashParams, PrecrashResult
+from vfs.physics.runout import RunoutMemo
 from vfs.physics.vehicle import VehicleArrays
 from vfs.simulation import (
     CaseBatch,
@@ -264,6 +265,8 @@ class VariantSimulator:
         self._cache: dict[tuple[Any, ...], np.ndarray] = {}
         self._precrash: PrecrashResult | None = None
         self._opened: CaseBatch | None = None
+        #: rest results of every vehicle run out so far (variants repeat most of them)
+        self.runout_memo = RunoutMemo()
         self.n_variants = 0
         self.n_case_runs = 0
         self.n_calls = 0
@@ -318,16 +321,17 @@ class VariantSimulator:
         else:
             st = stacked_effect(full, n, self.params.precrash.penetration_time)
             effects = () if st is None else (st,)
-        # the outcomes compared do not include the secondary-collision flag: not checked
+        # the outcomes compared do not include the secondary-collision flag (not checked)
+        # nor the run-out paths (not recorded)
         params = SimulationParams(precrash=self.params.precrash, impact=self.params.impact,
                                   runout=self.params.runout, effects=effects,
-                                  secondary_collisions=False)
+                                  secondary_collisions=False, runout_paths=False)
         pre = None
         if all(self.keeps_precrash(m) for m in models):  # one pre-crash run serves them all
             pre = self.base_precrash()
             if g > 1:
                 pre = pre.take(np.tile(np.arange(n), g))
-        return simulate_cases(batch, params=params, precrash=pre)
+        return simulate_cases(batch, params=params, precrash=pre, runout_memo=self.runout_memo)
 
     def keeps_precrash(self, model: Model) -> bool:
         """True if the base model's pre-crash run serves ``model``: its effects leave the

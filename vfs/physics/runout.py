@@ -47,7 +47,7 @@ leaves exactly unchanged) and compacted out of the working arrays.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -722,18 +722,20 @@ StepCallback = Callable[[float, RunoutState, np.ndarray], None]
 
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
-              params: RunoutParams, on_step: StepCallback | None = None) -> RunoutResult:
+              params: RunoutParams, on_step: StepCallback | None = None,
+              record: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
     Without ``on_step`` the vehicles never interact; on request
     (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
     :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
-    reference it is tested against.
+    reference it is tested against.  ``record``: False leaves the path samples and kinetic
+    energies empty (:func:`run_out`).
     """
     n = state.x.shape[0]
     w = _prepare(vehicles, state, mu, brake, params)
     if on_step is None and n and compiled_runout.runout_enabled():
-        return _simulate_compiled(w, params)
+        return _unrecorded(_simulate_compiled(w, params), record)
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     vx, vy, r = state.vx.copy(), state.vy.copy(), state.yaw_rate.copy()
@@ -762,6 +764,8 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         vx[idx], vy[idx], r[idx] = w.vx, w.vy, w.r
 
     def sample() -> None:
+        if not record:
+            return
         publish()
         poses.append(np.stack([x, y, yaw], axis=-1))
         energies.append(0.5 * mass * (vx * vx + vy * vy) + 0.5 * inertia * r * r)
@@ -796,10 +800,19 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         sample()  # the rest poses (or the poses at max_time) at the next sample time
     publish()
     distance[w.rows] = w.distance
-    path = np.stack(poses, axis=1) if n else np.zeros((0, len(poses), 3))
-    kinetic = np.stack(energies, axis=1) if n else np.zeros((0, len(energies)))
+    path = np.stack(poses, axis=1) if n and poses else np.zeros((n, len(poses), 3))
+    kinetic = np.stack(energies, axis=1) if n and poses else np.zeros((n, len(energies)))
     path_t = np.arange(len(poses)) * (per_sample * params.dt)
     return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
+
+
+def _unrecorded(res: RunoutResult, record: bool) -> RunoutResult:
+    """``res``, or without path samples and kinetic energies (K = 0) if not ``record``."""
+    if record:
+        return res
+    n = res.rest_x.shape[0]
+    return res._replace(path=np.zeros((n, 0, 3)), path_t=np.zeros(0),
+                        kinetic_energy=np.zeros((n, 0)))
 
 
 def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
@@ -825,7 +838,8 @@ def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
 
 def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.ArrayLike,
             params: RunoutParams | None = None,
-            wheel_brake: npt.ArrayLike | None = None) -> RunoutResult:
+            wheel_brake: npt.ArrayLike | None = None, paths: bool = True,
+            memo: RunoutMemo | None = None) -> RunoutResult:
     """Simulate the post-crash run-out of N vehicles to rest.
 
     Parameters
@@ -841,6 +855,13 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     wheel_brake : array_like (4,) or (N, 4), optional
         Brake factor b per wheel (FL, FR, RL, RR) in [0, 1]: 1 locked, < 1
         rolling and braked with b mu N.  Default: ``params.wheel_brake``.
+    paths : bool
+        Record the path samples and kinetic energies (default); False leaves ``path``,
+        ``path_t`` and ``kinetic_energy`` empty (K = 0; searches that compare rest poses
+        only); the other fields are the same to the last bit.
+    memo : RunoutMemo, optional
+        Rest results of vehicles run before (with ``paths`` False): a vehicle whose
+        inputs equal those of one in the memo, bit for bit, gets its results.
 
     Returns
     -------
@@ -865,26 +886,91 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     vehicles = _check_vehicles(vehicles, n, "vehicles")
     mu = _check_friction(road_friction, n)
     brake = _check_brake(wheel_brake, params, n)
-    first, inverse = distinct_rows(*vehicles, *state, mu, brake) if n > 1 else (
-        np.arange(n), np.arange(n))
-    if first.size == n:
-        return _simulate(vehicles, state, mu, brake, params)
+    if memo is not None and paths:
+        raise ParameterError("a RunoutMemo keeps rest poses only: call run_out with paths=False")
+    table = row_table(*vehicles, *state, mu, brake)
+    first, inverse = distinct_rows(table) if n > 1 else (np.arange(n), np.arange(n))
     # the vehicles never interact here: each distinct one runs once (a batch of model
     # variants repeats most vehicles), and the copies get its result, bit for bit
-    res = _simulate(vehicles.take(first), RunoutState(*(a[first] for a in state)), mu[first],
-                    brake[first], params)
-    return RunoutResult(*(a if name == "path_t" else a[inverse]
-                          for name, a in zip(RunoutResult._fields, res, strict=True)))
+    if memo is None:
+        if first.size == n:
+            return _simulate(vehicles, state, mu, brake, params, record=paths)
+        res = _simulate(vehicles.take(first), RunoutState(*(a[first] for a in state)),
+                        mu[first], brake[first], params, record=paths)
+        return RunoutResult(*(a if name == "path_t" else a[inverse]
+                              for name, a in zip(RunoutResult._fields, res, strict=True)))
+    keys = [table[i].tobytes() for i in first]
+    rest = memo.rest(keys)  # (D, 6); NaN rows unknown
+    todo = np.flatnonzero(np.isnan(rest[:, 5]))
+    if todo.size:
+        rows = first[todo]
+        res = _simulate(vehicles.take(rows), RunoutState(*(a[rows] for a in state)), mu[rows],
+                        brake[rows], params, record=False)
+        rest[todo] = np.stack([res.rest_x, res.rest_y, res.rest_yaw, res.time_to_rest,
+                               res.distance, res.at_rest.astype(float)], axis=1)
+        memo.store([keys[i] for i in todo], rest[todo])
+    out = rest[inverse]
+    return RunoutResult(out[:, 0], out[:, 1], out[:, 2], out[:, 3], out[:, 4], out[:, 5] > 0.5,
+                        np.zeros((n, 0, 3)), np.zeros(0), np.zeros((n, 0)))
 
 
-def distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first row of each distinct combination of the columns' values, and each row's
-    index into those: ``first[inverse]`` repeats the rows.
+class RunoutMemo:
+    """Rest results of :func:`run_out` by each vehicle's inputs (its data, state, friction
+    and brake factors, bit for bit), kept across calls: a search over many model variants
+    of the same cases meets the same post-impact vehicle again in other variants and
+    other calls (a variant of one vehicle's run-out leaves the other's as it was).
+
+    Holds rest x, y [m], yaw [rad], time to rest [s], path length [m] and the at-rest flag
+    of at most ``max_vehicles`` vehicles (about 0.4 kB each); the first ones stay.
+    """
+
+    def __init__(self, max_vehicles: int = 500_000) -> None:
+        self.max_vehicles = int(max_vehicles)
+        self._index: dict[bytes, int] = {}
+        self._values = np.empty((1024, 6))
+        self.hits = 0
+        self.misses = 0
+
+    def rest(self, keys: Sequence[bytes]) -> np.ndarray:
+        """The six rest results (len(keys), 6) of known vehicles, NaN rows for the others."""
+        at = np.fromiter((self._index.get(k, -1) for k in keys), np.int64, len(keys))
+        known = at >= 0
+        out = np.full((len(keys), 6), np.nan)
+        out[known] = self._values[at[known]]
+        found = int(np.count_nonzero(known))
+        self.hits += found
+        self.misses += len(keys) - found
+        return out
+
+    def store(self, keys: Sequence[bytes], values: np.ndarray) -> None:
+        """Keep the rest results (len(keys), 6) of new vehicles while there is room."""
+        size = len(self._index)
+        take = min(len(keys), self.max_vehicles - size)
+        if take <= 0:
+            return
+        if size + take > self._values.shape[0]:  # room doubled
+            grown = np.empty((max(2 * self._values.shape[0], size + take), 6))
+            grown[:size] = self._values[:size]
+            self._values = grown
+        self._values[size:size + take] = np.asarray(values, float)[:take]
+        self._index.update(zip(list(keys)[:take], range(size, size + take), strict=True))
+
+
+def row_table(*columns: np.ndarray) -> np.ndarray:
+    """The columns side by side as one contiguous float64 table (N, k), a row per item."""
+    n = np.asarray(columns[0]).shape[0]
+    return np.ascontiguousarray(np.concatenate(
+        [np.asarray(c, np.float64).reshape(n, -1 if n else 1) for c in columns], axis=1))
+
+
+def distinct_rows(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The first row of each distinct row of a table, and each row's index into those:
+    ``first[inverse]`` repeats the rows.
 
     Parameters
     ----------
-    *columns : ndarray (N,) or (N, k)
-        Numbers of the N rows (compared bit for bit, as float64).
+    table : ndarray (N, k)
+        Contiguous float64 numbers (:func:`row_table`), compared bit for bit.
 
     Returns
     -------
@@ -893,9 +979,6 @@ def distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     inverse : ndarray of int (N,)
         For each row the position of its combination in ``first``.
     """
-    n = np.asarray(columns[0]).shape[0]
-    table = np.ascontiguousarray(np.concatenate(
-        [np.asarray(c, np.float64).reshape(n, -1) for c in columns], axis=1))
     rows = table.view(np.dtype((np.void, table.dtype.itemsize * table.shape[1]))).ravel()
     _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
     order = np.argsort(first, kind="stable")  # distinct rows in their first order

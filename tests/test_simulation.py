@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from vfs.cli import main
+from vfs.errors import ParameterError
 from vfs.physics.paths import PathArrays
 from vfs.physics.precrash import ScheduledBraking
 from vfs.scenarios.examples import example_case_database
 from vfs.scenarios.random import synthetic_case_batch
-from vfs.simulation import CaseBatch, results_table, simulate_cases
+from vfs.physics.runout import RunoutMemo
+from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
 
 def mirrored(batch: CaseBatch) -> CaseBatch:
@@ -51,6 +53,25 @@ def test_batch_equals_single_for_the_whole_chain():
         for col in ("contact_time", "delta_v1", "ees2", "rest_x1", "rest_y2", "rest_yaw1",
                     "min_distance"):
             assert (a[col] == b[col]) or (np.isnan(a[col]) and np.isnan(b[col])), col
+
+
+def test_outcome_only_runs_equal_the_full_chain_and_need_no_secondary_check():
+    # the variant searches' settings: no secondary-collision check, no run-out paths, a
+    # memo of rest results; every outcome column but those is the same to the last bit,
+    # also on the second call that takes every run-out from the memo
+    batch = synthetic_case_batch(10, np.random.default_rng(6))
+    cols = [c for c in results_table(batch, simulate_cases(batch)).columns
+            if not c.startswith("secondary")]
+    full = results_table(batch, simulate_cases(
+        batch, params=SimulationParams(secondary_collisions=False)))[cols]
+    lean = SimulationParams(secondary_collisions=False, runout_paths=False)
+    memo = RunoutMemo()
+    for _ in range(2):
+        got = results_table(batch, simulate_cases(batch, params=lean, runout_memo=memo))[cols]
+        assert got.equals(full)
+    assert memo.hits == memo.misses > 0
+    with pytest.raises(ParameterError, match="secondary_collisions=False"):
+        SimulationParams(runout_paths=False)
 
 
 def test_mirror_symmetric_cases_give_mirrored_outcomes():

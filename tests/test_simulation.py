@@ -9,9 +9,9 @@ from vfs.cli import main
 from vfs.errors import ParameterError
 from vfs.physics.paths import PathArrays
 from vfs.physics.precrash import ScheduledBraking
+from vfs.physics.runout import RunoutMemo
 from vfs.scenarios.examples import example_case_database
 from vfs.scenarios.random import synthetic_case_batch
-from vfs.physics.runout import RunoutMemo
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 
 

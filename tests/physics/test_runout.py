@@ -66,6 +66,13 @@ def random_states(rng: np.random.Generator, n: int) -> RunoutState:
         speed * np.cos(course), speed * np.sin(course), rng.uniform(-3.0, 3.0, n))
 
 
+def random_inputs(seed: int, n: int) -> tuple[VehicleArrays, RunoutState, np.ndarray, np.ndarray]:
+    """n random vehicles, post-crash states, friction coefficients and brake factors."""
+    rng = np.random.default_rng(seed)
+    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
+    return vehicles, s, rng.uniform(0.3, 1.0, n), rng.choice([0.0, 0.5, 1.0], (n, 4))
+
+
 def rest_change(a: RunoutResult, b: RunoutResult) -> np.ndarray:
     return np.hypot(a.rest_x - b.rest_x, a.rest_y - b.rest_y)
 
@@ -245,11 +252,8 @@ def test_batch_equals_single():
 def test_repeated_vehicles_run_once_and_get_the_same_result():
     # a batch of model variants repeats most vehicles: run_out runs each distinct one
     # once; the copies must equal, bit for bit, the batch without repetitions
-    rng = np.random.default_rng(8)
     n = 7
-    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
-    mu = rng.uniform(0.3, 1.0, n)
-    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    vehicles, s, mu, brake = random_inputs(8, n)
     params = RunoutParams(load_transfer=True)
     alone = run_out(vehicles, s, mu, params, wheel_brake=brake)
     index = np.array([3, 0, 3, 6, 1, 0, 2, 5, 4, 3, 6])
@@ -271,11 +275,8 @@ def test_repeated_vehicles_run_once_and_get_the_same_result():
 
 
 def test_run_out_without_path_samples_keeps_every_other_field():
-    rng = np.random.default_rng(12)
     n = 9
-    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
-    mu = rng.uniform(0.3, 1.0, n)
-    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    vehicles, s, mu, brake = random_inputs(12, n)
     index = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 2, 2, 5])  # repeated vehicles too
     args = (vehicles.take(index), RunoutState(*(a[index] for a in s)), mu[index],
             RunoutParams(load_transfer=True))
@@ -290,11 +291,8 @@ def test_run_out_without_path_samples_keeps_every_other_field():
 def test_memo_gives_vehicles_run_before_their_results_bit_for_bit():
     # calls that meet vehicles of earlier calls (the model variants of a search) take
     # their rest results from the memo: equal, bit for bit, to running them
-    rng = np.random.default_rng(13)
     n = 8
-    vehicles, s = random_vehicles(rng, n), random_states(rng, n)
-    mu = rng.uniform(0.3, 1.0, n)
-    brake = rng.choice([0.0, 0.5, 1.0], (n, 4))
+    vehicles, s, mu, brake = random_inputs(13, n)
     params = RunoutParams(load_transfer=True)
     memo = RunoutMemo()
 

@@ -72,6 +72,8 @@ def test_outcome_only_runs_equal_the_full_chain_and_need_no_secondary_check():
     assert memo.hits == memo.misses > 0
     with pytest.raises(ParameterError, match="secondary_collisions=False"):
         SimulationParams(runout_paths=False)
+    with pytest.raises(ParameterError, match="secondary_collisions=False"):  # not ignored
+        simulate_cases(batch, runout_memo=memo)
 
 
 def test_mirror_symmetric_cases_give_mirrored_outcomes():

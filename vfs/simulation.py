@@ -648,6 +648,9 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
                                 result.vy_post[:, j], result.yaw_rate_post[:, j])
                     for j in (0, 1))
     if secondary_collisions:
+        if memo is not None or not paths:
+            raise ParameterError("a run-out memo or paths=False needs "
+                                 "secondary_collisions=False (the check follows the paths)")
         return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
                             wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
     m = post1.x.shape[0]

@@ -167,6 +167,8 @@ def test_running_median_follows_lines_and_steps_and_ignores_isolated_values():
     # the order of the cases does not matter
     perm = rng.permutation(x.size)
     assert np.array_equal(running_median(x[perm], noisy[perm]), running_median(x, noisy)[perm])
+    # as few cases as one window (2 k + 1 = 11): both ends are the end lines
+    assert np.allclose(running_median(x[:11], line[:11]), line[:11], atol=1e-9)
 
 
 def test_robust_spline_keeps_a_cluster_at_the_end_of_the_range():

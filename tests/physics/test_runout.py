@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from vfs.errors import ParameterError
 from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
 from vfs.physics.runout import (
+    REST_FIELDS,
     PairRunoutResult,
     RunoutMemo,
     RunoutParams,
@@ -284,7 +285,7 @@ def test_run_out_without_path_samples_keeps_every_other_field():
     bare = run_out(*args, wheel_brake=brake[index], paths=False)
     assert full.path.shape[1] > 1 and bare.path.shape == (index.size, 0, 3)
     assert bare.kinetic_energy.shape == (index.size, 0) and bare.path_t.size == 0
-    for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+    for name in REST_FIELDS:
         assert np.array_equal(getattr(bare, name), getattr(full, name), equal_nan=True), name
 
 
@@ -303,7 +304,7 @@ def test_memo_gives_vehicles_run_before_their_results_bit_for_bit():
 
     for index in (np.array([0, 1, 2, 2]), np.array([2, 3, 0, 4, 4]), np.arange(n)[::-1]):
         got, want = call(index, True), call(index, False)
-        for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+        for name in REST_FIELDS:
             assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True)
     assert (memo.misses, memo.hits) == (n, 0 + 2 + 5)  # distinct per call: 3, 4, 8
     with pytest.raises(ParameterError, match="paths=False"):
@@ -488,7 +489,7 @@ def test_pair_results_equal_single_run_outs():
     alone1 = run_out(v1, s1, 0.7)
     alone2 = run_out(v2, s2, 0.7, wheel_brake=LOCKED)
     for j, alone in enumerate((alone1, alone2)):
-        for name in ("rest_x", "rest_y", "rest_yaw", "time_to_rest", "distance", "at_rest"):
+        for name in REST_FIELDS:
             np.testing.assert_array_equal(getattr(res, name)[:, j], getattr(alone, name))
         # the pair's path runs until both vehicles rest: the single one's samples come first
         k = alone.path_t.size

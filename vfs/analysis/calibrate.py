@@ -728,7 +728,7 @@ def rmse_reduction(errors: np.ndarray, base: np.ndarray, group: int | None = Non
     return 1.0 - math.sqrt(a / b)
 
 
-def _batched_reduction(group: int | None, weights: np.ndarray | None
+def _reduction_statistic(group: int | None, weights: np.ndarray | None
                        ) -> Callable[..., np.ndarray | float]:
     """Statistic for :func:`vfs.analysis.stats.bootstrap_ci`: the RMSE reduction of
     :func:`rmse_reduction` from the resampling counts of the cases (a matrix product per
@@ -761,7 +761,7 @@ def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
     """
     from vfs.analysis.stats import bootstrap_ci
 
-    stat = _batched_reduction(group, weights)
+    stat = _reduction_statistic(group, weights)
     if not math.isfinite(float(stat(errors, base, np.ones((1, errors.shape[0])))[0])):
         return float("nan"), float("nan"), float("nan")
     if group is not None:

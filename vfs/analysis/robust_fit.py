@@ -28,7 +28,7 @@ from vfs.effects.learned import FORMS, evaluate_law
 #: for normal errors), in units of the robust scale of the standardised residuals.
 HUBER_C = 1.345
 BIWEIGHT_C = 4.685
-#: Most reweighting iterations of each stage of a robust fit of a closed form.
+#: Most reweighting iterations of each stage of a robust fit of a closed form (:func:`irls`).
 ROBUST_ITERATIONS = 10
 #: Half-width (in cases, ranked by the feature) of the running median against which a
 #: smoothing spline's robust weights are taken: a window of 2 k + 1 neighbours.
@@ -122,16 +122,18 @@ def fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
     if near is not None and math.isfinite(near):
         k = int(np.argmin(np.abs(grid - near)))
         grid = np.unique(np.append(grid[max(k - 2, 0):k + 3], near))
-    # the grid in one pass of the normal equations; the best point (or every point,
-    # where a singular one needs the minimum-norm solution) once more by inner
-    sse = sse_many(grid)
-    if np.isfinite(sse).all():
-        k = int(np.argmin(sse))
-        best = inner(float(grid[k]))
-    else:
-        vals = [inner(float(c)) for c in grid]
-        k = int(np.argmin([v[0] for v in vals]))
-        best = vals[k]
+    def best_of(cs: np.ndarray) -> tuple[int, tuple[float, list[float]]]:
+        # candidates in one pass of the normal equations, the best once more by inner
+        # (every one by inner where a singular one needs the minimum-norm solution)
+        sse = sse_many(cs)
+        if np.isfinite(sse).all():
+            j = int(np.argmin(sse))
+            return j, inner(float(cs[j]))
+        vals = [inner(float(c)) for c in cs]
+        j = int(np.argmin([v[0] for v in vals]))
+        return j, vals[j]
+
+    k, best = best_of(grid)
     if form == "step" and len(grid) > 1:
         # the partition changes only between data values: try the midpoints between
         # the distinct values of x in the grid cells around the best threshold
@@ -139,11 +141,7 @@ def fit_form_ls(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
         ux = np.unique(x[(x >= lo) & (x <= hi)])
         mids = 0.5 * (ux[1:] + ux[:-1])
         if mids.size:
-            sse = sse_many(mids)
-            j = int(np.argmin(sse))
-            cand = inner(float(mids[j])) if np.isfinite(sse[j]) else (math.inf, [])
-            if not np.isfinite(sse).all():
-                cand = min((inner(float(c)) for c in mids), key=lambda v: v[0])
+            cand = best_of(mids)[1]
             if cand[0] < best[0]:
                 best = cand
     elif len(grid) > 2:
@@ -293,34 +291,33 @@ def robust_loss(u: np.ndarray) -> np.ndarray:
 
 
 def irls(fit: Callable[[np.ndarray], Any], predict: Callable[[Any], np.ndarray],
-          y: np.ndarray, w: np.ndarray, iterations: int = ROBUST_ITERATIONS,
-          start: Any = None, stages: tuple[str, ...] = ("huber", "biweight")
-          ) -> tuple[Any, np.ndarray, float]:
+          y: np.ndarray, w: np.ndarray, start: Any = None,
+          stages: tuple[str, ...] = ("huber", "biweight")) -> Any:
     """Iteratively reweighted fit: Huber weights (scale re-estimated by the MAD of
     the standardised residuals), then Tukey's biweight at the last scale; at most
-    ``iterations`` refits per stage; ``start``: the first fit if known (default: the
+    :data:`ROBUST_ITERATIONS` refits per stage; ``start``: the first fit if known (default: the
     fit with weights w); ``stages``: ("biweight",) from a robust start (the scale is
     then the MAD of the start's residuals).
 
-    Returns the fit, the robust weights (0 = rejected) and the scale.
+    Returns the last fit.
     """
     sw = np.sqrt(w)
     rw = np.ones_like(y)
     model = fit(w) if start is None else start
     scale = 0.0
     for kind in stages:
-        for _ in range(iterations):
+        for _ in range(ROBUST_ITERATIONS):
             r = sw * (y - predict(model))
             if kind == "huber" or scale <= 0:
                 scale = robust_scale(r)
             if not scale > 0:
-                return model, rw, scale
+                return model
             new_rw = robust_weights(r / scale, kind)
             if np.max(np.abs(new_rw - rw)) < 1e-2:
                 break
             rw = new_rw
             model = fit(w * rw)
-    return model, rw, scale
+    return model
 
 
 def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
@@ -348,9 +345,9 @@ def fit_form(form: str, x: np.ndarray, y: np.ndarray, w: np.ndarray,
         return evaluate_law({"form": form, "coefficients": c}, x)
 
     if start is None:
-        coef, _, _ = irls(fit, predict, y, w)
+        coef = irls(fit, predict, y, w)
     else:
-        coef, _, _ = irls(fit, predict, y, w, start=list(last), stages=("biweight",))
+        coef = irls(fit, predict, y, w, start=list(last), stages=("biweight",))
     return list(coef)
 
 
@@ -376,9 +373,9 @@ def running_median(x: np.ndarray, y: np.ndarray,
         med[:] = np.median(ys)
     else:
         med[k:n - k] = np.median(sliding_window_view(ys, 2 * k + 1), axis=1)
-        for end in (slice(0, 2 * k + 1), slice(n - 2 * k - 1, n)):
+        for end, ends in ((slice(0, 2 * k + 1), slice(0, k)),
+                          (slice(n - 2 * k - 1, n), slice(n - k, n))):
             xe, ye = xs[end], ys[end]
-            ends = slice(0, k) if end.start == 0 else slice(n - k, n)
             if np.ptp(xe) > 0:
                 slope, icpt = siegelslopes(ye, xe)
                 med[ends] = icpt + slope * xs[ends]
@@ -416,8 +413,8 @@ def robust_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray
 
 
 def fit_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool = True) -> Any:
-    """Smoothing spline (:func:`smoothing_spline`), robust as :func:`fit_form`; None if too
-    few distinct abscissas.
+    """Smoothing spline (:func:`smoothing_spline`), or robustly :func:`robust_spline`'s;
+    None if too few distinct abscissas.
     """
     return robust_spline(x, y, w)[0] if robust else smoothing_spline(x, y, w)
 

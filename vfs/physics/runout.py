@@ -900,18 +900,22 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
         return RunoutResult(*(a if name == "path_t" else a[inverse]
                               for name, a in zip(RunoutResult._fields, res, strict=True)))
     keys = [table[i].tobytes() for i in first]
-    rest = memo.rest(keys)  # (D, 6); NaN rows unknown
+    rest = memo.rest(keys)  # (D, 6) in the order of REST_FIELDS; NaN rows unknown
     todo = np.flatnonzero(np.isnan(rest[:, 5]))
     if todo.size:
         rows = first[todo]
         res = _simulate(vehicles.take(rows), RunoutState(*(a[rows] for a in state)), mu[rows],
                         brake[rows], params, record=False)
-        rest[todo] = np.stack([res.rest_x, res.rest_y, res.rest_yaw, res.time_to_rest,
-                               res.distance, res.at_rest.astype(float)], axis=1)
+        rest[todo] = np.stack([np.asarray(getattr(res, f), float) for f in REST_FIELDS], axis=1)
         memo.store([keys[i] for i in todo], rest[todo])
     out = rest[inverse]
     return RunoutResult(out[:, 0], out[:, 1], out[:, 2], out[:, 3], out[:, 4], out[:, 5] > 0.5,
                         np.zeros((n, 0, 3)), np.zeros(0), np.zeros((n, 0)))
+
+
+#: The per-vehicle fields of :class:`RunoutResult` without the path samples (what a
+#: :class:`RunoutMemo` keeps, in this order; ``at_rest`` as 0 / 1).
+REST_FIELDS: tuple[str, ...] = RunoutResult._fields[:6]
 
 
 class RunoutMemo:

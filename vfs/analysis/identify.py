@@ -8,7 +8,9 @@ value that best reproduces the case's reconstruction:
 
 1. a grid of ``grid_points`` candidate values over the channel's range
    (geometric for ratios) is simulated on **all** cases, one stacked
-   simulation for the whole grid (:class:`vfs.analysis.variants.VariantSimulator`);
+   simulation for the grids of all channels (:class:`vfs.analysis.variants.VariantSimulator`;
+   the refinement steps below likewise run all channels together, one simulation per
+   step: a stacked run-out lasts as long as its slowest vehicle);
 2. the objective of a case is chi^2 = sum over the compared residual
    columns of (residual / scale)^2, the scale of each output being the RMS
    of its recorded ``_sd`` columns (:class:`vfs.analysis.calibrate.CalibrationData`);
@@ -41,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Generator, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +63,10 @@ from vfs.physics.impact import ImpactConfig
 #: over it (run-out brake factors: chi^2 rising by hundreds within 0.05), where one
 #: parabola through grid values misses the minimum by many interval widths.
 POLISH_ROUNDS = 3
+
+#: A refinement (:func:`_refine_profile`): yields per-case values, is sent their residuals,
+#: returns the values tried and their residuals.
+RefineSteps = Generator[list[np.ndarray], np.ndarray, tuple[np.ndarray, np.ndarray]]
 
 #: Channels identified by default (all).
 DEFAULT_CHANNELS: tuple[str, ...] = tuple(CHANNELS)
@@ -315,17 +321,15 @@ def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
     return low, high, flat, multimodal, at_bound
 
 
-def _per_case_residuals(data: CalibrationData, sim: VariantSimulator, channel: str,
-                        values: Sequence[np.ndarray]) -> np.ndarray:
-    """Residuals (k, n, n_columns) of k variants that set the channel to per-case values
-    (k arrays (n,)).
-    """
+def _per_case_models(data: CalibrationData, channel: str,
+                     values: Sequence[np.ndarray]) -> list[tuple[Any, ...]]:
+    """Models of k variants that set the channel to per-case values (k arrays (n,))."""
     models = []
     for v in values:
         per = _per_case_class(channel, data.n)
         setattr(per, "values_per_case", np.asarray(v, float))  # noqa: B010
         models.append((per(),))
-    return np.stack(sim.uncached_residuals(models))
+    return models
 
 
 def _sorted_profile(xs: np.ndarray, res: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -335,10 +339,9 @@ def _sorted_profile(xs: np.ndarray, res: np.ndarray) -> tuple[np.ndarray, np.nda
             np.take_along_axis(res, order[:, :, None], axis=0))
 
 
-def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
-                    grid: np.ndarray, res: np.ndarray, starts: int, points: int
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The grid profile refined per case.
+def _refine_profile(data: CalibrationData, channel: str, grid: np.ndarray, res: np.ndarray,
+                    starts: int, points: int) -> RefineSteps:
+    """The grid profile refined per case, as a generator of the simulations it needs.
 
     With ``starts`` > 0 (the zoom: the outcomes can react to a channel on a
     scale finer than the grid, the chi^2 well of a case a few percent of the
@@ -352,10 +355,14 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
 
     Then (always) the vertex of the parabola through the best value and its
     neighbours.  Each step is one stacked simulation of all cases (a value
-    per case and variant; geometric channels are refined in the logarithm).
+    per case and variant; geometric channels are refined in the logarithm):
+    the generator yields the values of each step, a list of (n,) arrays in
+    the channel's unit, and is sent their residuals (k, n, n_columns)
+    (:func:`_refine_all` runs the steps of all channels together, one
+    simulation per step).
 
-    Returns
-    -------
+    Returns (as the generator's value)
+    ----------------------------------
     (xs, res)
         Values tried per case (m, n), increasing along the first axis, and
         their residuals (m, n, n_columns) (the grid's included).
@@ -392,7 +399,7 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
             h = 2.0 * h / (points + 1)
             cand = spread(us[ib, np.arange(n)], h)
         c = np.stack(cand)
-        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        new = yield [to_value(v) for v in c]
         us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
         fs = chi2(data, rs)
     # 3. parabola through the best value and its neighbours, then ``POLISH_ROUNDS``
@@ -417,10 +424,42 @@ def _refine_profile(data: CalibrationData, sim: VariantSimulator, channel: str,
             right = us[np.minimum(ib + 1, m - 1), cols]
             vals += [0.5 * (best + left), 0.5 * (best + right)]
         c = np.stack(vals)
-        new = _per_case_residuals(data, sim, channel, [to_value(v) for v in c])
+        new = yield [to_value(v) for v in c]
         us, rs = _sorted_profile(np.concatenate([us, c]), np.concatenate([rs, new]))
         fs = chi2(data, rs)
     return to_value(us), rs
+
+
+def _refine_all(data: CalibrationData, sim: VariantSimulator,
+                steps: dict[str, RefineSteps]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Run the refinements of several channels in lockstep: the values of every channel's
+    next step in one stacked simulation (the run-out of a stacked call lasts as long as
+    its slowest vehicle, so one call per step instead of one per channel and step saves
+    the run-out's long tails; each case's result is the same either way).
+    """
+    done: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    asked: dict[str, list[np.ndarray]] = {}
+
+    def advance(name: str, gen: RefineSteps, sent: np.ndarray | None) -> None:
+        try:
+            asked[name] = next(gen) if sent is None else gen.send(sent)
+        except StopIteration as stop:
+            done[name] = stop.value
+
+    for name, gen in steps.items():
+        advance(name, gen, None)
+    while asked:
+        order = list(asked)
+        models = [m for name in order for m in _per_case_models(data, name, asked[name])]
+        res = sim.uncached_residuals(models)
+        at = 0
+        current = dict(asked)
+        asked.clear()
+        for name in order:
+            k = len(current[name])
+            advance(name, steps[name], np.stack(res[at:at + k]))
+            at += k
+    return done
 
 
 def _widen(best: np.ndarray, edge: np.ndarray, k: float, channel: str) -> np.ndarray:
@@ -497,15 +536,24 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         feats = ft[list(LAW_FEATURES)].to_numpy(float)
     frames = []
     t0 = time.perf_counter()
+    # every channel's grid in one stacked simulation, then its refinement steps in lockstep
+    grids = {name: channel_grid(name, grid_points) for name in names}
+    models = [(_constant_class(name)(a=float(v)),) for name in names for v in grids[name]]
+    flat_res = sim.residuals(models)
+    profiles: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    at = 0
+    for name in names:
+        g = grids[name]
+        res = np.stack(flat_res[at:at + len(g)])  # (g, n, c)
+        at += len(g)
+        profiles[name] = (np.broadcast_to(g[:, None], res.shape[:2]), res)
+    if refine or zoom_starts > 0:
+        profiles.update(_refine_all(data, sim, {
+            name: _refine_profile(data, name, grids[name], profiles[name][1], zoom_starts,
+                                  zoom_points) for name in names}))
     for i, name in enumerate(names):
         ch = CHANNELS[name]
-        grid = channel_grid(name, grid_points)
-        cls = _constant_class(name)
-        res = np.stack(sim.residuals([(cls(a=float(v)),) for v in grid]))  # (g, n, c)
-        if refine or zoom_starts > 0:
-            xs, res = _refine_profile(data, sim, name, grid, res, zoom_starts, zoom_points)
-        else:
-            xs = np.broadcast_to(grid[:, None], res.shape[:2])
+        xs, res = profiles[name]
         factors = np.ones(len(data.groups))
         if noise == "estimated":
             ib = np.argmin(chi2(data, res), axis=0)

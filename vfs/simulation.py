@@ -495,7 +495,9 @@ def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
 
 def precrash_stage(opened: OpenedCases, params: SimulationParams,
                    controller: BrakeController | None = None,
-                   rng: np.random.Generator | SegmentedRandom | None = None) -> PrecrashResult:
+                   rng: np.random.Generator | SegmentedRandom | None = None,
+                   case_of: np.ndarray | None = None,
+                   first_step: np.ndarray | None = None) -> PrecrashResult:
     """The pre-crash run of opened cases (:func:`open_cases`): along the records
     until contact and through the penetration time (:func:`simulate_precrash`).
 
@@ -506,6 +508,9 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
     controller : BrakeController, optional
         Brake demand (None: replay the record).
     rng : numpy.random.Generator or SegmentedRandom, optional
+    case_of, first_step : ndarray of int, optional
+        Case instances and the step of its record each starts at (replay only;
+        :func:`simulate_precrash`).
 
     Returns
     -------
@@ -514,7 +519,8 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
     batch = opened.batch
     return simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                              controller=controller, params=params.precrash, rng=rng,
-                             penetration=opened.penetration)
+                             penetration=opened.penetration, case_of=case_of,
+                             first_step=first_step)
 
 
 def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,

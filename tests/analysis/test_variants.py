@@ -38,11 +38,42 @@ def test_shared_precrash_run_gives_the_variants_bit_for_bit(data, monkeypatch):
     assert shared._precrash is not None  # noqa: SLF001 - the cache this test is about
     monkeypatch.setattr(variants, "leaves_precrash", lambda _model: False)
     monkeypatch.setattr(VariantSimulator, "keeps_precrash", lambda _self, _model: False)
+    monkeypatch.setattr(VariantSimulator, "continues_precrash", lambda _self, _model: False)
     own = VariantSimulator(data).residuals(models)
     for a, b in zip(got, own, strict=True):
         np.testing.assert_array_equal(a, b)
     assert not np.array_equal(got[3], got[0], equal_nan=True)
     assert not np.array_equal(got[4], got[0], equal_nan=True)  # the inertia acts at impact
+
+
+def test_penetration_variants_continue_the_base_run_bit_for_bit(data, monkeypatch):
+    """Variants that change only the penetration time run each colliding case again from
+    two steps before its contact in the base run; their residuals and pre-crash results
+    equal those of the whole run, to the last bit, and the cases without contact keep the
+    base results."""
+    models = [(PenetrationDepth(),), (PenetrationDepth(depth=1.2),),
+              (PenetrationDepth(), RestitutionSpeed())]
+    cont = VariantSimulator(data)
+    assert all(cont.continues_precrash(m) and not cont.keeps_precrash(m) for m in models)
+    assert not cont.continues_precrash((YawInertia(factor=1.7),))
+    got = cont.residuals(models)
+    stacked = cont.simulate(models)
+    monkeypatch.setattr(VariantSimulator, "continues_precrash", lambda _self, _model: False)
+    whole = VariantSimulator(data)
+    own = whole.residuals(models)
+    for a, b in zip(got, own, strict=True):
+        np.testing.assert_array_equal(a, b)
+    full = whole.simulate(models)
+    for name in ("collided", "contact_time", "impact_time", "poi", "cp_angle", "overlap_area",
+                 "min_distance", "time_closest", "speed_reduction"):
+        np.testing.assert_array_equal(getattr(stacked.precrash, name),
+                                      getattr(full.precrash, name), err_msg=name)
+    for name in ("impact_state", "contact_state"):
+        for a, b in zip(getattr(stacked.precrash, name), getattr(full.precrash, name),
+                        strict=True):
+            np.testing.assert_array_equal(a, b, err_msg=name)
+    # the control: the penetration time moved the impacts
+    assert not np.array_equal(got[0], got[1], equal_nan=True)
 
 
 def test_precrash_take_repeats_cases_in_order(data):

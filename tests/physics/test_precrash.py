@@ -334,3 +334,34 @@ def test_friction_limited_deceleration_closed_form(mu, a_max):
 def test_friction_limited_deceleration_broadcasts():
     out = friction_limited_deceleration(np.array([0.2, 0.8, 1.0]), np.array([9.0]))
     np.testing.assert_array_equal(out, [0.2 * G, 0.8 * G, 9.0])
+
+
+def test_replay_started_before_contact_reaches_the_same_impact_bit_for_bit():
+    # without a controller a case follows its record until contact: started at any step
+    # before it, it reaches the same contact and impact to the last bit
+    rng = np.random.default_rng(12)
+    recs1, recs2 = [], []
+    for _ in range(5):
+        v_a, v_b = rng.uniform(8, 25, 2)
+        recs1.append(straight(0.0, v_a, 0.0))
+        recs2.append(straight(4.2 + 4.0 * (v_a + v_b), v_b, np.pi, y0=rng.uniform(-1.5, 1.5)))
+    paths = pack(recs1 + recs2)
+    v1, v2 = cars(5)
+    mu = np.full(5, 0.8)
+    whole = simulate_precrash(v1, v2, paths, mu)
+    assert whole.collided.all()
+    dt = PrecrashParams().dt
+    last = np.floor(whole.contact_time / dt).astype(np.int64) - 1
+    for first in (last, last // 2, np.zeros(5, np.int64)):
+        late = simulate_precrash(v1, v2, paths, mu, first_step=first)
+        for name in ("collided", "contact_time", "impact_time", "poi", "cp_angle",
+                     "overlap_area", "min_distance", "time_closest"):
+            np.testing.assert_array_equal(getattr(late, name), getattr(whole, name), name)
+        for a, b in zip(late.impact_state, whole.impact_state, strict=True):
+            np.testing.assert_array_equal(a, b)
+    # the control: started after its contact, a case no longer meets it there
+    after = simulate_precrash(v1, v2, paths, mu, first_step=last + 40)
+    assert not np.array_equal(after.contact_time, whole.contact_time, equal_nan=True)
+    with pytest.raises(ParameterError, match="controller"):
+        simulate_precrash(v1, v2, paths, mu, first_step=last,
+                          controller=ScheduledBraking(np.full((5, 2), np.nan), np.zeros((5, 2))))

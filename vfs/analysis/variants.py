@@ -287,14 +287,16 @@ class VariantSimulator:
 
     def _calls(self, items: Sequence[tuple[Any, Model]]) -> list[list[tuple[Any, Model]]]:
         """``(key, model)`` items in stacked calls of at most ``max_cases`` cases: those whose model
-        keeps the base model's pre-crash phase (:meth:`keeps_precrash`) apart from the
-        others, so that their calls share the base model's pre-crash run.
+        keeps the base model's pre-crash phase (:meth:`keeps_precrash`), those that continue
+        it (:meth:`continues_precrash`) and the others apart, so that their calls share the
+        base model's pre-crash run.
         """
         per_call = max(1, self.max_cases // self.data.n)
         out: list[list[tuple[Any, Model]]] = []
-        keeps = [self.keeps_precrash(m) for _, m in items]
-        for shares in (True, False):
-            group = [it for it, k in zip(items, keeps, strict=True) if k == shares]
+        kinds = [0 if self.keeps_precrash(m) else 1 if self.continues_precrash(m) else 2
+                 for _, m in items]
+        for kind in (0, 1, 2):
+            group = [it for it, k in zip(items, kinds, strict=True) if k == kind]
             out += [group[i:i + per_call] for i in range(0, len(group), per_call)]
         return out
 
@@ -331,7 +333,39 @@ class VariantSimulator:
             pre = self.base_precrash()
             if g > 1:
                 pre = pre.take(np.tile(np.arange(n), g))
+        elif all(self.continues_precrash(m) for m in models):
+            pre = self._continued_precrash(batch, params, g)
         return simulate_cases(batch, params=params, precrash=pre, runout_memo=self.runout_memo)
+
+    def continues_precrash(self, model: Model) -> bool:
+        """True if ``model`` changes the pre-crash phase only after first contact: it has
+        a penetration hook, and its ``vehicles`` hooks change no vehicle data the pre-crash
+        phase reads (:meth:`keeps_precrash`).  The base model's run then serves it up to
+        a few steps before each contact (:meth:`_continued_precrash`).
+        """
+        return bool(hooks(model, "penetration")) and self._same_precrash_vehicles(model)
+
+    def _continued_precrash(self, batch: CaseBatch, params: SimulationParams,
+                            g: int) -> PrecrashResult:
+        """The pre-crash results of ``g`` stacked variants that change only the penetration
+        time: the base run's, with each colliding case run again from two steps before
+        the step of its contact in the base run (a replay follows the record until
+        contact, so the contact is the same and only the impact moves; a case without
+        contact keeps the base result).  Bit for bit what the whole run gives (tested),
+        for the steps around contact and penetration instead of the whole record.
+        """
+        n = self.data.n
+        base = self.base_precrash()
+        full = base.take(np.tile(np.arange(n), g))
+        hit = np.flatnonzero(base.collided)
+        if hit.size == 0:
+            return full
+        dt = self.params.precrash.dt
+        first = np.maximum(np.floor(base.contact_time[hit] / dt).astype(np.int64) - 2, 0)
+        rows = (np.arange(g)[:, None] * n + hit[None, :]).reshape(-1)
+        part = precrash_stage(open_cases(batch, params), params, case_of=rows,
+                              first_step=np.tile(first, g))
+        return full.put(rows, part)
 
     def keeps_precrash(self, model: Model) -> bool:
         """True if the base model's pre-crash run serves ``model``: its effects leave the
@@ -343,6 +377,14 @@ class VariantSimulator:
             return True
         if hooks(model, "penetration"):
             return False
+        return self._same_precrash_vehicles(model)
+
+    def _same_precrash_vehicles(self, model: Model) -> bool:
+        """The ``vehicles`` hooks of ``model`` leave every vehicle field the pre-crash
+        phase reads as in the base model.
+        """
+        if not hooks(model, "vehicles"):
+            return True
         if self._opened is None:
             self._opened = open_cases(self.data.batch, self.params).batch
         base = self._opened

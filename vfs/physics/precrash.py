@@ -232,6 +232,7 @@ def simulate_precrash(
     controller: BrakeController | None = None, params: PrecrashParams | None = None,
     rng: np.random.Generator | SegmentedRandom | None = None,
     penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
+    case_of: npt.ArrayLike | None = None, first_step: npt.ArrayLike | None = None,
 ) -> PrecrashResult:
     """Re-simulate N cases from the start of their records to impact or the horizon.
 
@@ -258,6 +259,17 @@ def simulate_precrash(
         case [s], in [0, 0.5], called once at first contact with the case
         indices and their :class:`KinematicState` there (e.g. a penetration
         depth effect, :mod:`vfs.effects`); default ``params.penetration_time``.
+    case_of : array_like of int, optional
+        Simulate case instances: row i is case ``case_of[i]`` (:class:`PrecrashRun`);
+        the result has one row per instance.
+    first_step : array_like of int, optional
+        Replay only (no ``controller``): the step of its record each row starts at
+        (default 0).  Without a controller a case follows its record exactly until
+        first contact, so a row started at any step before its contact reaches the
+        same contact and impact, bit for bit; its closest approach before contact is
+        then only that after its start.  The model-variant searches
+        (:class:`vfs.analysis.variants.VariantSimulator`) start variants that change
+        only the penetration time a few steps before the contact of the base run.
 
     Returns
     -------
@@ -269,8 +281,10 @@ def simulate_precrash(
     The gym environments (:mod:`vfs.gym.env`) drive the same class step by
     step with the agent in place of the controller.
     """
+    if first_step is not None and controller is not None:
+        raise ParameterError("first_step replays the records: it takes no controller")
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
-                      penetration=penetration)
+                      penetration=penetration, case_of=case_of, first_step=first_step)
     if controller is not None:
         reset_controller(controller, run.n, rng)
     while not run.done:
@@ -304,6 +318,9 @@ class PrecrashRun(PrecrashCases):
         vehicles and paths (several rows may share a case; results are per
         row); default one row per case.  The ``penetration`` callback gets
         these case indices.
+    first_step : array_like of int, optional
+        The step of its record each row starts at (default 0); replay only, as for
+        :func:`simulate_precrash`.
 
     Attributes
     ----------
@@ -322,7 +339,8 @@ class PrecrashRun(PrecrashCases):
                  road_friction: npt.ArrayLike, params: PrecrashParams | None = None,
                  penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None = None,
                  start: npt.ArrayLike | None = None, open_ended: bool = False,
-                 case_of: npt.ArrayLike | None = None) -> None:
+                 case_of: npt.ArrayLike | None = None,
+                 first_step: npt.ArrayLike | None = None) -> None:
         params = params or PrecrashParams()
         n_data = vehicle1.size
         if paths.size != 2 * n_data:
@@ -351,6 +369,12 @@ class PrecrashRun(PrecrashCases):
         self.running = np.zeros(n, dtype=bool)
 
         rows = np.arange(n) if start is None else np.unique(np.asarray(start, np.int64))
+        if first_step is not None:
+            # a row started at step j of its record: its clock reads (k + j) dt
+            steps = np.broadcast_to(np.asarray(first_step, np.int64), (n,))
+            if steps.size and steps.min() < 0:
+                raise ParameterError("first_step must be >= 0")
+            self.k0 = -steps.copy()
         self.rows = rows
         self.running[rows] = True
         self.track = _Track(rows.shape[0])

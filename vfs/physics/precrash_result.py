@@ -96,3 +96,25 @@ class PrecrashResult(NamedTuple):
             else:
                 out.append(np.asarray(value)[rows])
         return PrecrashResult(*out)  # type: ignore[arg-type]
+
+    def put(self, rows: np.ndarray, other: PrecrashResult) -> PrecrashResult:
+        """A copy with the cases ``rows`` (distinct indices) replaced by the cases of
+        ``other``, in order; ``end_time`` stays this result's [s].
+        """
+        rows = np.asarray(rows)
+        out: list[object] = []
+        for name, mine, theirs in zip(self._fields, self, other, strict=True):
+            if isinstance(mine, KinematicState):
+                parts = []
+                for a, b in zip(mine, theirs, strict=True):
+                    a = a.copy()
+                    a[rows] = b
+                    parts.append(a)
+                out.append(KinematicState(*parts))
+            elif name == "end_time":
+                out.append(mine)
+            else:
+                a = np.array(mine, copy=True)
+                a[rows] = theirs
+                out.append(a)
+        return PrecrashResult(*out)  # type: ignore[arg-type]

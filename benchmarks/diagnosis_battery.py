@@ -26,7 +26,8 @@ the counts against the targets (docs/diagnosis.md, "The battery").
 Usage::
 
     PYTHONPATH=. python benchmarks/diagnosis_battery.py --out battery_out
-        [--cases 400] [--quick] [--jobs 2] [--only eps_bell,null1] [--held-out]
+        [--cases 400] [--quick] [--jobs 2] [--only eps_bell,null1]
+        [--held-out | --held-out-2]
 
 ``--quick``: diagnose with 3 folds, a 5-point grid, 2 zoom rounds and 500
 bootstrap samples (the settings of benchmarks/diagnose_builtin_effects.py).
@@ -50,6 +51,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from battery_laws import (  # noqa: E402
     HELD_OUT,
+    HELD_OUT_2,
+    HELD_OUT_2_PAIRS,
     HELD_OUT_PAIRS,
     PAIRS,
     SINGLES,
@@ -74,10 +77,19 @@ EFFECT_CHANNELS: Mapping[str, tuple[str, ...]] = {
 NULL_SEEDS = (901, 902, 903)
 
 
-def entries(held_out: bool = False) -> list[dict[str, Any]]:
-    """The battery: singles, pairs and nulls (or the held-out part), each with its seed."""
+def entries(part: str = "main") -> list[dict[str, Any]]:
+    """The battery: singles, pairs and nulls (``part`` "main"), or a held-out part
+    ("held_out", "held_out_2"), each entry with its seed.
+    """
     out: list[dict[str, Any]] = []
-    if held_out:
+    if part == "held_out_2":
+        for i, law in enumerate(HELD_OUT_2):
+            out.append({"id": law.name, "kind": "single", "laws": [law.name], "seed": 800 + i})
+        for i, (a, b) in enumerate(HELD_OUT_2_PAIRS):
+            out.append({"id": f"{a}+{b}", "kind": "pair", "laws": [a, b], "seed": 850 + i})
+        out.append({"id": "null4", "kind": "null", "laws": [], "seed": 904})
+        return out
+    if part == "held_out":
         for i, law in enumerate(HELD_OUT):
             out.append({"id": law.name, "kind": "single", "laws": [law.name], "seed": 700 + i})
         for i, (a, b) in enumerate(HELD_OUT_PAIRS):
@@ -235,6 +247,8 @@ def run_entry(entry: Mapping[str, Any], cases: int, quick: bool) -> dict[str, An
                         "status": f.get("status"),
                         "outcome": (f.get("outcome_reduction") or {}).get("estimate")}
                        for f in summary.get("laws", [])],
+        "ledger": [{"action": st["action"], "candidate": st["candidate"],
+                    "cv_rmse": st["cv_rmse"]} for st in summary.get("steps", [])],
         "truth_reduction": truth_red, "claimed_reduction": claimed_red,
         "share_of_truth": claimed_red / truth_red if truth_red > 0 else None,
         "diagnose_wall_s": round(wall, 1), "diagnose_cpu_s": round(cpu, 1),
@@ -322,18 +336,22 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--jobs", type=int, default=1, help="databases in parallel")
     ap.add_argument("--only", default="", help="comma-separated entry ids")
     ap.add_argument("--held-out", action="store_true", help="run the held-out part only")
+    ap.add_argument("--held-out-2", action="store_true",
+                    help="run the second held-out part only")
     ap.add_argument("--table-only", action="store_true", help="rewrite battery.md only")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    jsonl = out / ("battery_held_out.jsonl" if a.held_out else "battery.jsonl")
+    part = "held_out_2" if a.held_out_2 else "held_out" if a.held_out else "main"
+    stem = "battery" if part == "main" else f"battery_{part}"
+    jsonl = out / f"{stem}.jsonl"
     done = {}
     if jsonl.exists():
         for line in jsonl.read_text().splitlines():
             if line.strip():
                 r = json.loads(line)
                 done[r["id"]] = r
-    todo = [e for e in entries(a.held_out) if e["id"] not in done
+    todo = [e for e in entries(part) if e["id"] not in done
             and (not a.only or e["id"] in a.only.split(","))]
     if a.only:  # in the order given
         rank = {name: i for i, name in enumerate(a.only.split(","))}
@@ -352,9 +370,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         else:
             for w in work:
                 _append(jsonl, _run(w), done)
-    order = [e["id"] for e in entries(a.held_out)]
+    order = [e["id"] for e in entries(part)]
     records = [judge(done[i]) for i in order if i in done]
-    md = out / ("battery_held_out.md" if a.held_out else "battery.md")
+    md = out / f"{stem}.md"
     md.write_text(table(records))
     print(md.read_text())
 

@@ -237,8 +237,9 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
     odd-numbered differences; likewise the other way round.  A feature the
     true value follows is chosen alone when the variation is large against
     the intervals; where it is not, the other features' orderings add their
-    pairs of cases, which halves the variance of the factor against one
-    feature's odd half alone (docs/diagnosis.md, "Interval coverage").
+    pairs of cases, which cuts the variance of the factor to less than half
+    of that of one feature's odd half alone (docs/diagnosis.md, "Interval
+    coverage").
     Never below 1.
 
     Parameters
@@ -287,21 +288,42 @@ def _local_minima(prof: np.ndarray) -> np.ndarray:
 
 
 def profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
-                      fmin: np.ndarray, rise: float = 1.0
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Interval chi^2 <= min + rise per case and the flags (vectorised over cases).
+                     fmin: np.ndarray, rise: float = 1.0
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Profile interval chi^2 <= min + rise per case and its flags (vectorised over cases).
 
-    xs : (m, n) values tried per case, increasing along the first axis (the
-    channel's unit); prof : (m, n) chi^2 there; best : (n,) best values;
-    fmin : (n,) chi^2 there; rise [-]: the rise of chi^2 at the edges (1: one
-    sigma at the scales of ``prof``; k^2: one sigma at k times those scales).
     Each edge lies between the last value tried inside and the first one
     outside, walking outwards from the best value, where the linear
-    interpolation of sqrt(chi^2 - min) reaches sqrt(rise): exact for a
-    parabolic profile, and for any profile between two values tried; a
-    rugged profile with a value above the level and values below it further
-    out ends at the first crossing (the further ones are ``multimodal``
-    where one of them is a local minimum).  The flags are at the given rise.
+    interpolation of sqrt(chi^2 - min) between the two reaches sqrt(rise):
+    exact for a parabolic profile (whose local curvature interval it is),
+    and within the bracket of the two values for any other.  A rugged
+    profile (a value above the level, values below it further out) ends at
+    its first crossing; the values beyond are ``multimodal`` where one of
+    them is a local minimum.
+
+    Parameters
+    ----------
+    xs : ndarray (m, n)
+        Values tried per case, increasing along the first axis (the channel's
+        unit).
+    prof : ndarray (m, n)
+        chi^2 there [-].
+    best : ndarray (n,)
+        Best values (the channel's unit).
+    fmin : ndarray (n,)
+        chi^2 there [-].
+    rise : float
+        Rise of chi^2 at the edges [-]: 1 for one sigma at the scales of
+        ``prof``, k^2 for one sigma at k times those scales.
+
+    Returns
+    -------
+    low, high : ndarray (n,)
+        Interval edges (the channel's unit), low <= best <= high.
+    flat, multimodal, at_bound : ndarray of bool (n,)
+        chi^2 varies by less than ``rise`` over all values tried; another
+        local minimum within min + rise separated from the best by a rise
+        above it; the interval reaches the first or last value tried.
     """
     m, n = prof.shape
     cols = np.arange(n)

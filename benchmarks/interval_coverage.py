@@ -7,11 +7,16 @@ counted, for
 
 * ``before``: the identification as it was (one parabolic step after the
   grid, the recorded output scales: ``POLISH_ROUNDS = 0``, ``noise="recorded"``);
-* ``after``: bracket-halving rounds around the minimum and the estimated noise
-  scale (the default).
+* ``after``: the identification as it is (the default): bracket-halving rounds
+  around the minimum, the estimated noise scale of each output, and the profile
+  interval chi^2 <= min + k^2 with the channel's consistency factor k (cross-fitted
+  over the features; until 67fc7c5 one feature's odd-numbered differences, and
+  the chi^2 + 1 interval widened k times).
 
 A one-sigma interval should cover 68.3 %; the binomial standard error of a
-share p of k cases is sqrt(p (1 - p) / k).  Prints a markdown table (also
+share p of k cases is sqrt(p (1 - p) / k).  Replicate batteries: ``--seed 131``,
+``231``, ... (each channel gets ``seed + its index``; docs/diagnosis.md,
+"Interval coverage", has five).  Prints a markdown table (also
 written to OUT/coverage.md) and one JSON line per channel to OUT/coverage.jsonl.
 
 Usage::

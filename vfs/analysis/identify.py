@@ -25,10 +25,12 @@ value that best reproduces the case's reconstruction:
    (each case at its own value) and kept where it is better; then
    :data:`POLISH_ROUNDS` rounds halve the bracket around the best value;
 5. the uncertainty interval is the profile interval chi^2 <= min + 1
-   (between the values tried, sqrt(chi^2 - min) interpolated linearly: exact
-   for a parabolic profile), by default with each output's scale times its
-   estimated noise factor (:func:`noise_factors`) and widened by the cases'
-   consistency (:func:`consistency_factor`); flags: ``flat`` (the objective
+   read from all the values tried (between two of them, sqrt(chi^2 - min)
+   interpolated linearly: exact for a parabolic profile), by default with
+   each output's scale times its estimated noise factor
+   (:func:`noise_factors`) and the channel's scale times the factor k of
+   the cases' consistency (:func:`consistency_factor`), i.e. chi^2 <= min +
+   k^2 (no simulation added); flags (at k = 1): ``flat`` (the objective
    varies by less than 1 over the whole range), ``multimodal`` (another
    local minimum within min + 1 separated by a rise above it),
    ``at_bound`` (the interval reaches a bound of the range).  A value is
@@ -195,10 +197,30 @@ _ONE_SIGMA = 0.6826894921370859
 MIN_CONSISTENCY_CASES = 12
 
 
+def _successive_spreads(values: np.ndarray, low: np.ndarray, high: np.ndarray,
+                        feature: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Standardised successive differences of the values sorted by one feature, the
+    even-numbered and the odd-numbered ones (finite only); see :func:`consistency_factor`.
+    """
+    o = np.argsort(feature, kind="stable")
+    v, lo, hi = values[o], low[o], high[o]
+    d = v[1:] - v[:-1]
+    # half widths facing each other: the upper one of the lower value
+    h_a = np.where(d > 0, hi[:-1] - v[:-1], v[:-1] - lo[:-1])
+    h_b = np.where(d > 0, v[1:] - lo[1:], hi[1:] - v[1:])
+    se = np.hypot(h_a, h_b)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(se > 0, d / se, np.nan)
+    even, odd = z[0::2], z[1::2]
+    return even[np.isfinite(even)], odd[np.isfinite(odd)]
+
+
 def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
                        features: np.ndarray) -> float:
     """Factor (>= 1) [-] by which the profile intervals of one channel are too narrow,
-    from the agreement of cases with similar features.
+    from the agreement of cases with similar features: the estimated noise scale of
+    the channel's chi^2 beyond the outputs' (:func:`identify` takes the interval at
+    chi^2 <= min + factor^2).
 
     For the cases sorted by one feature, the successive differences of the
     values over the root sum of squares of their half widths (each on the side
@@ -207,10 +229,23 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
     successive differences).  Their spread, the 68.27 % quantile of |z| about
     its median (1 for a standard normal; what the coverage of a one-sigma
     interval asks for also where the errors have heavier tails than normal
-    ones), is the factor.  The feature is the one the true value follows best,
-    the one with the smallest spread of the even-numbered differences; the
-    factor is the spread of its odd-numbered differences (a choice made on
-    one half and measured on the other is not biased low by the choice).
+    ones), is the factor.
+
+    The features are chosen on one half of the differences and the spread is
+    measured on the other (a choice made on one half is not biased low by the
+    choice), both ways round (cross-fitting), and averaged: the features
+    chosen on the even-numbered differences are those whose spread there is
+    within a relative ``2 / sqrt(m)`` of the smallest (``m`` differences per
+    half; the standard error of the spread of m standard normal differences
+    is about ``0.96 / sqrt(m)``, so this keeps the features the data cannot
+    tell from the best one, about 1.5 standard errors of a difference of two
+    spreads), and the factor of that half is the mean of their spreads on the
+    odd-numbered differences; likewise the other way round.  A feature the
+    true value follows is chosen alone when the variation is large against
+    the intervals; where it is not, the other features' orderings add their
+    pairs of cases, which cuts the variance of the factor to less than half
+    of that of one feature's odd half alone (docs/diagnosis.md, "Interval
+    coverage").
     Never below 1.
 
     Parameters
@@ -226,30 +261,25 @@ def consistency_factor(values: np.ndarray, low: np.ndarray, high: np.ndarray,
         return 1.0
 
     def spread(z: np.ndarray) -> float:
-        return float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA)) if z.size else math.inf
+        return float(np.quantile(np.abs(z - np.median(z)), _ONE_SIGMA))
 
-    choice: tuple[float, float] | None = None
+    rows: list[tuple[float, float]] = []
+    m = n
     for j in range(features.shape[1]):
         f = features[:, j]
         if not np.isfinite(f).all() or np.ptp(f) == 0:
             continue
-        o = np.argsort(f, kind="stable")
-        v, lo, hi = values[o], low[o], high[o]
-        d = v[1:] - v[:-1]
-        # half widths facing each other: the upper one of the lower value
-        h_a = np.where(d > 0, hi[:-1] - v[:-1], v[:-1] - lo[:-1])
-        h_b = np.where(d > 0, v[1:] - lo[1:], hi[1:] - v[1:])
-        se = np.hypot(h_a, h_b)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            z = np.where(se > 0, d / se, np.nan)
-        even, odd = z[0::2], z[1::2]
-        even, odd = even[np.isfinite(even)], odd[np.isfinite(odd)]
+        even, odd = _successive_spreads(values, low, high, f)
         if min(even.size, odd.size) < MIN_CONSISTENCY_CASES // 2:
             continue
-        score = spread(even)
-        if choice is None or score < choice[0]:
-            choice = (score, spread(odd))
-    return max(choice[1], 1.0) if choice is not None else 1.0
+        rows.append((spread(even), spread(odd)))
+        m = min(m, even.size, odd.size)
+    if not rows:
+        return 1.0
+    s = np.asarray(rows)  # (features, 2): spread on the even / odd differences
+    tol = 1.0 + 2.0 / math.sqrt(m)
+    halves = [float(s[s[:, a] <= tol * s[:, a].min(), 1 - a].mean()) for a in (0, 1)]
+    return max(0.5 * (halves[0] + halves[1]), 1.0)
 
 
 def _local_minima(prof: np.ndarray) -> np.ndarray:
@@ -263,18 +293,47 @@ def _local_minima(prof: np.ndarray) -> np.ndarray:
     return loc
 
 
-def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
-                      fmin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                  np.ndarray, np.ndarray]:
-    """Interval chi^2 <= min + 1 per case and the flags (vectorised over cases).
+def profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
+                     fmin: np.ndarray, rise: float = 1.0
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Profile interval chi^2 <= min + rise per case and its flags (vectorised over cases).
 
-    xs : (m, n) values tried per case, increasing along the first axis (the
-    channel's unit); prof : (m, n) chi^2 there; best : (n,) best values;
-    fmin : (n,) chi^2 there.
+    Each edge lies between the last value tried inside and the first one
+    outside, walking outwards from the best value, where the linear
+    interpolation of sqrt(chi^2 - min) between the two reaches sqrt(rise):
+    exact for a parabolic profile (whose local curvature interval it is),
+    and within the bracket of the two values for any other.  A rugged
+    profile (a value above the level, values below it further out) ends at
+    its first crossing; the values beyond are ``multimodal`` where one of
+    them is a local minimum.
+
+    Parameters
+    ----------
+    xs : ndarray (m, n)
+        Values tried per case, increasing along the first axis (the channel's
+        unit).
+    prof : ndarray (m, n)
+        chi^2 there [-].
+    best : ndarray (n,)
+        Best values (the channel's unit).
+    fmin : ndarray (n,)
+        chi^2 there [-].
+    rise : float
+        Rise of chi^2 at the edges [-]: 1 for one sigma at the scales of
+        ``prof``, k^2 for one sigma at k times those scales.
+
+    Returns
+    -------
+    low, high : ndarray (n,)
+        Interval edges (the channel's unit), low <= best <= high.
+    flat, multimodal, at_bound : ndarray of bool (n,)
+        chi^2 varies by less than ``rise`` over all values tried; another
+        local minimum within min + rise separated from the best by a rise
+        above it; the interval reaches the first or last value tried.
     """
     m, n = prof.shape
     cols = np.arange(n)
-    level = fmin + 1.0
+    level = fmin + rise
     below = prof <= level[None, :]
     ib = np.argmin(prof, axis=0)
     low = np.empty(n)
@@ -300,7 +359,7 @@ def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
         s0 = np.sqrt(np.maximum(y0 - fmin, 0.0))
         s1 = np.sqrt(np.maximum(y1 - fmin, 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.clip((1.0 - s0) / (s1 - s0), 0.0, 1.0)
+            t = np.clip((math.sqrt(rise) - s0) / (s1 - s0), 0.0, 1.0)
         edge = np.where(hit, xs[-1] if side > 0 else xs[0], x0 + t * (x1 - x0))
         if side > 0:
             high = np.maximum(edge, best)
@@ -308,7 +367,7 @@ def _profile_interval(xs: np.ndarray, prof: np.ndarray, best: np.ndarray,
             low = np.minimum(edge, best)
         at_bound |= hit
     span = np.nanmax(prof, axis=0) - np.nanmin(prof, axis=0)
-    flat = span < 1.0
+    flat = span < rise
     # another local minimum within the level, separated from the best by a rise above it
     multimodal = np.zeros(n, bool)
     cand = _local_minima(prof) & below
@@ -462,18 +521,6 @@ def _refine_all(data: CalibrationData, sim: VariantSimulator,
     return done
 
 
-def _widen(best: np.ndarray, edge: np.ndarray, k: float, channel: str) -> np.ndarray:
-    """Interval edge k times as far from the value, within the channel's range
-    (geometric channels: in the logarithm); ``best``, ``edge`` in the channel's unit.
-    """
-    ch = CHANNELS[channel]
-    if ch.log_grid:
-        e = np.exp(np.log(best) + k * (np.log(edge) - np.log(best)))
-    else:
-        e = best + k * (edge - best)
-    return np.clip(e, ch.lo, ch.hi)
-
-
 def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
              grid_points: int = 21, sim: VariantSimulator | None = None,
              refine: bool = True, zoom_starts: int = 0,
@@ -505,8 +552,9 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         "recorded" = the RMS of its ``_sd`` columns; "estimated" (default) =
         that times the output's robust noise factor (:func:`noise_factors`) of
         the channel's residuals at the values found with the recorded scales,
-        so that the interval chi^2 <= min + 1 covers the true value about 68 %
-        of the time (docs/diagnosis.md, "Interval coverage").
+        and the interval is chi^2 <= min + k^2 with the channel's consistency
+        factor k (:func:`consistency_factor`), so that it covers the true
+        value about 68 % of the time (docs/diagnosis.md, "Interval coverage").
     progress : callable, optional
         Called with a line after each channel (its count, name and seconds).
 
@@ -515,10 +563,12 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
     pandas.DataFrame
         One row per case and channel: case_id, channel, unit, mode, value,
         model_value (the model's own value; 0 for shift channels), low, high
-        (interval chi^2 <= min + 1), chi2 (at the value), chi2_model
+        (interval chi^2 <= min + 1, or min + k^2 with "estimated";
+        asymmetric where the profile is), chi2 (at the value), chi2_model
         (the model's own value), chi2_span, n_columns, flat, multimodal,
         at_bound, identifiable, noise_factor (the RMS of the channel's
-        output noise factors, 1 for "recorded"); chi2, chi2_model and
+        output noise factors, 1 for "recorded"), interval_factor (k, 1 for
+        "recorded"); chi2, chi2_model and
         chi2_span are at the scales used.
     """
     names = parse_channels(channels)
@@ -563,13 +613,14 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
         ib = np.argmin(prof, axis=0)
         best = xs[ib, np.arange(n)].astype(float)
         fmin = prof[ib, np.arange(n)]
-        low, high, flat, multi, at_b = _profile_interval(xs, prof, best, fmin)
+        low, high, flat, multi, at_b = profile_interval(xs, prof, best, fmin)
         k = 1.0
         ok = ~(flat | multi | at_b)
         if noise == "estimated" and ok.any():
             tr = np.log if ch.log_grid else np.asarray
             k = consistency_factor(tr(best[ok]), tr(low[ok]), tr(high[ok]), feats[ok])
-            low, high = _widen(best, low, k, name), _widen(best, high, k, name)
+            if k > 1.0:  # the profile interval at the channel's noise scale k
+                low, high = profile_interval(xs, prof, best, fmin, k * k)[:2]
         frames.append(pd.DataFrame({
             "case_id": data.case_ids, "channel": name, "unit": ch.unit, "mode": ch.mode,
             "value": best, "model_value": model_values(sim, name), "low": low, "high": high,
@@ -641,7 +692,8 @@ def timed_identify(data: CalibrationData, channels: Sequence[str] | str | None =
     return t, time.perf_counter() - t0
 
 
-__all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "identification_features", "identify",
-           "noise_factors",
+__all__ = ["DEFAULT_CHANNELS", "channel_grid", "chi2", "consistency_factor",
+           "identification_features", "identify",
+           "noise_factors", "profile_interval",
            "parse_channels",
            "timed_identify", "write_identification"]

@@ -35,8 +35,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"{ch} [{g['unit'].iloc[0]}]: median {g['value'].median():.4g}, identifiable "
             f"{100 * g['identifiable'].mean():.0f} % of {len(g)} cases (flat "
             f"{100 * g['flat'].mean():.0f} %, multimodal {100 * g['multimodal'].mean():.0f} %,"
-            f" at a bound {100 * g['at_bound'].mean():.0f} %; interval widened "
-            f"x{g['interval_factor'].iloc[0]:.2f} by the cases' consistency)")
+            f" at a bound {100 * g['at_bound'].mean():.0f} %; interval chi2 <= min + k^2"
+            f" with k = {g['interval_factor'].iloc[0]:.2f} from the cases' consistency)")
     say(f"identified {table['channel'].nunique()} channels on {data.n} cases in "
         f"{seconds:.1f} s -> {paths['parquet']}, {paths['csv']}")
     return 0

@@ -8,7 +8,7 @@ The reductions follow from that exactly, so each expected claim is derived, not 
 from __future__ import annotations
 
 from vfs.analysis.claims import Reduction
-from vfs.analysis.selection import NOISE_RMSE, TableEvaluator, noise_level, select
+from vfs.analysis.selection import TableEvaluator, select
 
 
 def test_proxy_claimed_first_is_dropped_after_the_true_ones_join():
@@ -81,26 +81,3 @@ def test_step_cap():
                                                         "noise": 1.0})
     sel = select(list("abc"), ev, 0.01, max_steps=2)
     assert sel.claims == ["a", "b"] and sel.reasons["c"] == "not tried: at most 2 claims"
-
-
-def test_selection_stops_once_the_claims_reproduce_the_data_within_the_noise():
-    # components A 3.0, B 0.3 and the noise 0.6 (squared standardised errors): the default
-    # model's RMSE is sqrt(3.9) = 1.97; with 'big' it is sqrt(0.9) = 0.949 <= 1: 'small'
-    # (alone 1 - sqrt(3.6 / 3.9) = 3.9 %, on top 1 - sqrt(0.6 / 0.9) = 18 %, claimed
-    # without the noise level) is not needed
-    explains = {"big": {"A": 1.0}, "small": {"B": 1.0}, "proxy": {"A": 0.5}}
-    comps = {"A": 3.0, "B": 0.3, "noise": 0.6}
-    free = select(["big", "small", "proxy"], TableEvaluator(explains, comps), 0.01)
-    assert free.claims == ["big", "small"] and free.within_noise is None
-    sel = select(["big", "small", "proxy"], TableEvaluator(explains, comps), 0.01,
-                 noise_level=1.0)
-    assert sel.claims == ["big"]
-    assert abs(sel.within_noise - 0.9 ** 0.5) < 1e-12
-    assert sel.reasons["small"].startswith("not needed: big reproduce(s) the data")
-    assert sel.reasons["proxy"].startswith("not needed")  # helps alone, never tried on top
-    # the default model within the noise: nothing is claimed, the reductions alone stay
-    quiet = select(["small"], TableEvaluator({"small": {"B": 1.0}}, {"B": 0.2, "noise": 0.7}),
-                   0.01, noise_level=1.0)
-    assert quiet.claims == [] and quiet.alone["small"].estimate > 0.05
-    assert quiet.reasons["small"].startswith("not needed: the default model")
-    assert noise_level(("sd", "sd")) == NOISE_RMSE and noise_level(("sd", "spread")) is None

@@ -81,7 +81,7 @@ from vfs.analysis.diagnose_spec import (
     Parameters,
 )
 from vfs.analysis.features import case_features
-from vfs.analysis.selection import Selection, noise_level, select
+from vfs.analysis.selection import Selection, select
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
@@ -540,8 +540,7 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
     sel = select([*names, *findings], ev, spec.min_reduction,
                  max_steps=spec.max_steps if spec.stepwise else 1, reliable=reliable,
                  worth_trying=lambda r: bool(np.isfinite(r.high)
-                                             and r.high >= spec.min_reduction), say=say,
-                 noise_level=noise_level(data.scale_source))
+                                             and r.high >= spec.min_reduction), say=say)
     say(f"selection: {', '.join(sel.claims) or 'nothing claimed'} "
         f"({time.perf_counter() - t_sel:.1f} s)")
     cands, laws = _apply_selection(sel, cands, ev)
@@ -555,8 +554,7 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
         "zoom_rounds": spec.zoom_rounds, "confidence": spec.confidence,
         "simultaneous_confidence": level, "n_boot": spec.n_boot,
         "correction": str(spec.correction), "alpha": spec.alpha,
-        "min_reduction": spec.min_reduction, "noise_level": noise_level(data.scale_source),
-        "candidates": names,
+        "min_reduction": spec.min_reduction, "candidates": names,
         "laws": list(spec.laws), "min_cases": spec.min_cases, "reliable": reliable,
         "max_steps": spec.max_steps, "law_rounds": spec.max_steps - 1,
         "fixed_parameters": ("neutral or nominal, per fold the better on the training cases"
@@ -719,12 +717,6 @@ def _verdict(diag: Diagnosis) -> list[str]:
             "cross-validated reductions and intervals below are shown, not concluded from.")
         out.append(f"Nothing is claimed with so few cases (the largest reduction alone: "
                    f"{top_text}, an interval that is not trustworthy at this size).")
-    elif not claims and diag.selection is not None \
-            and diag.selection.within_noise is not None:
-        out.append(
-            "Nothing is missing: the default model reproduces the reconstructions within "
-            f"their recorded noise (CV RMSE {diag.selection.within_noise:.3g} <= 1, "
-            f"standardised by the recorded SDs); nothing is claimed (best alone: {top_text}).")
     elif not claims:
         out.append(
             f"No {what} helps significantly: every simultaneous {level} CI of the "
@@ -769,10 +761,6 @@ def _verdict(diag: Diagnosis) -> list[str]:
             ("default" if a == "start" else f"{'+' if a == 'add' else '-'}{n}") + f" {v:.3g}"
             for a, n, v in zip(steps["action"], steps["candidate"], steps["cv_rmse"],
                                strict=True)) + ".")
-        if sel is not None and sel.within_noise is not None:
-            out.append(f"With {'+'.join(claims)} the model reproduces the reconstructions "
-                       f"within their recorded noise (CV RMSE {sel.within_noise:.3g} <= 1, "
-                       "standardised by the recorded SDs): nothing further is tried.")
     rej = table[(table["status"] != "claimed") & (table["status"] != "not significant")
                 & (table["status"] != "too few cases for any claim")]
     if len(rej):
@@ -836,7 +824,6 @@ def summary_dict(diag: Diagnosis) -> dict[str, Any]:
                      for _, r in diag.selection_table().iterrows()
                      if r["status"] != "claimed"],
         "steps": diag.ledger_steps().to_dict(orient="records"),
-        "within_noise": diag.selection.within_noise if diag.selection else None,
         "candidates": [
             {
                 "rank": c.rank, "name": c.name, "significant": c.significant,

@@ -16,19 +16,10 @@ synthetic reductions (the tests).  Each step:
    against the joint model without it) and dropped if it no longer helps ("dropped after X
    joined"); a dropped candidate does not come back.
 
-The selection stops when no candidate is claimed, after ``max_steps`` claims, or, with a
-``noise_level``, as soon as the claims reproduce the data within the recorded noise: the
-joint model's cross-validated RMSE, standardised by the outputs' recorded standard
-deviations, at or below 1 (:data:`NOISE_RMSE`; a reduced chi^2 of at most 1 out of sample).
-A further candidate could still lower the error (it would fit the noise's own structure or
-make up for a claimed law's imperfect shape: a run-out brake law of the impact angle took
-1.2 % on top of a tyre-impulse law at CV RMSE 0.885 in the battery), but the data do not
-need it; it is reported as "not needed".  Every
+The selection stops when no candidate is claimed or after ``max_steps`` claims.  Every
 candidate not claimed gets one reason: "dropped after X joined", "not confirmed on top of
 X" (helps on top, fails the refit), "mimics X" (helps alone, no longer on top of the claims:
-X is the claim after whose joining its reduction vanished), "not needed" (helps alone, not
-tried on top of claims that reproduce the data within the noise) or "not significant".  The
-claims
+X is the claim after whose joining its reduction vanished) or "not significant".  The claims
 are ordered by their share in the final joint model (reduction of the joint model against
 it without the claim), the leading explanation first.
 """
@@ -41,10 +32,6 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from vfs.analysis.claims import Reduction, helps
-
-#: Cross-validated RMSE of a model that reproduces the data within their recorded noise
-#: (standardised by the recorded standard deviations; :func:`select`, ``noise_level``).
-NOISE_RMSE = 1.0
 
 
 class Evaluator(Protocol):
@@ -118,9 +105,6 @@ class Selection:
     removed : dict of float
         Per claim: how much the joint model's CV RMSE rises without it (the order of
         ``claims``).
-    within_noise : float or None
-        The CV RMSE of the claims (standardised) when the selection stopped because it
-        was at or below the noise level; None if it stopped otherwise.
     """
 
     claims: list[str] = field(default_factory=list)
@@ -132,7 +116,6 @@ class Selection:
     reasons: dict[str, str] = field(default_factory=dict)
     steps: list[Step] = field(default_factory=list)
     removed: dict[str, float] = field(default_factory=dict)
-    within_noise: float | None = None
 
     @property
     def rejected(self) -> list[str]:
@@ -141,22 +124,13 @@ class Selection:
                                                    -_est(self.alone.get(n))))
 
 
-def noise_level(scale_source: Sequence[str]) -> float | None:
-    """The standardised CV RMSE at which :func:`select` stops (:data:`NOISE_RMSE`): only when
-    every output's scale is its recorded standard deviation (``"sd"``; else None: a scale
-    from the outputs' spread makes 1 meaningless).
-    """
-    return NOISE_RMSE if all(src == "sd" for src in scale_source) else None
-
-
 def _est(r: Reduction | None) -> float:
     return -math.inf if r is None or not math.isfinite(r.estimate) else r.estimate
 
 
 def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps: int = 4,
            reliable: bool = True, worth_trying: Callable[[Reduction], bool] | None = None,
-           say: Callable[[str], None] | None = None,
-           noise_level: float | None = None) -> Selection:
+           say: Callable[[str], None] | None = None) -> Selection:
     """Forward stepwise selection with backward checks (module docstring).
 
     Parameters
@@ -175,9 +149,6 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
         all; the diagnosis skips those whose CI alone lies entirely at or below 0).
     say : callable, optional
         Progress lines.
-    noise_level : float, optional
-        Stop as soon as the claims' CV RMSE is at or below it (:data:`NOISE_RMSE` when the
-        errors are standardised by recorded standard deviations; None: never).
     """
     out = Selection()
     tell = say or (lambda _m: None)
@@ -192,13 +163,6 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
     for step in range(max_steps + 1):
         if step == max_steps:
             capped = True
-            break
-        now = out.steps[-1].rmse
-        if noise_level is not None and math.isfinite(now) and now <= noise_level:
-            out.within_noise = now
-            who = "the claims reproduce" if claimed else "the default model reproduces"
-            tell(f"step {step + 1}: {who} the data within the recorded noise (CV RMSE "
-                 f"{now:.3g} <= {noise_level:g}): nothing further is needed")
             break
         pool = [n for n in names if n not in claimed and n not in dropped]
         if step:
@@ -264,11 +228,6 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
             out.reasons[n] = f"not tried: at most {max_steps} claims"
         elif n in out.refit and helps(out.on_top.get(n), min_reduction) and reliable:
             out.reasons[n] = f"not confirmed on top of {', '.join(out.on_top_of[n])}"
-        elif out.within_noise is not None and reliable and n not in absorbed \
-                and helps(alone[n], min_reduction):
-            out.reasons[n] = (f"not needed: {'+'.join(claimed) or 'the default model'} "
-                              f"reproduce(s) the data within the recorded noise (CV RMSE "
-                              f"{out.within_noise:.3g} <= {noise_level:g})")
         elif reliable and claimed and helps(alone[n], min_reduction):
             by = absorbed.get(n, lead)
             out.reasons[n] = f"mimics {by if by in claimed else lead}"
@@ -331,5 +290,4 @@ class TableEvaluator:
         return math.sqrt(self._mse(model))
 
 
-__all__ = ["NOISE_RMSE", "Evaluator", "Selection", "Step", "TableEvaluator", "noise_level",
-           "select"]
+__all__ = ["Evaluator", "Selection", "Step", "TableEvaluator", "select"]

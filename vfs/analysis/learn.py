@@ -161,13 +161,27 @@ def _noise_scale(scales: Iterable[float], y: np.ndarray, w: np.ndarray) -> float
 
 def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarray,
                                                           np.ndarray]:
-    """Identifiable rows of a channel, their values and weights 1 / sigma^2 (mean 1).
+    """Rows of a channel a law is learned from, their values and weights 1 / sigma^2
+    (mean 1): the identifiable cases, and those whose interval reaches only a bound of the
+    channel that is a limit of the physics (:attr:`vfs.effects.learned.Channel.physical`:
+    a brake factor of 1, locked wheels, is identified there, not beyond; the run-out of
+    the fastest vehicles of ``brake1_speed_hinge`` is only identified so).
 
-    sigma is the half width of the chi^2 + 1 interval, floored at a tenth of
-    the standard deviation of the values.
+    sigma is the half width of the chi^2 + 1 interval (one-sided at a physical bound),
+    floored at a tenth of the standard deviation of the values.
     """
     t = table[table["channel"] == channel]
-    t = t[t["identifiable"].astype(bool) & np.isfinite(t["value"].to_numpy(float))]
+    ok = t["identifiable"].to_numpy(bool)
+    if "at_bound" in t.columns and channel in CHANNELS:
+        ch = CHANNELS[channel]
+        tol = 1e-9 * (ch.hi - ch.lo)
+        low, high = t["low"].to_numpy(float), t["high"].to_numpy(float)
+        reach_lo, reach_hi = low <= ch.lo + tol, high >= ch.hi - tol
+        censored = (t["at_bound"].to_numpy(bool) & ~t["flat"].to_numpy(bool)
+                    & ~t["multimodal"].to_numpy(bool) & (reach_lo != reach_hi)
+                    & (ch.physical[0] | ~reach_lo) & (ch.physical[1] | ~reach_hi))
+        ok = ok | censored
+    t = t[ok & np.isfinite(t["value"].to_numpy(float))]
     y = t["value"].to_numpy(float)
     if y.size == 0:
         return t, y, y

@@ -3,9 +3,11 @@
 Input: the per-case identification of :mod:`vfs.analysis.identify` joined
 with the case features (closing speed, normal closing speed, overlap,
 impact angle, mass ratio, impact speeds, road friction; SI units).  For
-each channel, only the identifiable cases are used, weighted by
-1 / sigma^2 with sigma the half width of the chi^2 + 1 interval (floored at
-a tenth of the spread of the values, so that no case dominates).
+each channel, only the identifiable cases are used (and those identified at a
+bound of the channel that is a limit of the physics, e.g. locked wheels,
+:func:`law_rows`), weighted by 1 / sigma^2 with sigma the half width of the
+chi^2 + 1 interval (floored at a tenth of the spread of the values, so that
+no case dominates).
 
 Some cases are identified at a wrong minimum of their objective: where
 the outcomes react to the channel on a scale finer than the identification

@@ -459,7 +459,7 @@ def fit_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool = True)
 
 
 __all__ = ["BIWEIGHT_C", "HUBER_C", "ROBUST_ITERATIONS", "RUNNING_MEDIAN_HALF_WIDTH",
-           "SMOOTHING_GRID", "SPLINE_BINS", "ZOOM_POINTS", "ZOOM_ROUNDS", "fit_form", "fit_form_ls", "fit_spline",
-           "gcv_smoothing", "irls", "pool_groups", "predict_spline", "robust_loss", "robust_scale",
-           "robust_spline", "robust_weights", "running_median", "smoothing_spline", "wls",
-           "zoom_minimum"]
+           "SMOOTHING_GRID", "SPLINE_BINS", "ZOOM_POINTS", "ZOOM_ROUNDS", "fit_form",
+           "fit_form_ls", "fit_spline", "gcv_smoothing", "irls", "pool_groups", "predict_spline",
+           "robust_loss", "robust_scale", "robust_spline", "robust_weights", "running_median",
+           "smoothing_spline", "wls", "zoom_minimum"]

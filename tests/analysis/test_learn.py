@@ -458,22 +458,25 @@ def test_spline_pooling_keeps_an_isolated_end_cluster():
 
 def test_law_rows_keep_cases_identified_at_a_physical_bound():
     """A brake factor of 1 (locked wheels) is a limit of the physics: a case whose interval
-    reaches it, and only it, is identified there and enters the law (one-sided interval);
-    at a bound of the scan only (the contact-plane turn's +-0.5 rad), it does not, nor does
-    a case whose interval spans the whole range."""
+    reaches it, and only it, and whose outcomes the bound explains (chi^2 within the 99 %
+    quantile of chi^2 with its 8 columns, 20.1) is identified there and enters the law; not
+    a case pressed against the bound with chi^2 = 800 (it makes up for something else), nor
+    at a bound of the scan only (the contact-plane turn's +-0.5 rad), nor a case whose
+    interval spans the whole range."""
     from vfs.analysis.learn import law_rows
 
-    def rows(channel, lo, hi, value, low, high, ident):
+    def rows(channel, value, low, high, ident, chi2):
         return pd.DataFrame({"case_id": np.arange(len(value)), "channel": channel,
                              "value": value, "low": low, "high": high,
                              "identifiable": ident, "flat": False, "multimodal": False,
-                             "at_bound": ~np.asarray(ident)})
+                             "at_bound": ~np.asarray(ident), "chi2": chi2, "n_columns": 8})
 
-    brake = rows("runout_brake1", 0.0, 1.0, [0.5, 1.0, 1.0, 0.5], [0.45, 0.9, 0.0, 0.0],
-                 [0.55, 1.0, 1.0, 0.55], [True, False, False, False])
+    brake = rows("runout_brake1", [0.5, 1.0, 1.0, 0.5, 1.0], [0.45, 0.9, 0.0, 0.0, 0.95],
+                 [0.55, 1.0, 1.0, 0.55, 1.0], [True, False, False, False, False],
+                 [6.0, 7.0, 7.0, 7.0, 800.0])
     t, y, w = law_rows(brake, "runout_brake1")
-    assert list(t["case_id"]) == [0, 1, 3]  # 2 spans [0, 1]; 3 reaches the bound 0
-    cp = rows("cp_angle", -0.5, 0.5, [0.1, 0.5], [0.05, 0.4], [0.15, 0.5], [True, False])
+    assert list(t["case_id"]) == [0, 1, 3]  # 2 spans [0, 1]; 3 reaches the bound 0; 4 misfits
+    cp = rows("cp_angle", [0.1, 0.5], [0.05, 0.4], [0.15, 0.5], [True, False], [6.0, 7.0])
     t, y, w = law_rows(cp, "cp_angle")
     assert list(t["case_id"]) == [0]
 

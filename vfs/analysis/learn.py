@@ -85,6 +85,9 @@ LEARN_FEATURES: tuple[str, ...] = tuple(LAW_FEATURES)
 CLOSED_FORM_TOLERANCE = 0.02
 #: Fewest identifiable cases for a law.
 MIN_LAW_CASES = 30
+#: Level of the goodness-of-fit test of a case identified at a physical bound of its channel
+#: (:func:`law_rows`): its chi^2 there at most this quantile of chi^2(n_columns).
+BOUND_FIT_LEVEL = 0.99
 @dataclass
 class ChannelLaw:
     """What :func:`learn_channel` found for one channel.
@@ -169,6 +172,11 @@ def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarra
     a brake factor of 1, locked wheels, is identified there, not beyond; the run-out of
     the fastest vehicles of ``brake1_speed_hinge`` is only identified so).
 
+    Such a case must fit its outcomes at the bound (chi^2 at most its
+    :data:`BOUND_FIT_LEVEL` quantile for its number of outcome columns): in
+    ``tp_hinge+brake2_bell_angle`` head-on cases pressed vehicle 2's brake factor against 0
+    or 1 (chi^2 ~100 per column) to make up for the missing penetration-time law.
+
     sigma is the half width of the chi^2 + 1 interval (one-sided at a physical bound),
     floored at a tenth of the standard deviation of the values.
     """
@@ -182,6 +190,14 @@ def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarra
         censored = (t["at_bound"].to_numpy(bool) & ~t["flat"].to_numpy(bool)
                     & ~t["multimodal"].to_numpy(bool) & (reach_lo != reach_hi)
                     & (ch.physical[0] | ~reach_lo) & (ch.physical[1] | ~reach_hi))
+        if "chi2" in t.columns and "n_columns" in t.columns:
+            from scipy.stats import chi2
+
+            # the bound must explain the case's outcomes (chi^2 within its 99 % quantile):
+            # a case pressed against a bound while compensating another missing law is not
+            # evidence of the bound
+            censored &= t["chi2"].to_numpy(float) <= chi2.ppf(
+                BOUND_FIT_LEVEL, np.maximum(t["n_columns"].to_numpy(float), 1.0))
         ok = ok | censored
     t = t[ok & np.isfinite(t["value"].to_numpy(float))]
     y = t["value"].to_numpy(float)
@@ -601,7 +617,7 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE", "MIN_LAW_CASES",
+__all__ = ["BOUND_FIT_LEVEL", "CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE", "MIN_LAW_CASES",
            "ChannelLaw", "cross_validate_law", "cross_validate_laws", "fold_law_effects",
            "law_rows", "laws_document", "learn", "learn_channel", "plugin_source", "read_laws",
            "refit_law"]

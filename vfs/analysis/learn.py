@@ -617,7 +617,8 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["BOUND_FIT_LEVEL", "CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE", "MIN_LAW_CASES",
+__all__ = ["BOUND_FIT_LEVEL", "CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE",
+           "MIN_LAW_CASES",
            "ChannelLaw", "cross_validate_law", "cross_validate_laws", "fold_law_effects",
            "law_rows", "laws_document", "learn", "learn_channel", "plugin_source", "read_laws",
            "refit_law"]

@@ -389,15 +389,15 @@ def test_cli_identify_learn_calibrate_compare(tmp_path):
 
 
 def _gcv_by_hat_matrix(x, y, w, lam):
-    """Wahba's GCV of scipy's smoothing spline at ``lam`` from its hat matrix, built column
-    by column by smoothing the unit vectors (the spline is linear in y): the reference of
-    the closed form; (criterion, degrees of freedom tr(A))."""
+    """Wahba's GCV (weighted residuals) of scipy's smoothing spline at ``lam`` from its hat
+    matrix, built column by column by smoothing the unit vectors (the spline is linear in
+    y): the reference of the closed form; (criterion, degrees of freedom tr(A))."""
     from scipy.interpolate import make_smoothing_spline
 
     n = x.size
     a = np.column_stack([make_smoothing_spline(x, e, w=w, lam=lam)(x) for e in np.eye(n)])
     r = y - a @ y
-    return float(np.sum(r ** 2) / n / (1.0 - np.trace(a) / n) ** 2), float(np.trace(a))
+    return float(np.sum(w * r ** 2) / n / (1.0 - np.trace(a) / n) ** 2), float(np.trace(a))
 
 
 def test_gcv_smoothing_finds_the_global_minimum_within_the_dof_cap():

@@ -230,10 +230,13 @@ def smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> Any:
 
 
 def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
-    """Smoothing parameter of the cubic smoothing spline that minimises the generalised
-    cross-validation criterion: the criterion of :func:`scipy.interpolate.make_smoothing_spline`
-    (Wahba's GCV: mean squared residual over (1 - tr(A) / n)^2, the objective
-    sum w (y - f)^2 + lam int f''^2), evaluated in closed form for all lam at once.
+    """Smoothing parameter of the cubic smoothing spline (the objective
+    sum w (y - f)^2 + lam int f''^2 of :func:`scipy.interpolate.make_smoothing_spline`)
+    that minimises the generalised cross-validation criterion (Wahba's GCV): the mean
+    *weighted* squared residual, w (y - f)^2, over (1 - tr(A) / n)^2, evaluated in closed
+    form for all lam at once.  scipy's criterion takes the residuals unweighted: a few
+    cases of small weight (wide identification intervals) far from the curve then drove
+    the smoothing down to nearly interpolate them.
 
     The spline's values at the n abscissas are f = (W + lam K)^-1 W y with
     K = Q R^-1 Q' the Reinsch penalty matrix (Green & Silverman, *Nonparametric
@@ -278,8 +281,10 @@ def gcv_smoothing(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
 
     def criterion(lams: np.ndarray) -> np.ndarray:
         f = 1.0 / (1.0 + np.asarray(lams, float).reshape(-1, 1) * d)
-        resid = (((1.0 - f) * z) @ u.T) / root  # y - f(x), unweighted as scipy's
-        return np.asarray(np.sum(resid ** 2, axis=1) / n / (1.0 - f.sum(axis=1) / n) ** 2)
+        # the weighted residuals sqrt(w) (y - f(x)) are U ((1 - f) z): their sum of squares
+        # needs no product with U
+        wrss = np.sum(((1.0 - f) * z) ** 2, axis=1)
+        return np.asarray(wrss / n / (1.0 - f.sum(axis=1) / n) ** 2)
 
     # the global minimum over a log grid of lam d (unit-free: lam scales as x^3, d as
     # x^-3) from interpolation to the straight line, at most n / 4 degrees of freedom

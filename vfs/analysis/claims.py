@@ -471,6 +471,31 @@ class ModelEvaluator:
             self.say(f"  on top of {on}: {r.text()}")
         return out
 
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """The first claim ``first`` (a law) learned again on top of ``rival`` (a law that
+        did as well alone and that it absorbed): the model ``rival`` + ``first`` replaces
+        ``first`` alone where ``first`` helps on top of ``rival`` and the joint model beats
+        ``first`` alone (:func:`helps`); else ``first`` is restored.  A law learned from an
+        identification missing another law absorbs that law (an unmodelled contact-plane
+        turn makes the tyre impulse follow the impact angle), and which of the two comes
+        first was decided by chance.
+
+        Returns the joint model's reduction against ``first`` alone, or None.
+        """
+        if first not in self.laws or rival not in self.laws:
+            return None
+        old, version, note = self.laws[first], self._version.get(first, 0), self.laws[first].note
+        alone = self.joint((first,))[0]
+        self.say(f"  {first} against {rival}: {first} learned again on top of {rival} ...")
+        gain = self.on_top([first], (rival,))[first]
+        if helps(gain, min_reduction):
+            r = self.ci(self.joint((rival, first))[0], alone)
+            if helps(r, min_reduction):
+                return r
+        self.laws[first], self._version[first] = old, version
+        old.note = note
+        return None
+
     def relearn(self, model: tuple[str, ...]) -> list[str]:
         """Backfitting of the claimed laws: each law of ``model`` but the last (the one just
         claimed, learned on top of the others) is learned again from its channel

@@ -59,6 +59,12 @@ class Evaluator(Protocol):
         others where that lowers :meth:`rmse`; the names of those re-learned.
         """
 
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """The model ``rival`` then ``first`` learned again on top of it, where ``first``
+        helps there and that model beats ``first`` alone (both with CIs above 0); its
+        reduction against ``first`` alone, or None (nothing changed).
+        """
+
 
 @dataclass(frozen=True)
 class Step:
@@ -206,6 +212,24 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
                               tuple(claimed)))
         tell(f"step {step + 1}: claimed {added} ({_fmt(gains[added])} on top of "
              f"{', '.join(out.on_top_of[added]) or 'the default model'})")
+        if len(claimed) == 1:
+            # the first claim against the candidates it absorbed that were as good alone
+            # (its estimate within their CI): which of two mimics comes first was decided
+            # by chance, and a law learned without the other absorbs it
+            top = gains[added].estimate
+            for n in sorted(pool, key=lambda m: (-_est(gains[m]), m)):
+                r0 = gains[n]
+                if n == added or r0 is None or not helps(r0, min_reduction) \
+                        or not r0.high >= top:
+                    continue
+                swap = ev.exchange(added, n, min_reduction)
+                if swap is not None:
+                    claimed.insert(0, n)
+                    out.steps.append(Step("add", n, ev.rmse(tuple(claimed)), swap,
+                                          tuple(claimed)))
+                    tell(f"step {step + 1}: claimed {n} before {added} ({_fmt(swap)} against "
+                         f"{added} alone, {added} learned again on top of {n})")
+                    break
         for n in ev.relearn(tuple(claimed)) if len(claimed) > 1 else []:
             out.steps.append(Step("relearn", n, ev.rmse(tuple(claimed)), None, tuple(claimed)))
             tell(f"step {step + 1}: re-learned {n} given {added}")
@@ -305,6 +329,10 @@ class TableEvaluator:
     def relearn(self, model: tuple[str, ...]) -> list[str]:
         """See :class:`Evaluator` (given reductions: nothing to re-learn)."""
         return []
+
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """See :class:`Evaluator` (given reductions: nothing to learn again)."""
+        return None
 
 
 __all__ = ["Evaluator", "Selection", "Step", "TableEvaluator", "select"]

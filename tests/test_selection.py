@@ -123,7 +123,7 @@ class _Relearning(TableEvaluator):
     def exchange(self, first, rival, min_reduction):
         self.asked.append((first, rival))
         r = self._red((rival, "leak_again"), (first,))
-        return r if r.low > min_reduction else None
+        return r if r.estimate > 0 else None
 
 
 def test_a_first_claim_that_absorbed_an_equally_good_rival_is_exchanged():

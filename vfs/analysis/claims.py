@@ -474,8 +474,9 @@ class ModelEvaluator:
     def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
         """The first claim ``first`` (a law) learned again on top of ``rival`` (a law that
         did as well alone and that it absorbed): the model ``rival`` + ``first`` replaces
-        ``first`` alone where ``first`` helps on top of ``rival`` and the joint model beats
-        ``first`` alone (:func:`helps`); else ``first`` is restored.  A law learned from an
+        ``first`` alone where ``first`` helps on top of ``rival`` (:func:`helps`: both steps
+        of that path pass the claim rule) and the joint model's CV RMSE is lower than that of
+        ``first`` alone (the rule of :meth:`relearn`); else ``first`` is restored.  A law learned from an
         identification missing another law absorbs that law (an unmodelled contact-plane
         turn makes the tyre impulse follow the impact angle), and which of the two comes
         first was decided by chance.
@@ -485,12 +486,16 @@ class ModelEvaluator:
         if first not in self.laws or rival not in self.laws:
             return None
         old, version, note = self.laws[first], self._version.get(first, 0), self.laws[first].note
-        alone = self.joint((first,))[0]
+        alone, before = self.joint((first,))[0], self.rmse((first,))
         self.say(f"  {first} against {rival}: {first} learned again on top of {rival} ...")
         gain = self.on_top([first], (rival,))[first]
+        self.say(f"  {first} on top of {rival}: {format_reduction(gain)}")
         if helps(gain, min_reduction):
             r = self.ci(self.joint((rival, first))[0], alone)
-            if helps(r, min_reduction):
+            after = self.rmse((rival, first))
+            self.say(f"  {rival} + {first} against {first} alone: {format_reduction(r)}; "
+                     f"CV RMSE {before:.3f} -> {after:.3f}")
+            if after < before:
                 return r
         self.laws[first], self._version[first] = old, version
         old.note = note

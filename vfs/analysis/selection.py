@@ -61,7 +61,7 @@ class Evaluator(Protocol):
 
     def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
         """The model ``rival`` then ``first`` learned again on top of it, where ``first``
-        helps there and that model beats ``first`` alone (both with CIs above 0); its
+        helps there and that model's :meth:`rmse` is below that of ``first`` alone; its
         reduction against ``first`` alone, or None (nothing changed).
         """
 

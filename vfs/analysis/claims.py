@@ -476,10 +476,10 @@ class ModelEvaluator:
         did as well alone and that it absorbed): the model ``rival`` + ``first`` replaces
         ``first`` alone where ``first`` helps on top of ``rival`` (:func:`helps`: both steps
         of that path pass the claim rule) and the joint model's CV RMSE is lower than that of
-        ``first`` alone (the rule of :meth:`relearn`); else ``first`` is restored.  A law learned from an
-        identification missing another law absorbs that law (an unmodelled contact-plane
-        turn makes the tyre impulse follow the impact angle), and which of the two comes
-        first was decided by chance.
+        ``first`` alone (the rule of :meth:`relearn`); else ``first`` is restored.  A law
+        learned from an identification missing another law absorbs that law (an unmodelled
+        contact-plane turn makes the tyre impulse follow the impact angle), and which of the
+        two comes first was decided by chance.
 
         Returns the joint model's reduction against ``first`` alone, or None.
         """

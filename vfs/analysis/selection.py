@@ -213,14 +213,14 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
         tell(f"step {step + 1}: claimed {added} ({_fmt(gains[added])} on top of "
              f"{', '.join(out.on_top_of[added]) or 'the default model'})")
         if len(claimed) == 1:
-            # the first claim against the candidates it absorbed that were as good alone
-            # (its estimate within their CI): which of two mimics comes first was decided
-            # by chance, and a law learned without the other absorbs it
-            top = gains[added].estimate
+            # the first claim against the candidates as good alone (each estimate within
+            # the other's CI): which of two mimics comes first was decided by chance, and a
+            # law learned without the other absorbs it
+            first = gains[added]
             for n in sorted(pool, key=lambda m: (-_est(gains[m]), m)):
                 r0 = gains[n]
                 if n == added or r0 is None or not helps(r0, min_reduction) \
-                        or not r0.high >= top:
+                        or not (r0.high >= first.estimate and r0.estimate >= first.low):
                     continue
                 swap = ev.exchange(added, n, min_reduction)
                 if swap is not None:

@@ -47,6 +47,37 @@ def test_stepwise_rule_needs_every_reduction():
     assert helps(ok, 0.01) and not helps(ok, 0.25)
 
 
+def test_outcomes_overrule_a_table_only_with_a_paired_ci_above_zero(monkeypatch):
+    """``outcome_law`` replaces a table (chosen on the identified values) by its best formula
+    only where the formula's RMSE reduction against the table, bootstrapped over paired
+    cases, lies above 0: per-case errors with a heavy tail whose means favour the formula
+    by 4 % keep the table; the same errors with the formula 30 % lower everywhere do not."""
+    import pandas as pd
+
+    import vfs.analysis.learn as learn_mod
+    from vfs.analysis.claims import outcome_law
+
+    rng = np.random.default_rng(2)
+    table_err = rng.pareto(1.5, (240, 3)) + 0.1  # heavy-tailed per-case errors
+    noisy = table_err * rng.uniform(0.3, 1.6, table_err.shape)
+    noisy *= 0.96 * table_err.mean() / noisy.mean()
+    law = {"name": "learned_cp_angle", "channel": "cp_angle", "feature": "impact_angle",
+           "form": "table", "table": {"x": [0.0, 3.0], "y": [0.0, 0.1]}}
+
+    class Found:
+        candidates = pd.DataFrame({"feature": ["impact_angle"], "form": ["step"],
+                                   "coefficients": ["0 -0.06 1.6"]})
+
+    for formula_err, expect in ((noisy, "table"), (0.7 * table_err, "step")):
+        def fake(sim, table, lw, held, _f=formula_err):
+            return None, table_err if lw["form"] == "table" else _f
+        monkeypatch.setattr(learn_mod, "cross_validate_law", fake)
+        found = Found()
+        found.law = dict(law)
+        outcome_law(None, pd.DataFrame(), found, [], lambda _s: None)
+        assert found.law["form"] == expect
+
+
 def test_law_finding_says_what_it_is_not_confirmed_on():
     class Learned:
         law = {"feature": "impact_angle", "formula": "cp_angle = 0.1 x"}

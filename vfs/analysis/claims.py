@@ -27,6 +27,7 @@ from vfs.analysis.calibrate import (
     CVResult,
     FitSpace,
     VariantSimulator,
+    reduction_ci,
 )
 
 
@@ -194,10 +195,23 @@ def law_effects(laws: Iterable[Mapping[str, Any]]) -> tuple[Any, ...]:
     return tuple(law_effect_class(law)() for law in laws)
 
 
+#: Level of the paired bootstrap CI by which the outcomes overrule the identified values'
+#: choice of a table over its best closed form (:func:`outcome_law`), and its samples.
+FORMULA_OVERRULE_LEVEL, FORMULA_OVERRULE_BOOT = 0.95, 500
+
+
 def outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
                 held: Sequence[np.ndarray], say: Callable[[str], None]) -> np.ndarray:
-    """Held-out errors of the law of ``r`` (a table, or its best formula if that does
-    better on the outcomes: then ``r.law`` becomes the formula).
+    """Held-out errors of the law of ``r``: a table, or its best formula where that does
+    better on the outcomes with the paired bootstrap CI (over cases, seeded) of its RMSE
+    reduction against the table above 0 (then ``r.law`` becomes the formula).
+
+    The table won on the identified values (:func:`vfs.analysis.learn.learn_channel`, by
+    cross-validation, a closed form preferred within 2 %); a point comparison of the
+    held-out outcome errors, whose case errors are heavy-tailed, overruled it by chance: in
+    ``tyre_friction_speed+cp_sin_angle`` a step of the contact-plane turn replaced its
+    sin(2 angle) table (38.0 % against 37.1 % of the default model's error; the step
+    against the table 1.4 % [-36, 25] %).
     """
     from vfs.analysis.learn import cross_validate_law
 
@@ -205,9 +219,13 @@ def outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
     alt = closed_alternative(r)
     if alt is not None:  # a table won on the identified values: try the best formula
         _, err2 = cross_validate_law(sim, table, alt, held)
-        if np.nanmean(err2) < np.nanmean(err):
+        est, low, _ = reduction_ci(err2, err, np.random.default_rng(0),
+                                   confidence=FORMULA_OVERRULE_LEVEL,
+                                   n_boot=FORMULA_OVERRULE_BOOT)
+        if np.isfinite(low) and low > 0:
             r.law, err = alt, err2
-            say(f"  the formula does better on the outcomes: {alt['formula']}")
+            say(f"  the formula does better on the outcomes ({100 * est:.1f} % "
+                f"[{100 * low:.1f}, ...] against the table): {alt['formula']}")
     return err
 
 
@@ -300,6 +318,7 @@ class ModelEvaluator:
         self.ident, self.learned, self.ci = ident, learned, ci
         self.parameters, self.fit_options, self.say = parameters, dict(fit_options), say
         self._version = dict.fromkeys(self.laws, 0)
+        self._versions_made = 0  # a new law version gets a number never used before
         self._joint: dict[tuple[Any, ...], tuple[np.ndarray, tuple[Any, ...]]] = {}
         self._sims: dict[tuple[Any, ...], VariantSimulator] = {}
         self._residuals: dict[tuple[Any, ...], np.ndarray] = {}
@@ -414,25 +433,7 @@ class ModelEvaluator:
             out[n] = self.ci(cv.errors, ref)
         laws = [n for n in names if n in self.laws]
         if laws:
-            on = ", ".join(claimed)
-            self.say(f"  re-identifying {len(laws)} channel(s) with {on} applied ...")
-            table = self.ident(sim_c, [self.laws[n].channel for n in laws])
-            found = {r.channel: r for r in self.learned(table)}
-            for n in laws:
-                f = self.laws[n]
-                r = found.get(f.channel)
-                if r is None or not r.significant or r.law is None:
-                    f.note = f"no structure in its identification with {on} applied"
-                    out[n] = Reduction(math.nan, math.nan, math.nan)
-                    continue
-                err = outcome_law(sim_c, table, r, self.held, self.say)
-                self.laws[n] = LawFinding(f.channel, r, f.outcome, f.errors,
-                                          given_claimed=self.ci(err, ref), on_top_of=claimed,
-                                          round=len(claimed), table=table)
-                self._version[n] = self._version.get(n, 0) + 1
-                self.on_top_errors[(n, claimed)] = err
-                out[n] = self.laws[n].given_claimed  # type: ignore[assignment]
-                self.say(f"  on top of {on}: {r.text()}")
+            out.update(self._learn_on(sim_c, ref, laws, claimed))
         # the simulator on top of the claims is kept (cache); count its new work once
         self.sim.n_variants += sim_c.n_variants - n_before[0]
         self.sim.n_case_runs += sim_c.n_case_runs - n_before[1]
@@ -440,6 +441,109 @@ class ModelEvaluator:
         self.sim.seconds += sim_c.seconds - n_before[3]
         self.stepwise_seconds += time.perf_counter() - t0
         return out
+
+    def _learn_on(self, sim_c: VariantSimulator, ref: np.ndarray, laws: Sequence[str],
+                  claimed: tuple[str, ...]) -> dict[str, Reduction]:
+        """The laws' channels re-identified with the base model of ``sim_c`` (the claims
+        ``claimed`` applied), their laws learned anew and cross-validated against ``ref``
+        (its per-case errors); a law with structure replaces its former version.
+        """
+        out: dict[str, Reduction] = {}
+        on = ", ".join(claimed)
+        self.say(f"  re-identifying {len(laws)} channel(s) with {on} applied ...")
+        table = self.ident(sim_c, [self.laws[n].channel for n in laws])
+        found = {r.channel: r for r in self.learned(table)}
+        for n in laws:
+            f = self.laws[n]
+            r = found.get(f.channel)
+            if r is None or not r.significant or r.law is None:
+                f.note = f"no structure in its identification with {on} applied"
+                out[n] = Reduction(math.nan, math.nan, math.nan)
+                continue
+            err = outcome_law(sim_c, table, r, self.held, self.say)
+            self.laws[n] = LawFinding(f.channel, r, f.outcome, f.errors,
+                                      given_claimed=self.ci(err, ref), on_top_of=claimed,
+                                      round=len(claimed), table=table)
+            self._versions_made += 1
+            self._version[n] = self._versions_made
+            self.on_top_errors[(n, claimed)] = err
+            out[n] = self.laws[n].given_claimed  # type: ignore[assignment]
+            self.say(f"  on top of {on}: {r.text()}")
+        return out
+
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """The first claim ``first`` (a law) learned again on top of ``rival`` (a law that
+        did as well alone and that it absorbed): the model ``rival`` + ``first`` replaces
+        ``first`` alone where ``first`` helps on top of ``rival`` (:func:`helps`: both steps
+        of that path pass the claim rule) and the joint model's CV RMSE is lower than that of
+        ``first`` alone (the rule of :meth:`relearn`); else ``first`` is restored.  A law
+        learned from an identification missing another law absorbs that law (an unmodelled
+        contact-plane turn makes the tyre impulse follow the impact angle), and which of the
+        two comes first was decided by chance.
+
+        Returns the joint model's reduction against ``first`` alone, or None.
+        """
+        if first not in self.laws or rival not in self.laws:
+            return None
+        old, version, note = self.laws[first], self._version.get(first, 0), self.laws[first].note
+        alone, before = self.joint((first,))[0], self.rmse((first,))
+        self.say(f"  {first} against {rival}: {first} learned again on top of {rival} ...")
+        gain = self.on_top([first], (rival,))[first]
+        self.say(f"  {first} on top of {rival}: {format_reduction(gain)}")
+        if helps(gain, min_reduction):
+            r = self.ci(self.joint((rival, first))[0], alone)
+            after = self.rmse((rival, first))
+            self.say(f"  {rival} + {first} against {first} alone: {format_reduction(r)}; "
+                     f"CV RMSE {before:.3f} -> {after:.3f}")
+            if after < before:
+                return r
+        self.laws[first], self._version[first] = old, version
+        old.note = note
+        return None
+
+    def relearn(self, model: tuple[str, ...]) -> list[str]:
+        """Backfitting of the claimed laws: each law of ``model`` but the last (the one just
+        claimed, learned on top of the others) is learned again from its channel
+        re-identified with the other claims applied, and kept where the
+        joint model's cross-validated RMSE falls; else its former version is restored.  The
+        other claims are applied as fitted together with the law (the joint model on all
+        cases), as in backfitting (Hastie & Tibshirani, *Generalized Additive Models*, 1990,
+        ch. 4): each part refitted to what the others, at their joint fit, leave.
+
+        A law claimed early was identified without the later claims, and a missing law leaks
+        into the identification of the others (an unmodelled tyre impulse into the
+        contact-plane turn and back): the later claims can explain part of what it absorbed.
+
+        Returns the names of the laws kept in their new version.
+        """
+        kept: list[str] = []
+        for n in model[:-1]:
+            if n not in self.laws:
+                continue
+            before, old, version = self.rmse(model), self.laws[n], self._version.get(n, 0)
+            note = old.note
+            others = tuple(m for m in model if m != n)
+            # the other claims as fitted in the joint model with this law (its effect left
+            # out): the joint fit's effects are the laws' (model order), then the library's
+            laws = [m for m in model if m in self.laws]
+            fitted = list(self.joint(model)[1])
+            del fitted[laws.index(n)]
+            sim_c = with_effects(self.sim, fitted)
+            ref = sim_c.data.case_errors(sim_c.residuals([()])[0])
+            self.say(f"  re-learning {n} with {', '.join(others)} applied (as fitted with it) ...")
+            self._learn_on(sim_c, ref, [n], others)
+            absorb_counters(self.sim, sim_c)
+            if self.laws[n] is old:  # no structure once re-identified: keep it as it was
+                old.note = note
+                continue
+            after = self.rmse(model)
+            if after < before:
+                kept.append(n)
+                self.say(f"  {n} re-learned: CV RMSE {before:.3f} -> {after:.3f}")
+            else:
+                self.say(f"  {n} kept as it was: re-learned, CV RMSE {before:.3f} -> {after:.3f}")
+                self.laws[n], self._version[n] = old, version
+        return kept
 
 
 def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray],
@@ -480,6 +584,7 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
     return table, out, ident, learned
 
 
-__all__ = ["LawFinding", "ModelEvaluator", "Reduction", "absorb_counters",
+__all__ = ["FORMULA_OVERRULE_BOOT", "FORMULA_OVERRULE_LEVEL", "LawFinding", "ModelEvaluator",
+           "Reduction", "absorb_counters",
            "closed_alternative", "first_laws", "format_reduction", "helps", "law_effects",
            "law_key", "outcome_law", "refit_all", "stepwise_helps", "with_effects"]

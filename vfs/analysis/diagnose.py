@@ -758,7 +758,8 @@ def _verdict(diag: Diagnosis) -> list[str]:
                        + "; ".join(items) + f". Add them together: {'+'.join(claims)}.")
         steps = diag.ledger_steps()
         out.append("Cross-validated RMSE (standardised) step by step: " + " -> ".join(
-            ("default" if a == "start" else f"{'+' if a == 'add' else '-'}{n}") + f" {v:.3g}"
+            ("default" if a == "start" else f"{ {'add': '+', 'relearn': '~'}.get(a, '-')}{n}"
+             + (" re-learned" if a == "relearn" else "")) + f" {v:.3g}"
             for a, n, v in zip(steps["action"], steps["candidate"], steps["cv_rmse"],
                                strict=True)) + ".")
     rej = table[(table["status"] != "claimed") & (table["status"] != "not significant")

@@ -3,9 +3,11 @@
 Input: the per-case identification of :mod:`vfs.analysis.identify` joined
 with the case features (closing speed, normal closing speed, overlap,
 impact angle, mass ratio, impact speeds, road friction; SI units).  For
-each channel, only the identifiable cases are used, weighted by
-1 / sigma^2 with sigma the half width of the chi^2 + 1 interval (floored at
-a tenth of the spread of the values, so that no case dominates).
+each channel, only the identifiable cases are used (and those identified at a
+bound of the channel that is a limit of the physics, e.g. locked wheels,
+:func:`law_rows`), weighted by 1 / sigma^2 with sigma the half width of the
+chi^2 + 1 interval (floored at a tenth of the spread of the values, so that
+no case dominates).
 
 Some cases are identified at a wrong minimum of their objective: where
 the outcomes react to the channel on a scale finer than the identification
@@ -83,6 +85,9 @@ LEARN_FEATURES: tuple[str, ...] = tuple(LAW_FEATURES)
 CLOSED_FORM_TOLERANCE = 0.02
 #: Fewest identifiable cases for a law.
 MIN_LAW_CASES = 30
+#: Level of the goodness-of-fit test of a case identified at a physical bound of its channel
+#: (:func:`law_rows`): its chi^2 there at most this quantile of chi^2(n_columns).
+BOUND_FIT_LEVEL = 0.99
 @dataclass
 class ChannelLaw:
     """What :func:`learn_channel` found for one channel.
@@ -161,13 +166,40 @@ def _noise_scale(scales: Iterable[float], y: np.ndarray, w: np.ndarray) -> float
 
 def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarray,
                                                           np.ndarray]:
-    """Identifiable rows of a channel, their values and weights 1 / sigma^2 (mean 1).
+    """Rows of a channel a law is learned from, their values and weights 1 / sigma^2
+    (mean 1): the identifiable cases, and those whose interval reaches only a bound of the
+    channel that is a limit of the physics (:attr:`vfs.effects.learned.Channel.physical`:
+    a brake factor of 1, locked wheels, is identified there, not beyond; the run-out of
+    the fastest vehicles of ``brake1_speed_hinge`` is only identified so).
 
-    sigma is the half width of the chi^2 + 1 interval, floored at a tenth of
-    the standard deviation of the values.
+    Such a case must fit its outcomes at the bound (chi^2 at most its
+    :data:`BOUND_FIT_LEVEL` quantile for its number of outcome columns): in
+    ``tp_hinge+brake2_bell_angle`` head-on cases pressed vehicle 2's brake factor against 0
+    or 1 (chi^2 ~100 per column) to make up for the missing penetration-time law.
+
+    sigma is the half width of the chi^2 + 1 interval (one-sided at a physical bound),
+    floored at a tenth of the standard deviation of the values.
     """
     t = table[table["channel"] == channel]
-    t = t[t["identifiable"].astype(bool) & np.isfinite(t["value"].to_numpy(float))]
+    ok = t["identifiable"].to_numpy(bool)
+    if "at_bound" in t.columns and channel in CHANNELS:
+        ch = CHANNELS[channel]
+        tol = 1e-9 * (ch.hi - ch.lo)
+        low, high = t["low"].to_numpy(float), t["high"].to_numpy(float)
+        reach_lo, reach_hi = low <= ch.lo + tol, high >= ch.hi - tol
+        censored = (t["at_bound"].to_numpy(bool) & ~t["flat"].to_numpy(bool)
+                    & ~t["multimodal"].to_numpy(bool) & (reach_lo != reach_hi)
+                    & (ch.physical[0] | ~reach_lo) & (ch.physical[1] | ~reach_hi))
+        if "chi2" in t.columns and "n_columns" in t.columns:
+            from scipy.stats import chi2
+
+            # the bound must explain the case's outcomes (chi^2 within its 99 % quantile):
+            # a case pressed against a bound while compensating another missing law is not
+            # evidence of the bound
+            censored &= t["chi2"].to_numpy(float) <= chi2.ppf(
+                BOUND_FIT_LEVEL, np.maximum(t["n_columns"].to_numpy(float), 1.0))
+        ok = ok | censored
+    t = t[ok & np.isfinite(t["value"].to_numpy(float))]
     y = t["value"].to_numpy(float)
     if y.size == 0:
         return t, y, y
@@ -585,7 +617,8 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         law_repr=pprint.pformat(clean, width=88, sort_dicts=False), body=body)
 
 
-__all__ = ["CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE", "MIN_LAW_CASES",
+__all__ = ["BOUND_FIT_LEVEL", "CLOSED_FORM_TOLERANCE", "LEARN_FEATURES", "LEARN_SCOPE",
+           "MIN_LAW_CASES",
            "ChannelLaw", "cross_validate_law", "cross_validate_laws", "fold_law_effects",
            "law_rows", "laws_document", "learn", "learn_channel", "plugin_source", "read_laws",
            "refit_law"]

@@ -12,7 +12,11 @@ synthetic reductions (the tests).  Each step:
    holds: its reduction on top lies above 0 with its CI and reaches ``min_reduction``, and the
    model with the claims **refitted together with it** lowers the error against the claims
    alone; if it fails the refit, the next best is tried;
-3. **backward check**: every earlier claim is re-tested given the others (the joint model
+3. **backfitting** (:meth:`Evaluator.relearn`): each learned law claimed before it is learned
+   again from its channel re-identified with the other claims applied, kept where the joint
+   model's CV RMSE falls (a law claimed early was identified without the later claims, and a
+   missing law leaks into the identification of the others);
+4. **backward check**: every earlier claim is re-tested given the others (the joint model
    against the joint model without it) and dropped if it no longer helps ("dropped after X
    joined"); a dropped candidate does not come back.
 
@@ -50,6 +54,17 @@ class Evaluator(Protocol):
     def rmse(self, model: tuple[str, ...]) -> float:
         """Cross-validated overall RMSE (standardised) of the joint model."""
 
+    def relearn(self, model: tuple[str, ...]) -> list[str]:
+        """Backfitting: the claims of ``model`` before its last learned again given the
+        others where that lowers :meth:`rmse`; the names of those re-learned.
+        """
+
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """The model ``rival`` then ``first`` learned again on top of it, where ``first``
+        helps there and that model's :meth:`rmse` is below that of ``first`` alone; its
+        reduction against ``first`` alone, or None (nothing changed).
+        """
+
 
 @dataclass(frozen=True)
 class Step:
@@ -58,7 +73,8 @@ class Step:
     Attributes
     ----------
     action : str
-        "start" (the default model), "add" or "drop".
+        "start" (the default model), "add", "relearn" (a claimed law learned again given the
+        later claims) or "drop".
     name : str
         The candidate added or dropped ("" at the start).
     rmse : float
@@ -196,6 +212,27 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
                               tuple(claimed)))
         tell(f"step {step + 1}: claimed {added} ({_fmt(gains[added])} on top of "
              f"{', '.join(out.on_top_of[added]) or 'the default model'})")
+        if len(claimed) == 1:
+            # the first claim against the candidates as good alone (each estimate within
+            # the other's CI): which of two mimics comes first was decided by chance, and a
+            # law learned without the other absorbs it
+            first = gains[added]
+            for n in sorted(pool, key=lambda m: (-_est(gains[m]), m)):
+                r0 = gains[n]
+                if n == added or r0 is None or not helps(r0, min_reduction) \
+                        or not (r0.high >= first.estimate and r0.estimate >= first.low):
+                    continue
+                swap = ev.exchange(added, n, min_reduction)
+                if swap is not None:
+                    claimed.insert(0, n)
+                    out.steps.append(Step("add", n, ev.rmse(tuple(claimed)), swap,
+                                          tuple(claimed)))
+                    tell(f"step {step + 1}: claimed {n} before {added} ({_fmt(swap)} against "
+                         f"{added} alone, {added} learned again on top of {n})")
+                    break
+        for n in ev.relearn(tuple(claimed)) if len(claimed) > 1 else []:
+            out.steps.append(Step("relearn", n, ev.rmse(tuple(claimed)), None, tuple(claimed)))
+            tell(f"step {step + 1}: re-learned {n} given {added}")
         again = True
         while again and len(claimed) > 1:
             again = False
@@ -288,6 +325,14 @@ class TableEvaluator:
     def rmse(self, model: tuple[str, ...]) -> float:
         """See :class:`Evaluator`."""
         return math.sqrt(self._mse(model))
+
+    def relearn(self, model: tuple[str, ...]) -> list[str]:
+        """See :class:`Evaluator` (given reductions: nothing to re-learn)."""
+        return []
+
+    def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:
+        """See :class:`Evaluator` (given reductions: nothing to learn again)."""
+        return None
 
 
 __all__ = ["Evaluator", "Selection", "Step", "TableEvaluator", "select"]

@@ -56,6 +56,12 @@ class Channel:
     description : str
     log_grid : bool
         Scan on a geometric grid (ratios).
+    physical : (bool, bool)
+        Whether ``lo`` / ``hi`` are limits of the physics (a brake factor between free
+        rolling, 0, and locked wheels, 1; a restitution, a friction coefficient, a
+        penetration time, a speed lost to the tyres of at least 0), not only of the scan:
+        a case whose objective is lowest at such a bound is identified there (its
+        interval one-sided), not beyond it.
     """
 
     name: str
@@ -66,14 +72,15 @@ class Channel:
     stage: str
     description: str
     log_grid: bool = False
+    physical: tuple[bool, bool] = (False, False)
 
 
 #: The channels, by name.
 CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
     Channel("restitution", "-", 0.0, 0.8, "set", "impact_parameters",
-            "coefficient of restitution"),
+            "coefficient of restitution", physical=(True, False)),
     Channel("contact_friction", "-", 0.0, 1.2, "set", "impact_parameters",
-            "friction coefficient of the contact plane"),
+            "friction coefficient of the contact plane", physical=(True, False)),
     Channel("poi_along", "m", -1.5, 1.5, "shift", "impact_configuration",
             "POI shift along the contact plane (tangent)"),
     Channel("poi_across", "m", -0.5, 0.5, "shift", "impact_configuration",
@@ -81,18 +88,21 @@ CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
     Channel("cp_angle", "rad", -0.5, 0.5, "shift", "impact_configuration",
             "turn of the contact plane"),
     Channel("penetration_time", "s", 0.0, 0.2, "set", "penetration",
-            "time from first contact to the impact configuration"),
+            "time from first contact to the impact configuration", physical=(True, False)),
     Channel("ees_stiffness_ratio", "-", 0.2, 5.0, "set", "energy_split",
             "stiffness ratio k1 / k2 of the energy split E1 / E2 = k2 / k1", log_grid=True),
     Channel("yaw_inertia_factor", "-", 0.4, 2.5, "set", "impact_configuration",
             "factor on both yaw inertias (impact and run-out); model 1", log_grid=True),
     Channel("tyre_impulse", "m/s", 0.0, 3.0, "shift", "contact_impulse",
             "speed each vehicle loses along its pre-impact motion to its tyres during "
-            "the contact phase (b mu g T of :class:`vfs.effects.library.TyreImpulse`)"),
+            "the contact phase (b mu g T of :class:`vfs.effects.library.TyreImpulse`)",
+            physical=(True, False)),
     Channel("runout_brake1", "-", 0.0, 1.0, "set", "post_impact",
-            "brake factor of all four wheels of vehicle 1 in the run-out (1 = locked)"),
+            "brake factor of all four wheels of vehicle 1 in the run-out (1 = locked)",
+            physical=(True, True)),
     Channel("runout_brake2", "-", 0.0, 1.0, "set", "post_impact",
-            "brake factor of all four wheels of vehicle 2 in the run-out (1 = locked)"),
+            "brake factor of all four wheels of vehicle 2 in the run-out (1 = locked)",
+            physical=(True, True)),
 )}
 
 #: Outcome columns each channel moves (the others stay as the default model has them).

@@ -192,16 +192,18 @@ def _plot_steps(steps: pd.DataFrame, path: Path) -> Path:
     ax = fig.subplots()
     x = np.arange(len(steps))
     v = steps["cv_rmse"].to_numpy(float)
-    colors = ["#777777" if a == "start" else "#2ca02c" if a == "add" else "#d62728"
+    colors = [{"start": "#777777", "add": "#2ca02c", "relearn": "#1f77b4"}.get(a, "#d62728")
               for a in steps["action"]]
     ax.bar(x, v, color=colors)
     for i, val in enumerate(v):
         ax.text(i, val, f"{val:.3g}", ha="center", va="bottom", fontsize=8)
-    labels = ["default" if a == "start" else f"{'+' if a == 'add' else '-'} {n}"
+    labels = ["default" if a == "start" else
+              f"{ {'add': '+', 'relearn': '~'}.get(a, '-')} {n}"
               for a, n in zip(steps["action"], steps["candidate"], strict=True)]
     ax.set_xticks(x, labels, rotation=20, ha="right", fontsize=8)
     ax.set_ylabel("CV RMSE (standardised)")
-    ax.set_title("The error step by step within the selection (green: claimed, red: dropped)",
+    ax.set_title("The error step by step within the selection (green: claimed, blue: "
+                 "re-learned given the later claims, red: dropped)",
                  fontsize=9)
     save_figure(fig, path, dpi=110, tight=True)
     return path

@@ -81,7 +81,7 @@ from vfs.analysis.diagnose_spec import (
     Parameters,
 )
 from vfs.analysis.features import case_features
-from vfs.analysis.selection import Selection, select
+from vfs.analysis.selection import Selection, select, step_label
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
@@ -758,8 +758,7 @@ def _verdict(diag: Diagnosis) -> list[str]:
                        + "; ".join(items) + f". Add them together: {'+'.join(claims)}.")
         steps = diag.ledger_steps()
         out.append("Cross-validated RMSE (standardised) step by step: " + " -> ".join(
-            ("default" if a == "start" else f"{ {'add': '+', 'relearn': '~'}.get(a, '-')}{n}"
-             + (" re-learned" if a == "relearn" else "")) + f" {v:.3g}"
+            step_label(a, n) + (" re-learned" if a == "relearn" else "") + f" {v:.3g}"
             for a, n, v in zip(steps["action"], steps["candidate"], steps["cv_rmse"],
                                strict=True)) + ".")
     rej = table[(table["status"] != "claimed") & (table["status"] != "not significant")

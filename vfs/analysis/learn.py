@@ -6,7 +6,8 @@ impact angle, mass ratio, impact speeds, road friction; SI units).  For
 each channel, only the identifiable cases are used (and those identified at a
 bound of the channel that is a limit of the physics, e.g. locked wheels,
 :func:`law_rows`), weighted by 1 / sigma^2 with sigma the half width of the
-chi^2 + 1 interval (floored at a tenth of the spread of the values, so that
+identification interval (chi^2 <= min + k^2, :func:`vfs.analysis.identify.identify`;
+floored at a tenth of the spread of the values, so that
 no case dominates).
 
 Some cases are identified at a wrong minimum of their objective: where
@@ -177,8 +178,9 @@ def law_rows(table: pd.DataFrame, channel: str) -> tuple[pd.DataFrame, np.ndarra
     ``tp_hinge+brake2_bell_angle`` head-on cases pressed vehicle 2's brake factor against 0
     or 1 (chi^2 ~100 per column) to make up for the missing penetration-time law.
 
-    sigma is the half width of the chi^2 + 1 interval (one-sided at a physical bound),
-    floored at a tenth of the standard deviation of the values.
+    sigma is the half width of the identification interval (chi^2 <= min + k^2), taken on
+    its one side at a physical bound and floored at a tenth of the standard deviation of
+    the values.
     """
     t = table[table["channel"] == channel]
     ok = t["identifiable"].to_numpy(bool)

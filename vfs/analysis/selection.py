@@ -66,6 +66,17 @@ class Evaluator(Protocol):
         """
 
 
+#: Sign of each step's action in the ledger's labels (verdict and report figure).
+STEP_SIGNS = {"add": "+", "relearn": "~", "drop": "-"}
+
+
+def step_label(action: str, name: str, sep: str = "") -> str:
+    """The ledger's label of a step: "default" at the start, else the action's sign and the
+    candidate ("+tyre_impulse", "~cp_angle law", "-proxy"), ``sep`` between them.
+    """
+    return "default" if action == "start" else f"{STEP_SIGNS.get(action, '-')}{sep}{name}"
+
+
 @dataclass(frozen=True)
 class Step:
     """One step of the selection's ledger.
@@ -335,4 +346,5 @@ class TableEvaluator:
         return None
 
 
-__all__ = ["Evaluator", "Selection", "Step", "TableEvaluator", "select"]
+__all__ = ["STEP_SIGNS", "Evaluator", "Selection", "Step", "TableEvaluator", "select",
+           "step_label"]

@@ -20,6 +20,7 @@ import pandas as pd
 from vfs.accident_types import accident_type_label
 from vfs.analysis.claims import LawFinding
 from vfs.analysis.diagnose import Diagnosis, claim_label, summary_dict
+from vfs.analysis.selection import step_label
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import (
     new_figure,
@@ -197,8 +198,7 @@ def _plot_steps(steps: pd.DataFrame, path: Path) -> Path:
     ax.bar(x, v, color=colors)
     for i, val in enumerate(v):
         ax.text(i, val, f"{val:.3g}", ha="center", va="bottom", fontsize=8)
-    labels = ["default" if a == "start" else
-              f"{ {'add': '+', 'relearn': '~'}.get(a, '-')} {n}"
+    labels = [step_label(a, n, " ")
               for a, n in zip(steps["action"], steps["candidate"], strict=True)]
     ax.set_xticks(x, labels, rotation=20, ha="right", fontsize=8)
     ax.set_ylabel("CV RMSE (standardised)")

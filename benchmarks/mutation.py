@@ -1,4 +1,4 @@
-"""Mutation testing of the physics and scoring modules: do the tests notice a wrong sign?
+"""Mutation testing of the physics and scoring modules: do the tests notice a wrong sign.
 
 A small AST mutator (no dependency beyond the test requirements).  For each configured
 module it lists every mutation site, draws a seeded sample of ``--n`` mutants evenly
@@ -344,9 +344,9 @@ class _Sites(ast.NodeVisitor):
         self.visit(node.slice)
 
 
-def sites(module: str) -> list[Mutant]:
-    """Every mutation site of ``module`` (a path relative to the root), in source order."""
-    source = (ROOT / module).read_text()
+def sites(module: str, root: Path = ROOT) -> list[Mutant]:
+    """Every mutation site of ``module`` (a path relative to ``root``), in source order."""
+    source = (root / module).read_text()
     visitor = _Sites(module, source)
     visitor.visit(ast.parse(source))
     found = []
@@ -402,27 +402,34 @@ def _imports_module(path: Path, module: str) -> bool:
     return False
 
 
-def test_files(module: str) -> tuple[list[str], list[str]]:
-    """(own test files, other test files importing the module), relative to the root."""
+def test_files(module: str, root: Path = ROOT) -> tuple[list[str], list[str]]:
+    """(own test files, other test files importing the module), relative to ``root``."""
     own: list[str] = []
     for pattern in OWN_TESTS[module]:
-        own += sorted(str(p.relative_to(ROOT)) for p in ROOT.glob(pattern))
+        own += sorted(str(p.relative_to(root)) for p in root.glob(pattern))
     own = list(dict.fromkeys(own))
     others = sorted(
-        str(p.relative_to(ROOT))
-        for p in (ROOT / "tests").rglob("test_*.py")
-        if str(p.relative_to(ROOT)) not in own and _imports_module(p, module)
+        str(p.relative_to(root))
+        for p in (root / "tests").rglob("test_*.py")
+        if str(p.relative_to(root)) not in own and _imports_module(p, module)
     )
     return own, others
 
 
 # -- the temporary tree ---------------------------------------------------------------------
-def make_tree() -> Path:
-    """A temporary copy of vfs/ and tests/ (other top-level entries linked)."""
+def make_tree(at: str | None = None) -> Path:
+    """A temporary copy of vfs/ and tests/ (other top-level entries linked): of the working
+    tree, or of commit ``at`` (``git archive``; e.g. the tests before new ones were added).
+    """
     tmp = Path(tempfile.mkdtemp(prefix="vfs-mutation-"))
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".hypothesis")
-    for name in ("vfs", "tests"):
-        shutil.copytree(ROOT / name, tmp / name, ignore=ignore)
+    if at:
+        archive = subprocess.run(["git", "archive", at, "vfs", "tests"], cwd=ROOT,
+                                 capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
+    else:
+        for name in ("vfs", "tests"):
+            shutil.copytree(ROOT / name, tmp / name, ignore=ignore)
     for entry in ROOT.iterdir():
         if entry.name in ("vfs", "tests", ".git") or (tmp / entry.name).exists():
             continue
@@ -557,25 +564,37 @@ class CoverageMap:
     durations: dict[str, float]
     import_lines: set[int] = field(default_factory=set)
     failed: list[str] = field(default_factory=list)
+    untraced: list[str] = field(default_factory=list)
+    limit: float = 0.0
 
 
 def _fold(nodeid: str) -> str:
     return nodeid.split("[", 1)[0]
 
 
-def trace(tree: Path, module: str, files: list[str]) -> CoverageMap:
-    """Run ``files`` once, unmutated, recording per test the lines of ``module`` executed."""
+def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMap:
+    """Run ``files`` once, unmutated, recording per test the lines of ``module`` executed.
+
+    A file whose traced run exceeds ``limit`` seconds (the trace slows pure-Python code
+    several times) is listed in ``untraced``: it runs whole for every mutant that survives
+    the traced files.
+    """
     lines: dict[str, set[int]] = {}
     durations: dict[str, float] = {}
     imports: set[int] = set()
     failed: list[str] = []
+    untraced: list[str] = []
     for f in files:
         out = tree / f".trace-{zlib.crc32(f.encode())}.json"
-        status, _ = _pytest(
-            tree, ["-p", "mutation", "-p", "no:randomly", f], timeout=3600,
+        status, seconds = _pytest(
+            tree, ["-p", "mutation", f], timeout=limit,
             extra_env={"MUTATION_TRACE": str(out),
                        "MUTATION_TRACE_TARGET": str(tree / module)},
         )
+        print(f"  traced {f}: {status} ({seconds:.0f} s)", flush=True)
+        if status == "timeout":
+            untraced.append(f)
+            continue
         if status != "pass":
             failed.append(f)
         if not out.exists():
@@ -588,7 +607,7 @@ def trace(tree: Path, module: str, files: list[str]) -> CoverageMap:
                 lines.setdefault(_fold(nodeid), set()).update(ls)
         for nodeid, d in data["durations"].items():
             durations[_fold(nodeid)] = durations.get(_fold(nodeid), 0.0) + d
-    return CoverageMap(lines, durations, imports, failed)
+    return CoverageMap(lines, durations, imports, failed, untraced, limit)
 
 
 def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
@@ -599,7 +618,8 @@ def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
     else:
         chosen = [t for t, ls in cov.lines.items() if span & ls and t.split("::")[0] in files]
     order = {f: i for i, f in enumerate(files)}
-    return sorted(chosen, key=lambda t: (order[t.split("::")[0]], cov.durations.get(t, 0.0)))
+    chosen = sorted(chosen, key=lambda t: (order[t.split("::")[0]], cov.durations.get(t, 0.0)))
+    return chosen + [f for f in files if f in cov.untraced]
 
 
 def run_mutant(tree: Path, m: Mutant, source: str, cov: CoverageMap, own: list[str],
@@ -623,7 +643,8 @@ def run_mutant(tree: Path, m: Mutant, source: str, cov: CoverageMap, own: list[s
             if not tests:
                 continue
             ran += len(tests)
-            budget = floor + factor * sum(cov.durations.get(t, 1.0) for t in tests)
+            budget = floor + factor * sum(
+                cov.limit if t in cov.untraced else cov.durations.get(t, 1.0) for t in tests)
             status, _ = _pytest(tree, tests, timeout=budget)
             if status != "pass":
                 m.status = "timeout" if status == "timeout" else f"killed-{phase}"
@@ -697,6 +718,8 @@ def write_report(out: Path, stem: str, results: dict[str, dict], meta: dict) -> 
     md += ["", "## Trace notes", ""]
     md += [f"- {mod}: the unmutated run of {', '.join(r['trace_failed'])} failed"
            for mod, r in results.items() if r["trace_failed"]] or ["(the unmutated runs passed)"]
+    md += [f"- {mod}: {', '.join(r['untraced'])} too slow to trace: run whole for the "
+           "mutants the traced files leave alive" for mod, r in results.items() if r["untraced"]]
     path = out / f"{stem}.md"
     path.write_text("\n".join(md) + "\n")
     return path
@@ -713,6 +736,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--factor", type=float, default=4.0,
                     help="timeout = floor + factor x the unmutated time of the selected tests")
     ap.add_argument("--floor", type=float, default=30.0, help="timeout floor in seconds")
+    ap.add_argument("--trace-limit", type=float, default=240.0,
+                    help="seconds for the traced run of one test file; slower files run whole")
+    ap.add_argument("--at", default=None,
+                    help="mutate and test the tree of this commit (default: the working tree)")
     ap.add_argument("--tag", default="")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--list", action="store_true", help="list the sampled mutants and stop")
@@ -727,12 +754,15 @@ def main(argv: list[str] | None = None) -> int:
                             capture_output=True, text=True).stdout.strip()
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     results: dict[str, dict] = {}
-    tree = None if args.list else make_tree()
+    tree = None if args.list else make_tree(args.at)
+    root = ROOT if tree is None else tree
+    if args.at:
+        commit = args.at
     if tree is not None:
         _preload()
     try:
         for module in modules:
-            all_sites = sites(module)
+            all_sites = sites(module, root)
             chosen = sample(all_sites, n, args.seed)
             if args.list:
                 for m in chosen:
@@ -740,8 +770,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             assert tree is not None
             t0 = time.perf_counter()
-            own, others = test_files(module)
-            cov = trace(tree, module, own + others)
+            own, others = test_files(module, root)
+            cov = trace(tree, module, own + others, args.trace_limit)
             source = (tree / module).read_text()
             for i, m in enumerate(chosen):
                 run_mutant(tree, m, source, cov, own, others, args.factor, args.floor)
@@ -750,7 +780,7 @@ def main(argv: list[str] | None = None) -> int:
                       flush=True)
             results[module] = {
                 "sites": len(all_sites), "own_tests": own, "other_tests": others,
-                "trace_failed": cov.failed, "seconds": time.perf_counter() - t0,
+                "trace_failed": cov.failed, "untraced": cov.untraced, "seconds": time.perf_counter() - t0,
                 "summary": _rates(chosen), "mutants": [asdict(m) for m in chosen],
             }
             s = results[module]["summary"]

@@ -169,6 +169,7 @@ class _Sites(ast.NodeVisitor):
     # -- scopes and skipped parts ----------------------------------------------------------
     def _scope(self, node: ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef) -> None:
         self.stack.append(node.name)  # decorators (dataclass options) are not mutated
+        self.stmt = node  # defaults are evaluated where the def runs
         if isinstance(node, ast.ClassDef):
             body = node.body
         else:
@@ -506,30 +507,61 @@ _TRACE: dict[str, object] = {}
 
 
 def pytest_configure(config) -> None:  # type: ignore[no-untyped-def]
-    """Start tracing the lines of MUTATION_TRACE_TARGET, per test (plugin hook)."""
+    """Record the probes of the instrumented module, per test (plugin hook)."""
     out = os.environ.get("MUTATION_TRACE")
     if not out:
         return
-    import threading
+    import builtins
 
-    target = os.path.abspath(os.environ["MUTATION_TRACE_TARGET"])
     lines: dict[str, set[int]] = {}
     state = {"test": "<import>"}
 
-    def local(frame, event, arg):  # type: ignore[no-untyped-def]
-        if event == "line":
-            lines.setdefault(state["test"], set()).add(frame.f_lineno)
-        return local
+    def hit(line: int) -> None:
+        lines.setdefault(state["test"], set()).add(line)
 
-    def global_(frame, event, arg):  # type: ignore[no-untyped-def]
-        if frame.f_code.co_filename == target:
-            lines.setdefault(state["test"], set()).add(frame.f_lineno)
-            return local
-        return None
-
+    builtins.__mutation_hit__ = hit  # type: ignore[attr-defined]
     _TRACE.update(out=out, lines=lines, state=state, durations={})
-    sys.settrace(global_)
-    threading.settrace(global_)
+
+
+_PROBE = "__mutation_hit__"
+
+
+class _Probes(ast.NodeTransformer):
+    """Insert ``__mutation_hit__(line)`` before every statement (the original line numbers)."""
+
+    def _block(self, body: list[ast.stmt], top: bool = False) -> list[ast.stmt]:
+        out: list[ast.stmt] = []
+        for i, stmt in enumerate(body):
+            skip = top and (
+                (i == 0 and isinstance(stmt, ast.Expr) and isinstance(stmt.value, ast.Constant))
+                or (isinstance(stmt, ast.ImportFrom) and stmt.module == "__future__"))
+            if not skip:
+                out.append(ast.Expr(ast.Call(ast.Name(_PROBE, ast.Load()),
+                                             [ast.Constant(stmt.lineno)], [])))
+            out.append(self.visit(stmt))
+        return out
+
+    def generic_visit(self, node: ast.AST) -> ast.AST:
+        for name in ("body", "orelse", "finalbody"):
+            block = getattr(node, name, None)
+            if isinstance(block, list) and block and isinstance(block[0], ast.stmt):
+                setattr(node, name, self._block(block, top=isinstance(node, ast.Module)))
+        for name, value in ast.iter_fields(node):
+            if name in ("body", "orelse", "finalbody"):
+                continue
+            if isinstance(value, list):
+                for item in value:
+                    if isinstance(item, ast.AST):
+                        self.visit(item)
+            elif isinstance(value, ast.AST):
+                self.visit(value)
+        return node
+
+
+def instrument(source: str) -> str:
+    """``source`` with a line probe before every statement (for the coverage map)."""
+    tree = _Probes().visit(ast.parse(source))
+    return ast.unparse(ast.fix_missing_locations(tree))
 
 
 @pytest.hookimpl(hookwrapper=True)
@@ -549,7 +581,6 @@ def pytest_unconfigure(config) -> None:  # type: ignore[no-untyped-def]
     """Write the traced lines (plugin hook)."""
     if not _TRACE:
         return
-    sys.settrace(None)
     lines = _TRACE["lines"]
     data = {"lines": {k: sorted(v) for k, v in lines.items()},  # type: ignore[attr-defined]
             "durations": _TRACE["durations"]}
@@ -584,6 +615,23 @@ def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMa
     imports: set[int] = set()
     failed: list[str] = []
     untraced: list[str] = []
+    target = tree / module
+    original = target.read_text()
+    target.write_text(instrument(original))
+    for pyc in (target.parent / "__pycache__").glob(target.stem + ".*.pyc"):
+        pyc.unlink()
+    try:
+        _trace_files(tree, module, files, limit, lines, durations, imports, failed, untraced)
+    finally:
+        target.write_text(original)
+        for pyc in (target.parent / "__pycache__").glob(target.stem + ".*.pyc"):
+            pyc.unlink()
+    return CoverageMap(lines, durations, imports, failed, untraced, limit)
+
+
+def _trace_files(tree: Path, module: str, files: list[str], limit: float,  # noqa: PLR0913
+                 lines: dict[str, set[int]], durations: dict[str, float], imports: set[int],
+                 failed: list[str], untraced: list[str]) -> None:
     for f in files:
         out = tree / f".trace-{zlib.crc32(f.encode())}.json"
         status, seconds = _pytest(
@@ -607,7 +655,6 @@ def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMa
                 lines.setdefault(_fold(nodeid), set()).update(ls)
         for nodeid, d in data["durations"].items():
             durations[_fold(nodeid)] = durations.get(_fold(nodeid), 0.0) + d
-    return CoverageMap(lines, durations, imports, failed, untraced, limit)
 
 
 def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
@@ -740,13 +787,23 @@ def main(argv: list[str] | None = None) -> int:
                     help="seconds for the traced run of one test file; slower files run whole")
     ap.add_argument("--at", default=None,
                     help="mutate and test the tree of this commit (default: the working tree)")
+    ap.add_argument("--survivors-of", action="append", default=None, metavar="JSON",
+                    help="an earlier report of the same code: run only its survivors, keep "
+                         "its kills (tests were only added)")
+    ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
+                    help="combine the reports of runs on parts of the modules and stop")
     ap.add_argument("--tag", default="")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--list", action="store_true", help="list the sampled mutants and stop")
     args = ap.parse_args(argv)
 
-    modules = [m for m in OWN_TESTS
-               if args.module is None or any(s in m for s in args.module)]
+    if args.merge:
+        return _merge(args)
+    modules = list(OWN_TESTS) if args.module is None else [
+        m for s in args.module for m in OWN_TESTS if s in m]
+    previous: dict[str, dict] = {}
+    for f in args.survivors_of or []:
+        previous.update(json.loads(Path(f).read_text())["modules"])
     n = None if args.all else args.n
     date = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d")
     stem = f"mutation-{date}" + (f"-{args.tag}" if args.tag else "")
@@ -773,14 +830,21 @@ def main(argv: list[str] | None = None) -> int:
             own, others = test_files(module, root)
             cov = trace(tree, module, own + others, args.trace_limit)
             source = (tree / module).read_text()
+            before = {(b["line"], b["col"], b["kind"], b["mutated"]): b
+                      for b in previous.get(module, {}).get("mutants", [])}
             for i, m in enumerate(chosen):
+                old = before.get((m.line, m.col, m.kind, m.mutated))
+                if old is not None and old["status"] in ("killed-own", "killed-all", "timeout"):
+                    m.status, m.reason = old["status"], "killed in the earlier run"
+                    continue  # added tests cannot revive a killed mutant
                 run_mutant(tree, m, source, cov, own, others, args.factor, args.floor)
                 print(f"[{module} {i + 1}/{len(chosen)}] {m.status:12s} line {m.line} "
                       f"{m.kind}: {m.original[:60]} -> {m.mutated[:60]} ({m.seconds:.0f} s)",
                       flush=True)
             results[module] = {
                 "sites": len(all_sites), "own_tests": own, "other_tests": others,
-                "trace_failed": cov.failed, "untraced": cov.untraced, "seconds": time.perf_counter() - t0,
+                "trace_failed": cov.failed, "untraced": cov.untraced,
+                "seconds": time.perf_counter() - t0,
                 "summary": _rates(chosen), "mutants": [asdict(m) for m in chosen],
             }
             s = results[module]["summary"]
@@ -793,6 +857,26 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(tree, ignore_errors=True)
     if not args.list:
         print(_finish(args, results, stem, date, commit, n, t_wall, t_cpu))
+    return 0
+
+
+def _merge(args: argparse.Namespace) -> int:
+    """Write one report from the JSON reports of several partial runs."""
+    results: dict[str, dict] = {}
+    metas = []
+    for f in args.merge:
+        data = json.loads(Path(f).read_text())
+        metas.append(data["meta"])
+        results.update(data["modules"])
+    order = [m for m in OWN_TESTS if m in results]
+    meta = dict(metas[0])
+    meta["command"] = " + ".join(m["command"] for m in metas)
+    meta["wall_s"] = max(m["wall_s"] for m in metas)
+    meta["cpu_s"] = sum(m["cpu_s"] for m in metas)
+    meta["load"] = "; ".join(m["load"] for m in metas)
+    meta["tag"] = args.tag
+    stem = f"mutation-{meta['date']}" + (f"-{args.tag}" if args.tag else "")
+    print(write_report(args.out, stem, {m: results[m] for m in order}, meta))
     return 0
 
 

@@ -464,13 +464,13 @@ def _preload() -> None:
             pass
 
 
-def _pytest(tree: Path, args: list[str], timeout: float, extra_env: dict[str, str] | None = None
-            ) -> tuple[str, float]:
+def _pytest(tree: Path, args: list[str], timeout: float, extra_env: dict[str, str] | None = None,
+            stop_at_first: bool = True) -> tuple[str, float]:
     """Run pytest in ``tree`` in a forked child; ("pass" | "fail" | "timeout", wall seconds)."""
     env = _env(tree)
     if extra_env:
         env.update(extra_env)
-    argv = ["-x", "-q", "-p", "no:cacheprovider", "-o", "addopts=", *args]
+    argv = ["-x"] * stop_at_first + ["-q", "-p", "no:cacheprovider", "-o", "addopts=", *args]
     t0 = time.perf_counter()
     pid = os.fork()
     if pid == 0:  # the child: a fresh session, the tree first on sys.path
@@ -577,13 +577,20 @@ def pytest_runtest_protocol(item, nextitem):  # type: ignore[no-untyped-def]
     _TRACE["state"]["test"] = "<import>"  # type: ignore[index]
 
 
+def pytest_runtest_logreport(report):  # type: ignore[no-untyped-def]
+    """Note the tests that fail unmutated (plugin hook): they select no mutant."""
+    if _TRACE and report.failed:
+        _TRACE.setdefault("failed", set()).add(report.nodeid)  # type: ignore[union-attr]
+
+
 def pytest_unconfigure(config) -> None:  # type: ignore[no-untyped-def]
     """Write the traced lines (plugin hook)."""
     if not _TRACE:
         return
     lines = _TRACE["lines"]
     data = {"lines": {k: sorted(v) for k, v in lines.items()},  # type: ignore[attr-defined]
-            "durations": _TRACE["durations"]}
+            "durations": _TRACE["durations"],
+            "failed": sorted(_TRACE.get("failed", set()))}  # type: ignore[call-overload]
     Path(str(_TRACE["out"])).write_text(json.dumps(data))
 
 
@@ -638,23 +645,27 @@ def _trace_files(tree: Path, module: str, files: list[str], limit: float,  # noq
             tree, ["-p", "mutation", f], timeout=limit,
             extra_env={"MUTATION_TRACE": str(out),
                        "MUTATION_TRACE_TARGET": str(tree / module)},
+            stop_at_first=False,
         )
         print(f"  traced {f}: {status} ({seconds:.0f} s)", flush=True)
         if status == "timeout":
             untraced.append(f)
             continue
-        if status != "pass":
-            failed.append(f)
         if not out.exists():
             continue
         data = json.loads(out.read_text())
+        bad = {_fold(t) for t in data.get("failed", [])}
+        failed += sorted(bad)
         for nodeid, ls in data["lines"].items():
+            if _fold(nodeid) in bad:
+                continue  # fails unmutated (e.g. a path check in the temporary tree)
             if nodeid == "<import>":
                 imports |= set(ls)
             else:
                 lines.setdefault(_fold(nodeid), set()).update(ls)
         for nodeid, d in data["durations"].items():
-            durations[_fold(nodeid)] = durations.get(_fold(nodeid), 0.0) + d
+            if _fold(nodeid) not in bad:
+                durations[_fold(nodeid)] = durations.get(_fold(nodeid), 0.0) + d
 
 
 def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
@@ -763,8 +774,9 @@ def write_report(out: Path, stem: str, results: dict[str, dict], meta: dict) -> 
     md += [f"- {m['module']}:{m['line']} `{m['original']}` -> `{m['mutated']}`"
            for m in to] or ["(none)"]
     md += ["", "## Trace notes", ""]
-    md += [f"- {mod}: the unmutated run of {', '.join(r['trace_failed'])} failed"
-           for mod, r in results.items() if r["trace_failed"]] or ["(the unmutated runs passed)"]
+    md += [f"- {mod}: failing unmutated in the temporary tree, so never selected: "
+           f"{', '.join(r['trace_failed'])}" for mod, r in results.items()
+           if r["trace_failed"]] or ["(the unmutated runs passed)"]
     md += [f"- {mod}: {', '.join(r['untraced'])} too slow to trace: run whole for the "
            "mutants the traced files leave alive" for mod, r in results.items() if r["untraced"]]
     path = out / f"{stem}.md"

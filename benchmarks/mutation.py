@@ -604,6 +604,7 @@ class CoverageMap:
     failed: list[str] = field(default_factory=list)
     untraced: list[str] = field(default_factory=list)
     limit: float = 0.0
+    run_untraced: bool = False
 
 
 def _fold(nodeid: str) -> str:
@@ -624,6 +625,7 @@ def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMa
     untraced: list[str] = []
     target = tree / module
     original = target.read_text()
+    _ORIGINALS[module] = original
     target.write_text(instrument(original))
     for pyc in (target.parent / "__pycache__").glob(target.stem + ".*.pyc"):
         pyc.unlink()
@@ -636,24 +638,38 @@ def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMa
     return CoverageMap(lines, durations, imports, failed, untraced, limit)
 
 
+_ORIGINALS: dict[str, str] = {}
+
+#: Mapping runs by (test file, its text, the module's text): reused by a later run
+#: (``--survivors-of``) where neither changed.
+TRACE_CACHE: dict[str, dict] = {}
+
+
 def _trace_files(tree: Path, module: str, files: list[str], limit: float,  # noqa: PLR0913
                  lines: dict[str, set[int]], durations: dict[str, float], imports: set[int],
                  failed: list[str], untraced: list[str]) -> None:
+    module_key = zlib.crc32(_ORIGINALS[module].encode())
     for f in files:
-        out = tree / f".trace-{zlib.crc32(f.encode())}.json"
-        status, seconds = _pytest(
-            tree, ["-p", "mutation", f], timeout=limit,
-            extra_env={"MUTATION_TRACE": str(out),
-                       "MUTATION_TRACE_TARGET": str(tree / module)},
-            stop_at_first=False,
-        )
-        print(f"  traced {f}: {status} ({seconds:.0f} s)", flush=True)
+        key = f"{module}|{f}|{zlib.crc32((tree / f).read_bytes())}|{module_key}"
+        if key in TRACE_CACHE:
+            status, data = TRACE_CACHE[key]["status"], TRACE_CACHE[key]["data"]
+            print(f"  traced {f}: {status} (reused)", flush=True)
+        else:
+            out = tree / f".trace-{zlib.crc32(f.encode())}.json"
+            status, seconds = _pytest(
+                tree, ["-p", "mutation", f], timeout=limit,
+                extra_env={"MUTATION_TRACE": str(out),
+                           "MUTATION_TRACE_TARGET": str(tree / module)},
+                stop_at_first=False,
+            )
+            print(f"  traced {f}: {status} ({seconds:.0f} s)", flush=True)
+            data = json.loads(out.read_text()) if out.exists() else None
+            TRACE_CACHE[key] = {"status": status, "data": data}
         if status == "timeout":
             untraced.append(f)
             continue
-        if not out.exists():
+        if data is None:
             continue
-        data = json.loads(out.read_text())
         bad = {_fold(t) for t in data.get("failed", [])}
         failed += sorted(bad)
         for nodeid, ls in data["lines"].items():
@@ -677,7 +693,7 @@ def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
         chosen = [t for t, ls in cov.lines.items() if span & ls and t.split("::")[0] in files]
     order = {f: i for i, f in enumerate(files)}
     chosen = sorted(chosen, key=lambda t: (order[t.split("::")[0]], cov.durations.get(t, 0.0)))
-    return chosen + [f for f in files if f in cov.untraced]
+    return chosen + [f for f in files if f in cov.untraced and cov.run_untraced]
 
 
 def run_mutant(tree: Path, m: Mutant, source: str, cov: CoverageMap, own: list[str],
@@ -737,6 +753,8 @@ def write_report(out: Path, stem: str, results: dict[str, dict], meta: dict) -> 
     """Write ``stem``.json and ``stem``.md under ``out``; return the markdown path."""
     out.mkdir(parents=True, exist_ok=True)
     (out / f"{stem}.json").write_text(json.dumps({"meta": meta, "modules": results}, indent=1))
+    # the mapping runs, for a later --survivors-of run (large; not a record to commit)
+    (Path(tempfile.gettempdir()) / f"{stem}.trace.json").write_text(json.dumps(TRACE_CACHE))
     md = [f"# Mutation run {meta['date']}{' (' + meta['tag'] + ')' if meta['tag'] else ''}", "",
           f"`{meta['command']}` at commit `{meta['commit']}`; {meta['n']} mutants per module "
           f"(seed {meta['seed']}), evenly spread over each file.  Run time: "
@@ -777,8 +795,10 @@ def write_report(out: Path, stem: str, results: dict[str, dict], meta: dict) -> 
     md += [f"- {mod}: failing unmutated in the temporary tree, so never selected: "
            f"{', '.join(r['trace_failed'])}" for mod, r in results.items()
            if r["trace_failed"]] or ["(the unmutated runs passed)"]
-    md += [f"- {mod}: {', '.join(r['untraced'])} too slow to trace: run whole for the "
-           "mutants the traced files leave alive" for mod, r in results.items() if r["untraced"]]
+    md += [f"- {mod}: {', '.join(r['untraced'])} slower than the mapping limit: "
+           + ("run whole for the mutants the mapped files leave alive" if r.get("run_untraced")
+              else "not run (--run-untraced runs them)")
+           for mod, r in results.items() if r["untraced"]]
     path = out / f"{stem}.md"
     path.write_text("\n".join(md) + "\n")
     return path
@@ -795,8 +815,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--factor", type=float, default=4.0,
                     help="timeout = floor + factor x the unmutated time of the selected tests")
     ap.add_argument("--floor", type=float, default=30.0, help="timeout floor in seconds")
-    ap.add_argument("--trace-limit", type=float, default=240.0,
-                    help="seconds for the traced run of one test file; slower files run whole")
+    ap.add_argument("--trace-limit", type=float, default=150.0,
+                    help="seconds for the mapping run of one test file; slower files are "
+                         "left out (listed in the report) unless --run-untraced")
+    ap.add_argument("--run-untraced", action="store_true",
+                    help="run the files too slow to map whole, for the mutants the mapped "
+                         "files leave alive")
     ap.add_argument("--at", default=None,
                     help="mutate and test the tree of this commit (default: the working tree)")
     ap.add_argument("--survivors-of", action="append", default=None, metavar="JSON",
@@ -815,7 +839,12 @@ def main(argv: list[str] | None = None) -> int:
         m for s in args.module for m in OWN_TESTS if s in m]
     previous: dict[str, dict] = {}
     for f in args.survivors_of or []:
-        previous.update(json.loads(Path(f).read_text())["modules"])
+        data = json.loads(Path(f).read_text())
+        previous.update(data["modules"])
+        TRACE_CACHE.update(data.get("trace_cache", {}))
+        cached = Path(tempfile.gettempdir()) / (Path(f).stem + ".trace.json")
+        if cached.exists():
+            TRACE_CACHE.update(json.loads(cached.read_text()))
     n = None if args.all else args.n
     date = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d")
     stem = f"mutation-{date}" + (f"-{args.tag}" if args.tag else "")
@@ -841,6 +870,7 @@ def main(argv: list[str] | None = None) -> int:
             t0 = time.perf_counter()
             own, others = test_files(module, root)
             cov = trace(tree, module, own + others, args.trace_limit)
+            cov.run_untraced = args.run_untraced
             source = (tree / module).read_text()
             before = {(b["line"], b["col"], b["kind"], b["mutated"]): b
                       for b in previous.get(module, {}).get("mutants", [])}
@@ -856,6 +886,7 @@ def main(argv: list[str] | None = None) -> int:
             results[module] = {
                 "sites": len(all_sites), "own_tests": own, "other_tests": others,
                 "trace_failed": cov.failed, "untraced": cov.untraced,
+                "run_untraced": cov.run_untraced,
                 "seconds": time.perf_counter() - t0,
                 "summary": _rates(chosen), "mutants": [asdict(m) for m in chosen],
             }
@@ -880,6 +911,7 @@ def _merge(args: argparse.Namespace) -> int:
         data = json.loads(Path(f).read_text())
         metas.append(data["meta"])
         results.update(data["modules"])
+        TRACE_CACHE.update(data.get("trace_cache", {}))
     order = [m for m in OWN_TESTS if m in results]
     meta = dict(metas[0])
     meta["command"] = " + ".join(m["command"] for m in metas)

@@ -88,7 +88,8 @@ def test_speed_rows_and_band_edges() -> None:
     np.testing.assert_array_equal(band_colours([0.0, 1e-9, 10.0, 10.0 + 1e-9], bands),
                                   ["green", "brown", "brown", "red"])
     # values above every bound fall into the last band's colour
-    assert band_colours([11.0], [["green", 0.0], ["brown", 10.0]]).tolist() == ["brown"]
+    three = [["green", 0.0], ["yellow", 5.0], ["brown", 10.0]]
+    assert band_colours([11.0, 3.0], three).tolist() == ["brown", "yellow"]
     # element-wise rows: each value by its own VUT speed
     got = mitigation_or_avoidance_colours([5.0, 5.0, 5.0], [50.0, 40.0, 30.0], BANDS)
     assert got.tolist() == [band_colours([5.0], BANDS[str(v)])[0] for v in (50, 40, 30)]

@@ -76,6 +76,13 @@ def test_measures_without_collision_and_rounding() -> None:
     got = run_measures(runs)
     assert got["vut_impact_speed_kmh"].tolist() == [0.0, 0.0]
     assert got["relative_impact_speed_kmh"].tolist() == [0.0, 0.0]
+    # missing velocities count as 0: no VUT direction (relative 0); a GVT at rest
+    runs = pd.DataFrame({"collided": [True, True], "impact_speed1": [10.0, 10.0],
+                         "vx1": [np.nan, 0.0], "vy1": [np.nan, -10.0], "vx2": [2.0, np.nan],
+                         "vy2": [-3.0, np.nan], "ncap_vut_speed": [12.0, 12.0]})
+    got = run_measures(runs)
+    assert got["relative_impact_speed_kmh"].tolist() == [0.0, 36.0]
+    assert got["speed_reduction_kmh"].tolist() == [7.2, 7.2]
 
 
 def test_speed_rows_and_band_edges() -> None:

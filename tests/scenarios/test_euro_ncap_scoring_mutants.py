@@ -7,6 +7,8 @@ protocol file's bands (scenarios/euro-ncap-c2c/protocol.toml), read here, not ty
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -154,6 +156,9 @@ def test_several_scenarios_and_systems_in_one_assessment() -> None:
     np.testing.assert_array_equal(tests["points"], points_of(expected, POINTS))
     assert tests["scenario"].tolist() == ["CCRs", "CCRm", "CCFtap", "CCFhos"] * 2
     np.testing.assert_allclose(tests["gvt_speed_kmh"], [0.0, 20.0, 30.0, 50.0] * 2)
+    overlap = cases.set_index("case_id").loc[tests["case_id"], "ncap_overlap"].to_numpy()
+    np.testing.assert_allclose(tests["overlap_pct"], 100.0 * overlap)
+    assert tests["collided"].tolist() == [True, True, False, True] + [True] * 4
 
     scores = scenario_scores(tests, PROTOCOL)
     assert scores["system"].tolist() == ["aeb"] * 5 + ["none"] * 5
@@ -199,3 +204,18 @@ def test_not_the_matrix_is_an_error() -> None:
     assert is_euro_ncap_cases(MATRIX) and not is_euro_ncap_cases(pd.DataFrame({"case_id": [1]}))
     with pytest.raises(DataError, match="Euro NCAP"):
         assess_tests(runs_for([(1, "aeb", 0.0, 0.0)]), pd.DataFrame({"case_id": [1]}), PROTOCOL)
+
+
+def test_the_protocol_given_is_the_one_used() -> None:
+    """A changed protocol (points, maxima) changes the assessment: it is not re-read."""
+    protocol = copy.deepcopy(PROTOCOL)
+    protocol["assessment"]["points"]["green"] = 0.9
+    protocol["scenarios"]["CCRs"]["max_points"] = 3.0
+    cases = MATRIX.drop(columns=["kind", "accident_type"])
+    runs = runs_for([(case_of("CCRs", 50.0), "aeb", 0.0, 0.0)])
+    runs["collided"] = None  # missing: no collision
+    tests = assess_tests(runs, cases, protocol)
+    assert tests["points"].tolist() == [0.9] and tests["collided"].tolist() == [False]
+    scores = scenario_scores(tests, protocol).set_index("scenario")
+    assert scores.loc["CCRs", "score"] == pytest.approx(2.7)
+    assert scores.loc["CCRs", "max_score"] == 3.0

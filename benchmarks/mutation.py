@@ -657,6 +657,7 @@ def trace(tree: Path, module: str, files: list[str], limit: float) -> CoverageMa
 
 
 _ORIGINALS: dict[str, str] = {}
+TRACE_DIR: list[str] = []
 
 #: Mapping runs by (test file, its text, the module's text): reused by a later run
 #: (``--survivors-of``) where neither changed.
@@ -669,9 +670,16 @@ def _trace_files(tree: Path, module: str, files: list[str], limit: float,  # noq
     module_key = zlib.crc32(_ORIGINALS[module].encode())
     for f in files:
         key = f"{module}|{f}|{zlib.crc32((tree / f).read_bytes())}|{module_key}"
+        earlier = (Path(TRACE_DIR[0]) / f".trace-{zlib.crc32(f.encode())}.json"
+                   if TRACE_DIR else None)
         if key in TRACE_CACHE:
             status, data = TRACE_CACHE[key]["status"], TRACE_CACHE[key]["data"]
             print(f"  traced {f}: {status} (reused)", flush=True)
+        elif earlier is not None:  # the mapping files of an interrupted run's tree
+            data = json.loads(earlier.read_text()) if earlier.exists() else None
+            status = "pass" if data is not None else "timeout"
+            TRACE_CACHE[key] = {"status": status, "data": data}
+            print(f"  traced {f}: {status} (from {TRACE_DIR[0]})", flush=True)
         else:
             out = tree / f".trace-{zlib.crc32(f.encode())}.json"
             status, seconds = _pytest(
@@ -846,6 +854,11 @@ def main(argv: list[str] | None = None) -> int:
                          "its kills (tests were only added)")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
                     help="combine the reports of runs on parts of the modules and stop")
+    ap.add_argument("--trace-dir", default=None,
+                    help="reuse the mapping files (.trace-*.json) of an interrupted run's tree")
+    ap.add_argument("--shard", default=None, metavar="K/M",
+                    help="run only the sampled mutants k, k + M, k + 2M, ... (merge the "
+                         "shards' records with --merge)")
     ap.add_argument("--tag", default="")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--list", action="store_true", help="list the sampled mutants and stop")
@@ -853,6 +866,8 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.merge:
         return _merge(args)
+    if args.trace_dir:
+        TRACE_DIR.append(args.trace_dir)
     modules = list(OWN_TESTS) if args.module is None else [
         m for s in args.module for m in OWN_TESTS if s in m]
     previous: dict[str, dict] = {}
@@ -880,6 +895,9 @@ def main(argv: list[str] | None = None) -> int:
         for module in modules:
             all_sites = sites(module, root)
             chosen = sample(all_sites, n, args.seed)
+            if args.shard:
+                k, of = (int(x) for x in args.shard.split("/"))
+                chosen = chosen[k::of]
             if args.list:
                 for m in chosen:
                     print(f"{module}:{m.line} {m.kind}: {m.original} -> {m.mutated}")
@@ -928,7 +946,16 @@ def _merge(args: argparse.Namespace) -> int:
     for f in args.merge:
         data = json.loads(Path(f).read_text())
         metas.append(data["meta"])
-        results.update(data["modules"])
+        for module, r in data["modules"].items():
+            if module not in results:
+                results[module] = r
+                continue
+            into = results[module]  # another shard of the same module
+            into["mutants"] = sorted(into["mutants"] + r["mutants"],
+                                     key=lambda m: (m["line"], m["col"], m["kind"], m["mutated"]))
+            into["seconds"] += r["seconds"]
+            for k in ("trace_failed", "untraced"):
+                into[k] = sorted(set(into[k]) | set(r[k]))
         TRACE_CACHE.update(data.get("trace_cache", {}))
     for module, r in results.items():  # equivalents named after the run: excluded here too
         lines = (ROOT / module).read_text().splitlines()

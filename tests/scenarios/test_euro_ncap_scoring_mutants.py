@@ -172,6 +172,8 @@ def test_several_scenarios_and_systems_in_one_assessment() -> None:
             assert body.loc[name, "max_score"] == top
             assert body.loc[name, "tests"] == 1
             assert body.loc[name, "avoided"] == int(not sub.loc[name, "collided"])
+            assert [body.loc[name, c] for c in COLOURS] == [
+                int(c == sub.loc[name, "colour"]) for c in COLOURS]
         assert total["score"] == pytest.approx(body["score"].sum())
         assert total["max_score"] == pytest.approx(body["max_score"].sum())
         assert total["tests"] == 4 and total["avoided"] == body["avoided"].sum()

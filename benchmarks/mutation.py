@@ -859,11 +859,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shard", default=None, metavar="K/M",
                     help="run only the sampled mutants k, k + M, k + 2M, ... (merge the "
                          "shards' records with --merge)")
+    ap.add_argument("--own-only", action="store_true",
+                    help="run the module's own tests only (not the other importing files)")
+    ap.add_argument("--table", nargs=2, default=None, metavar=("BEFORE", "AFTER"),
+                    help="print the before/after kill rates of two (merged) records and stop")
     ap.add_argument("--tag", default="")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--list", action="store_true", help="list the sampled mutants and stop")
     args = ap.parse_args(argv)
 
+    if args.table:
+        return _table(args.table[0], args.table[1])
     if args.merge:
         return _merge(args)
     if args.trace_dir:
@@ -905,6 +911,8 @@ def main(argv: list[str] | None = None) -> int:
             assert tree is not None
             t0 = time.perf_counter()
             own, others = test_files(module, root)
+            if args.own_only:
+                others = []
             cov = trace(tree, module, own + others, args.trace_limit)
             cov.run_untraced = args.run_untraced
             source = (tree / module).read_text()
@@ -936,6 +944,35 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(tree, ignore_errors=True)
     if not args.list:
         print(_finish(args, results, stem, date, commit, n, t_wall, t_cpu))
+    return 0
+
+
+def _table(before: str, after: str) -> int:
+    """Print a markdown table of the kill rates of two records."""
+    b = json.loads(Path(before).read_text())["modules"]
+    a = json.loads(Path(after).read_text())["modules"]
+
+    def cell(r: dict | None, key: str) -> str:
+        if r is None:
+            return "-"
+        s = r["summary"]
+        scored = s["mutants"] - s["equivalent"]
+        k = s["killed_own"] if key == "own" else s["killed_all"]
+        return f"{100 * k / scored:.1f} % ({k}/{scored})" if scored else "-"
+
+    print("| module | before: own tests | before: all | after: own tests | after: all | "
+          "equivalent | seconds before / after |")
+    print("|---|---|---|---|---|---|---|")
+    for module in OWN_TESTS:
+        rb, ra = b.get(module), a.get(module)
+        if rb is None and ra is None:
+            continue
+        others = (ra or rb)["other_tests"]
+        eq = (ra or rb)["summary"]["equivalent"]
+        secs = " / ".join(f"{r['seconds']:.0f}" if r else "-" for r in (rb, ra))
+        print(f"| {module} | {cell(rb, 'own')} | {cell(rb, 'all') if others else 'no others'}"
+              f" | {cell(ra, 'own')} | {cell(ra, 'all') if others else 'no others'} | {eq} | "
+              f"{secs} |")
     return 0
 
 

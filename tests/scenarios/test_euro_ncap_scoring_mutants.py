@@ -92,6 +92,8 @@ def test_speed_rows_and_band_edges() -> None:
     assert speed_row(5.0, rows) == 10  # below all: the first row
     assert speed_row(30.0, rows) == 30 and speed_row(29.9999, rows) == 20
     assert speed_row(30.0 - 1e-12, rows) == 30  # measurement noise below the row
+    assert (30.0 - 1e-9) + 1e-9 == 30.0  # the slack's edge is included (closed)
+    assert speed_row(30.0 - 1e-9, rows) == 30
     assert speed_row(200.0, rows) == 50
     bands = [["green", 0.0], ["brown", 10.0], ["red", np.inf]]
     np.testing.assert_array_equal(band_colours([0.0, 1e-9, 10.0, 10.0 + 1e-9], bands),

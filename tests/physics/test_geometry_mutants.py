@@ -248,6 +248,8 @@ def test_contact_plane_rules_closed_forms() -> None:
     area = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0])
     angle, n_points, rule = contact_plane(pts, cg1, cg2, area)
     assert rule.tolist() == [1, 2, 3, 4, 3, 0, 1]
+    assert sorted(geometry.CP_RULES) == [0, 1, 2, 3, 4]  # every code has its description
+    assert geometry.CP_RULES[0] == "no contact"
     assert n_points.tolist() == [2, 3, 0, 2, 1, 0, 2]
     np.testing.assert_allclose(angle[[0, 1, 2, 3, 4]],
                                [np.pi / 4, np.pi / 2, 3 * np.pi / 4, np.pi / 2, 3 * np.pi / 4])

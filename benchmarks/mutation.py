@@ -82,6 +82,13 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
      "return np.round(np.round(values * KMH_PER_MS / step) * step, 1)", "1", "2"):
         "the second rounding of k x 0.1 (k an integer) to 1 or to 2 decimals gives the same "
         "double: k x 0.1 is within 1e-15 of k / 10, whose nearest double both return",
+    **{("vfs/physics/geometry.py", f"RectangleFrame.{function}", line, "2", "3"):
+       "the slice end 2 -> 3 of an (N, 2) array selects the same last column"
+       for function, line in (
+           ("to_local", "dy = points[..., 1] - self.centre[:, 1:2]"),
+           ("to_local", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
+           ("to_global", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
+           ("to_global", "gy = self.centre[:, 1:2] + s * x + c * y"))},
     ("vfs/physics/impact.py", "<module>",
      '"m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),',
      "1.0", "2.0"):

@@ -531,3 +531,14 @@ def test_config_construction_round_trips_and_errors() -> None:
     res_cols = solve_impact(c).columns()
     assert res_cols["delta_v1"].shape == (1,) and "energy_loss" in res_cols
     assert res_cols["delta_v2"][0] == solve_impact(c).delta_v[0, 1]
+
+
+def test_deprecated_numbered_aliases_name_the_right_vehicle() -> None:
+    c = ImpactConfig.from_columns(**good_row())
+    r = solve_impact(c)
+    with pytest.warns(DeprecationWarning, match=r"delta_v\[:, 1\]"):
+        assert r.delta_v2[0] == r.delta_v[0, 1]
+    with pytest.warns(DeprecationWarning):
+        assert r.vx1_post[0] == r.vx_post[0, 0] and r.ees2[0] == r.ees[0, 1]
+    with pytest.warns(DeprecationWarning):
+        assert c.m1[0] == 1500.0 and c.izz2[0] == 1600.0

@@ -89,6 +89,10 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
            ("to_local", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
            ("to_global", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
            ("to_global", "gy = self.centre[:, 1:2] + s * x + c * y"))},
+    ("vfs/physics/geometry.py", "contact_plane", "valid = ~np.isnan(points[..., 0])",
+     "0", "1"):
+        "the points are NaN in both coordinates or in neither (the input contract, as "
+        ":func:`outline_intersections` writes them): x and y mark the same slots",
     ("vfs/physics/impact.py", "<module>",
      '"m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),',
      "1.0", "2.0"):

@@ -241,7 +241,7 @@ def test_contact_plane_rules_closed_forms() -> None:
         [[2.0, 0.0], [2.0, 1.0], [nan, nan], [nan, nan]],  # touching, two points: rule 4
         [[2.0, 0.0], [nan, nan], [nan, nan], [nan, nan]],  # touching at one point: rule 3
         [[nan, nan]] * 4,  # nothing: rule 0
-        [[0.0, 0.0], [-1.0, 1e-17], [nan, nan], [nan, nan]],  # angle just below pi -> [0, pi)
+        [[0.0, 0.0], [1.0, -1e-17], [nan, nan], [nan, nan]],  # mod(-1e-17, pi) = pi -> 0
     ])
     cg1 = np.array([[0.0, 0.0]] * 7)
     cg2 = np.array([[3.0, 3.0]] * 7)
@@ -254,7 +254,7 @@ def test_contact_plane_rules_closed_forms() -> None:
     np.testing.assert_allclose(angle[[0, 1, 2, 3, 4]],
                                [np.pi / 4, np.pi / 2, 3 * np.pi / 4, np.pi / 2, 3 * np.pi / 4])
     assert np.isnan(angle[5])
-    assert 0.0 <= angle[6] < np.pi
+    assert np.mod(-1e-17, np.pi) == np.pi and angle[6] == 0.0
 
 
 @settings(max_examples=15, deadline=None)

@@ -542,3 +542,19 @@ def test_deprecated_numbered_aliases_name_the_right_vehicle() -> None:
         assert r.vx1_post[0] == r.vx_post[0, 0] and r.ees2[0] == r.ees[0, 1]
     with pytest.warns(DeprecationWarning):
         assert c.m1[0] == 1500.0 and c.izz2[0] == 1600.0
+
+
+def test_the_documented_input_ranges() -> None:
+    """CONFIG_RANGES as its comment documents them: masses up to 200 t, yaw inertias up to
+    1e7 kg m^2 (both > 0), positions within 1,000 km, angles within +-1,000 rad, speeds up
+    to 150 m/s, yaw rates up to 50 rad/s, restitution in [0, 1], friction in [0, 10]."""
+    tiny = np.nextafter(0.0, 1.0)
+    expected = {**{f"m{i}": (tiny, 2.0e5) for i in (1, 2)},
+                **{f"izz{i}": (tiny, 1.0e7) for i in (1, 2)},
+                **{k: (-1e6, 1e6) for k in ("x1", "y1", "x2", "y2", "poi_x", "poi_y")},
+                **{k: (-1e3, 1e3) for k in ("yaw1", "yaw2", "cp_angle")},
+                **{k: (-150.0, 150.0) for k in ("vx1", "vy1", "vx2", "vy2")},
+                **{k: (-50.0, 50.0) for k in ("yaw_rate1", "yaw_rate2")},
+                "restitution": (0.0, 1.0), "contact_friction": (0.0, 10.0)}
+    assert CONFIG_RANGES == expected
+    assert set(CONFIG_RANGES) == set(CONFIG_COLUMNS)

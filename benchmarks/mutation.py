@@ -978,12 +978,17 @@ def _table(before: str, after: str) -> int:
         rb, ra = b.get(module), a.get(module)
         if rb is None and ra is None:
             continue
-        others = (ra or rb)["other_tests"]
+        importers = test_files(module)[1]
         eq = (ra or rb)["summary"]["equivalent"]
         secs = " / ".join(f"{r['seconds']:.0f}" if r else "-" for r in (rb, ra))
-        print(f"| {module} | {cell(rb, 'own')} | {cell(rb, 'all') if others else 'no others'}"
-              f" | {cell(ra, 'own')} | {cell(ra, 'all') if others else 'no others'} | {eq} | "
-              f"{secs} |")
+
+        def every(r: dict | None) -> str:
+            if r is not None and not r["other_tests"] and importers:
+                return "not run"  # --own-only
+            return cell(r, "all") if importers else "no other importer"
+
+        print(f"| {module} | {cell(rb, 'own')} | {every(rb)} | {cell(ra, 'own')} | "
+              f"{every(ra)} | {eq} | {secs} |")
     return 0
 
 

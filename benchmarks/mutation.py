@@ -408,7 +408,7 @@ def sample(all_sites: list[Mutant], n: int | None, seed: int) -> list[Mutant]:
         return list(all_sites)
     rng = np.random.default_rng([seed, zlib.crc32(all_sites[0].module.encode())])
     edges = np.linspace(0, len(all_sites), n + 1).astype(int)
-    return [all_sites[int(rng.integers(lo, hi))] for lo, hi in zip(edges[:-1], edges[1:])]
+    return [all_sites[int(rng.integers(lo, hi))] for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
 
 
 # -- the tests of a module ------------------------------------------------------------------
@@ -982,7 +982,7 @@ def _table(before: str, after: str) -> int:
         eq = (ra or rb)["summary"]["equivalent"]
         secs = " / ".join(f"{r['seconds']:.0f}" if r else "-" for r in (rb, ra))
 
-        def every(r: dict | None) -> str:
+        def every(r: dict | None, importers: list[str] = importers) -> str:
             if r is not None and not r["other_tests"] and importers:
                 return "not run"  # --own-only
             return cell(r, "all") if importers else "no other importer"

@@ -372,6 +372,12 @@ def test_contact_frame_orientation_and_the_degenerate_plane() -> None:
     assert contact_frame(c).ny[0] == pytest.approx(-1.0)
     c = c._replace(y=np.array([[6e-6, 0.0]]))
     assert contact_frame(c).ny[0] == pytest.approx(1.0)
+    # CGs closer than 1 m: the tolerance is 1e-9 m, not 1e-9 of the distance
+    c = ImpactConfig.from_arrays(x=[0.0, 1.0], y=[1.5e-9, 0.0], vx=0.0, vy=[3.0, 0.0],
+                                 poi_x=0.5, poi_y=0.0, cp_angle=0.0, **base)
+    assert contact_frame(c).ny[0] == pytest.approx(1.0)  # side 1.5e-9 > 1e-9: by the CGs
+    c = c._replace(y=np.array([[0.5e-9, 0.0]]))
+    assert contact_frame(c).ny[0] == pytest.approx(-1.0)  # within: against u
 
 
 def test_energy_split_rules_and_fixed_objects() -> None:

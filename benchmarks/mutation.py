@@ -408,7 +408,8 @@ def sample(all_sites: list[Mutant], n: int | None, seed: int) -> list[Mutant]:
         return list(all_sites)
     rng = np.random.default_rng([seed, zlib.crc32(all_sites[0].module.encode())])
     edges = np.linspace(0, len(all_sites), n + 1).astype(int)
-    return [all_sites[int(rng.integers(lo, hi))] for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+    pairs = zip(edges[:-1], edges[1:], strict=True)
+    return [all_sites[int(rng.integers(lo, hi))] for lo, hi in pairs]
 
 
 # -- the tests of a module ------------------------------------------------------------------

@@ -286,3 +286,24 @@ def test_contact_geometry_under_mirroring(seed, angle, dx, dy) -> None:
     r = rot(angle)
     w1 = vehicle_outline(veh, *(np.stack([x[0], y[0]], 1) @ r.T + [dx, dy]).T, yaw[0] + angle)
     np.testing.assert_allclose(w1, v1 @ r.T + [dx, dy], atol=1e-9)
+
+
+def test_separating_axes_of_both_rectangles() -> None:
+    """A cross: b (6 m x 1 m, across a) reaches 0.5 m into a's band; on b's own long axis
+    the projections overlap by 1 m, so no axis separates them; 1.1 m further they are apart."""
+    a = geometry.pose_frame(0.0, 0.0, 0.0, 3.0, 0.5)
+    for shift, expected in ((3.0, True), (3.4, True), (4.1, False)):
+        b = geometry.pose_frame(0.0, shift, np.pi / 2, 3.0, 0.5)
+        assert bool(geometry._frames_overlap(a, b)[0]) is expected  # noqa: SLF001
+        assert bool(geometry._frames_overlap(b, a)[0]) is expected  # noqa: SLF001
+        oa, ob = box(0.0, 0.0, 0.0, 6.0, 1.0), box(0.0, shift, np.pi / 2, 6.0, 1.0)
+        assert bool(outlines_may_overlap(oa, ob)[0]) is expected
+
+
+def test_first_contact_only_within_the_interval() -> None:
+    """Unit squares 10 m apart closing by 9 m: contact at s = 8 / 9; by 6 m: none (s = 4/3)."""
+    s = geometry.first_contact(10.0, 0.0, -9.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0)
+    assert float(s) == pytest.approx(8.0 / 9.0)
+    assert np.isinf(geometry.first_contact(10.0, 0.0, -6.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0))
+    assert float(geometry.first_contact(10.0, 0.0, -8.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0,
+                                        1.0)) == pytest.approx(1.0)

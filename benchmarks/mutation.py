@@ -969,7 +969,8 @@ def _table(before: str, after: str) -> int:
             return "-"
         s = r["summary"]
         scored = s["mutants"] - s["equivalent"]
-        k = s["killed_own"] if key == "own" else s["killed_all"]
+        own_only = not r["other_tests"]  # every timeout then was a run of the own tests
+        k = s["killed_all"] if key == "all" or own_only else s["killed_own"]
         return f"{100 * k / scored:.1f} % ({k}/{scored})" if scored else "-"
 
     print("| module | before: own tests | before: all | after: own tests | after: all | "

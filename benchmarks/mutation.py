@@ -89,6 +89,11 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
            ("to_local", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
            ("to_global", "c, s = self.axis[:, 0:1], self.axis[:, 1:2]"),
            ("to_global", "gy = self.centre[:, 1:2] + s * x + c * y"))},
+    ("vfs/physics/geometry.py", "swept_overlap",
+     "return np.where(norm > 0.0, np.minimum(common / shorter, 1.0), np.nan)",
+     "norm > 0.0", "(norm >= 0.0)"):
+        "at norm = 0 the direction is 0 / 0 = NaN, so common / shorter is NaN too and "
+        "np.minimum keeps it: both branches give NaN there",
     ("vfs/physics/geometry.py", "contact_plane", "valid = ~np.isnan(points[..., 0])",
      "0", "1"):
         "the points are NaN in both coordinates or in neither (the input contract, as "

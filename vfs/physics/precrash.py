@@ -283,6 +283,14 @@ def simulate_precrash(
     """
     if first_step is not None and controller is not None:
         raise ParameterError("first_step replays the records: it takes no controller")
+    if controller is None and penetration is None:
+        from vfs.physics import core  # numba is imported with the first replay
+
+        if core.enabled():
+            instances = check_instances(vehicle1.size, paths, case_of, first_step)
+            return core.replay_precrash(vehicle1, vehicle2, paths, params or PrecrashParams(),
+                                        case_of=instances[0], first_step=instances[1])
+    log_reference_path(controller, penetration)
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
                       penetration=penetration, case_of=case_of, first_step=first_step)
     if controller is not None:
@@ -291,6 +299,57 @@ def simulate_precrash(
         demand = controller.demand(run.observation()) if controller is not None else None
         run.advance(demand)
     return run.result()
+
+
+def check_instances(n_data: int, paths: PathArrays, case_of: npt.ArrayLike | None,
+                    first_step: npt.ArrayLike | None
+                    ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Checked case instances of a run over ``n_data`` cases: ``case_of`` (int array or
+    None) and ``first_step`` (int array (n,) or None), as :func:`simulate_precrash` takes them.
+
+    Raises
+    ------
+    ParameterError
+        Paths not two per case, ``case_of`` outside 0..n_data - 1, ``first_step`` < 0.
+    """
+    if paths.size != 2 * n_data:
+        raise ParameterError(f"paths hold {paths.size} records for {n_data} cases "
+                             "(need 2 per case)")
+    rows = None if case_of is None else np.asarray(case_of, np.int64).reshape(-1)
+    if rows is not None and rows.size and (rows.min() < 0 or rows.max() >= n_data):
+        raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
+    if first_step is None:
+        return rows, None
+    n = n_data if rows is None else rows.size
+    steps = np.broadcast_to(np.asarray(first_step, np.int64), (n,))
+    if steps.size and steps.min() < 0:
+        raise ParameterError("first_step must be >= 0")
+    return rows, steps
+
+
+#: Kinds of run already reported on the reference path (one log line per kind and process).
+_REPORTED: set[str] = set()
+
+
+def log_reference_path(controller: BrakeController | None,
+                       penetration: Callable[..., np.ndarray] | None) -> None:
+    """Say once per process (logging, INFO) why a run takes the numpy reference path
+    instead of the compiled core (:mod:`vfs.physics.core`).
+    """
+    import logging
+
+    from vfs.physics import core
+
+    if not core.enabled():
+        why = f"{core.ENV_SWITCH}=0"
+    elif controller is not None:
+        why = f"the controller {type(controller).__name__} is Python code"
+    else:
+        why = "a Python penetration rule (an effect's penetration hook)"
+    if why not in _REPORTED:
+        _REPORTED.add(why)
+        logging.getLogger("vfs.physics.precrash").info(
+            "pre-crash on the numpy reference path: %s", why)
 
 
 class PrecrashRun(PrecrashCases):
@@ -343,13 +402,7 @@ class PrecrashRun(PrecrashCases):
                  first_step: npt.ArrayLike | None = None) -> None:
         params = params or PrecrashParams()
         n_data = vehicle1.size
-        if paths.size != 2 * n_data:
-            raise ParameterError(f"paths hold {paths.size} records for {n_data} cases "
-                                 "(need 2 per case)")
-        self.case_of = None if case_of is None else np.asarray(case_of, np.int64).reshape(-1)
-        if self.case_of is not None and self.case_of.size and (
-                self.case_of.min() < 0 or self.case_of.max() >= n_data):
-            raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
+        self.case_of, steps = check_instances(n_data, paths, case_of, first_step)
         n = n_data if self.case_of is None else self.case_of.size
         super().__init__(vehicle1, vehicle2, paths, params.dt, n, self.case_of)
         self.params = params
@@ -369,11 +422,8 @@ class PrecrashRun(PrecrashCases):
         self.running = np.zeros(n, dtype=bool)
 
         rows = np.arange(n) if start is None else np.unique(np.asarray(start, np.int64))
-        if first_step is not None:
+        if steps is not None:
             # a row started at step j of its record: its clock reads (k + j) dt
-            steps = np.broadcast_to(np.asarray(first_step, np.int64), (n,))
-            if steps.size and steps.min() < 0:
-                raise ParameterError("first_step must be >= 0")
             self.k0 = -steps.copy()
         self.rows = rows
         self.running[rows] = True

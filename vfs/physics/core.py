@@ -407,6 +407,69 @@ def _outlines_of(st: np.ndarray, dims: np.ndarray, d: int, o1: np.ndarray,
     _corners(st[0, 1], st[1, 1], st[2, 1], dims[d, 3], dims[d, 4], dims[d, 5], o2)
 
 
+def _step_state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_data: int,
+                d: int, kk: int, dt: float, dv: np.ndarray, ds: np.ndarray, gap: np.ndarray,
+                ti: np.ndarray, si: np.ndarray, st: np.ndarray, rec: np.ndarray) -> None:
+    """One step of a row on its own clock (step ``kk``, time kk dt [s]): advance the record
+    indices ``ti`` and the arc-length reduction ``ds`` (trapezoidal rule of
+    min(dv, v_rec)), the state of both vehicles into ``st`` (7, 2), the recorded speed
+    and acceleration into ``rec`` (2, 2) (PrecrashRun._settle, one row).
+    """
+    tau = kk * dt
+    for j in range(2):
+        p = d + j * n_data
+        ti[j] = _advance(knots, count, p, _T, ti[j], tau)
+        s_rec, v_rec, a_rec = _record(knots, count, p, ti[j], tau)
+        rec[0, j] = v_rec
+        rec[1, j] = a_rec
+        gap_now = dv[j] if dv[j] <= v_rec or dv[j] != dv[j] else v_rec
+        if kk > 0:
+            ds[j] = ds[j] + 0.5 * dt * (gap[j] + gap_now)
+        gap[j] = gap_now
+        s = s_rec - ds[j]
+        v = v_rec - dv[j]
+        speed = v if v >= 0.0 or v != v else 0.0
+        si[j] = _advance(knots, count, p, _S, si[j], s)
+        x, y, yaw, tx, ty, curv = _pose(knots, count, end_curvature, p, si[j], s)
+        st[0, j] = x
+        st[1, j] = y
+        st[2, j] = yaw
+        st[3, j] = speed * tx
+        st[4, j] = speed * ty
+        st[5, j] = speed * curv
+        st[6, j] = speed
+
+
+def _bisect(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, dims: np.ndarray,
+            n_data: int, d: int, t_free: float, t_hit: float, dv0: np.ndarray,
+            dv1: np.ndarray, ds0: np.ndarray, ds1: np.ndarray, ti0: np.ndarray,
+            si0: np.ndarray, tolerance: float, hti: np.ndarray, hsi: np.ndarray,
+            tmp: np.ndarray, o1: np.ndarray, o2: np.ndarray, buf: np.ndarray) -> float:
+    """First-contact time [s] between a free and an overlapping step by bisection
+    (precrash_contact.bisect_contact, one row): dv, ds interpolated linearly, the record
+    indices advanced from those of the free step (``ti0``, ``si0``).
+    """
+    lo = t_free
+    hi = t_hit
+    span = hi - lo
+    while span > tolerance:
+        mid = 0.5 * (lo + hi)
+        w = (mid - t_free) / (t_hit - t_free)
+        hti[0], hti[1] = ti0[0], ti0[1]
+        hsi[0], hsi[1] = si0[0], si0[1]
+        _state(knots, count, end_curvature, n_data, d, mid,
+               dv0[0] + w * (dv1[0] - dv0[0]), dv0[1] + w * (dv1[1] - dv0[1]),
+               ds0[0] + w * (ds1[0] - ds0[0]), ds0[1] + w * (ds1[1] - ds0[1]),
+               hti, hsi, True, tmp)
+        _outlines_of(tmp, dims, d, o1, o2)
+        if _overlaps(o1, o2, buf):
+            hi = mid
+        else:
+            lo = mid
+        span *= 0.5
+    return hi
+
+
 # ----------------------------------------------------------------------------
 # The case loop
 # ----------------------------------------------------------------------------
@@ -436,6 +499,7 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
         o1 = np.empty((4, 2))
         o2 = np.empty((4, 2))
         buf = np.empty((5, 8))
+        rec = np.empty((2, 2))
         ti = np.zeros(2, dtype=np.int64)
         si = np.zeros(2, dtype=np.int64)
         hti = np.zeros(2, dtype=np.int64)
@@ -469,26 +533,8 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
             tau = kk * dt
             prev_tau = (kk - 1) * dt
             # ---- kinematics at this step (record_pair, state_at_arclength)
-            for j in range(2):
-                p = d + j * n_data
-                ti[j] = _advance(knots, count, p, _T, ti[j], tau)
-                s_rec, v_rec, _a = _record(knots, count, p, ti[j], tau)
-                gap_now = dv[j] if dv[j] <= v_rec else v_rec
-                if kk > 0:
-                    ds[j] = ds[j] + 0.5 * dt * (gap[j] + gap_now)
-                gap[j] = gap_now
-                s = s_rec - ds[j]
-                v = v_rec - dv[j]
-                speed = v if v >= 0.0 or v != v else 0.0
-                si[j] = _advance(knots, count, p, _S, si[j], s)
-                x, y, yaw, tx, ty, curv = _pose(knots, count, end_curvature, p, si[j], s)
-                st[0, j] = x
-                st[1, j] = y
-                st[2, j] = yaw
-                st[3, j] = speed * tx
-                st[4, j] = speed * ty
-                st[5, j] = speed * curv
-                st[6, j] = speed
+            _step_state(knots, count, end_curvature, n_data, d, kk, dt, dv, ds, gap, ti, si,
+                        st, rec)
             ended = False
             # ---- impact time reached
             if pending and impact_time <= tau + 1e-12:
@@ -516,28 +562,9 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
                 if touching:
                     t_c = 0.0
                     if kk != 0:
-                        # bisection between the last free step and this one
-                        lo = prev_tau
-                        hi = tau
-                        span = hi - lo
-                        while span > tolerance:
-                            mid = 0.5 * (lo + hi)
-                            w = (mid - prev_tau) / (tau - prev_tau)
-                            hti[0], hti[1] = prev_ti[0], prev_ti[1]
-                            hsi[0], hsi[1] = prev_si[0], prev_si[1]
-                            _state(knots, count, end_curvature, n_data, d, mid,
-                                   prev_dv[0] + w * (dv[0] - prev_dv[0]),
-                                   prev_dv[1] + w * (dv[1] - prev_dv[1]),
-                                   prev_ds[0] + w * (ds[0] - prev_ds[0]),
-                                   prev_ds[1] + w * (ds[1] - prev_ds[1]),
-                                   hti, hsi, True, tmp)
-                            _outlines_of(tmp, dims, d, o1, o2)
-                            if _overlaps(o1, o2, buf):
-                                hi = mid
-                            else:
-                                lo = mid
-                            span *= 0.5
-                        t_c = hi
+                        t_c = _bisect(knots, count, end_curvature, dims, n_data, d, prev_tau,
+                                      tau, prev_dv, dv, prev_ds, ds, prev_ti, prev_si,
+                                      tolerance, hti, hsi, tmp, o1, o2, buf)
                     collided = True
                     contact_time = t_c
                     pending = True
@@ -610,14 +637,124 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
         out[i, _CLOSED] = 1.0 if closed else 0.0
 
 
+#: Event codes of :func:`settle_rows` per running row.
+EVENT_NONE, EVENT_IMPACT, EVENT_CONTACT = 0, 1, 2
+
+
+def _settle_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray,
+                 dims: np.ndarray, reach: np.ndarray, data: np.ndarray, kk: np.ndarray,
+                 dt: float, tolerance: float, close_range: float, dv: np.ndarray,
+                 ds: np.ndarray, gap: np.ndarray, t_index: np.ndarray, s_index: np.ndarray,
+                 prev_dv: np.ndarray, prev_ds: np.ndarray, prev_ti: np.ndarray,
+                 prev_si: np.ndarray, best_centre: np.ndarray, best_time: np.ndarray,
+                 best_x: np.ndarray, best_y: np.ndarray, best_yaw: np.ndarray,
+                 pending: np.ndarray, impact_time: np.ndarray, min_distance: np.ndarray,
+                 time_closest: np.ndarray, st_out: np.ndarray, rec_out: np.ndarray,
+                 event: np.ndarray, ev_state: np.ndarray, ev_f: np.ndarray) -> None:
+    """One step of the running rows of a :class:`~vfs.physics.precrash.PrecrashRun`
+    (compiled): kinematics, impacts due, contact test and bisection, closest approach.
+
+    Arrays over the m running rows: ``reach``, ``data`` (data row), ``kk`` (step on the
+    row's clock), the track (``dv`` .. ``best_yaw``, updated in place), ``pending`` and
+    ``impact_time`` (read), ``min_distance`` and ``time_closest`` (updated).  Out:
+    ``st_out`` (7, m, 2) the state, ``rec_out`` (2, m, 2) recorded speed and
+    acceleration, ``event`` (m,) :data:`EVENT_IMPACT` (impact time reached: ``ev_state``
+    the impact state, ``ev_f[:, 1:3]`` dv there) or :data:`EVENT_CONTACT` (first
+    contact: ``ev_f[:, 0]`` its time, ``ev_f[:, 1:3]`` dv, ``ev_f[:, 3:5]`` ds,
+    ``ev_state`` the contact state).  The caller applies the penetration time.
+    """
+    n_data = dims.shape[0]
+    m = data.shape[0]
+    st = np.empty((7, 2))
+    tmp = np.empty((7, 2))
+    rec = np.empty((2, 2))
+    o1 = np.empty((4, 2))
+    o2 = np.empty((4, 2))
+    buf = np.empty((5, 8))
+    hti = np.zeros(2, dtype=np.int64)
+    hsi = np.zeros(2, dtype=np.int64)
+    for i in range(m):
+        d = data[i]
+        k = kk[i]
+        tau = k * dt
+        prev_tau = (k - 1) * dt
+        _step_state(knots, count, end_curvature, n_data, d, k, dt, dv[i], ds[i], gap[i],
+                    t_index[i], s_index[i], st, rec)
+        for f in range(7):
+            st_out[f, i, 0] = st[f, 0]
+            st_out[f, i, 1] = st[f, 1]
+        for f in range(2):
+            rec_out[f, i, 0] = rec[f, 0]
+            rec_out[f, i, 1] = rec[f, 1]
+        event[i] = EVENT_NONE
+        if pending[i]:
+            if impact_time[i] <= tau + 1e-12:
+                w = _clip01((impact_time[i] - prev_tau) / dt)
+                dv0 = prev_dv[i, 0] + w * (dv[i, 0] - prev_dv[i, 0])
+                dv1 = prev_dv[i, 1] + w * (dv[i, 1] - prev_dv[i, 1])
+                ds0 = prev_ds[i, 0] + w * (ds[i, 0] - prev_ds[i, 0])
+                ds1 = prev_ds[i, 1] + w * (ds[i, 1] - prev_ds[i, 1])
+                _state(knots, count, end_curvature, n_data, d, impact_time[i], dv0, dv1, ds0,
+                       ds1, hti, hsi, False, tmp)
+                ev_state[i] = tmp
+                ev_f[i, 1] = dv0
+                ev_f[i, 2] = dv1
+                event[i] = EVENT_IMPACT
+            continue
+        centre = math.hypot(st[0, 0] - st[0, 1], st[1, 0] - st[1, 1])
+        lower = centre - reach[i]
+        touching = False
+        if lower <= 0.0:
+            _outlines_of(st, dims, d, o1, o2)
+            touching = _overlaps(o1, o2, buf)
+        if touching:
+            t_c = 0.0
+            if k != 0:
+                t_c = _bisect(knots, count, end_curvature, dims, n_data, d, prev_tau, tau,
+                              prev_dv[i], dv[i], prev_ds[i], ds[i], prev_ti[i], prev_si[i],
+                              tolerance, hti, hsi, tmp, o1, o2, buf)
+            w = 0.0 if k == 0 else _clip01((t_c - prev_tau) / dt)
+            dv0 = prev_dv[i, 0] + w * (dv[i, 0] - prev_dv[i, 0])
+            dv1 = prev_dv[i, 1] + w * (dv[i, 1] - prev_dv[i, 1])
+            ds0 = prev_ds[i, 0] + w * (ds[i, 0] - prev_ds[i, 0])
+            ds1 = prev_ds[i, 1] + w * (ds[i, 1] - prev_ds[i, 1])
+            _state(knots, count, end_curvature, n_data, d, t_c, dv0, dv1, ds0, ds1, hti,
+                   hsi, False, tmp)
+            ev_state[i] = tmp
+            ev_f[i, 0] = t_c
+            ev_f[i, 1] = dv0
+            ev_f[i, 2] = dv1
+            ev_f[i, 3] = ds0
+            ev_f[i, 4] = ds1
+            event[i] = EVENT_CONTACT
+        if centre < best_centre[i]:
+            best_centre[i] = centre
+            best_time[i] = tau
+            for j in range(2):
+                best_x[i, j] = st[0, j]
+                best_y[i, j] = st[1, j]
+                best_yaw[i, j] = st[2, j]
+            md = 0.0 if touching else min_distance[i]
+            bound = md if md <= close_range else close_range
+            if not touching and lower < bound:
+                _outlines_of(st, dims, d, o1, o2)
+                dist = _distance(o1, o2)
+                if dist < md:
+                    min_distance[i] = dist
+                    time_closest[i] = tau
+
+
 numba_prange = range  # numba.prange inside the compiled kernel
 
 _kernel: Any = None
+_settle_kernel: Any = None
 
 
 def _compiled() -> Any:
-    """The compiled kernel (compiled, or loaded from numba's cache, at the first call)."""
-    global _kernel
+    """The compiled replay kernel (compiled, or loaded from numba's cache, at the first
+    call; the step kernel with it).
+    """
+    global _kernel, _settle_kernel
     if _kernel is None:
         import numba
 
@@ -625,11 +762,20 @@ def _compiled() -> Any:
         g = globals()
         for name in ("_advance", "_search", "_clip01", "_record", "_pose", "_state",
                      "_corners", "_frame", "_frames_overlap", "_clip_stage", "_overlaps",
-                     "_corner_gap", "_distance", "_outlines_of"):
+                     "_corner_gap", "_distance", "_outlines_of", "_step_state", "_bisect"):
             g[name] = numba.njit(**opts)(g[name])
         g["numba_prange"] = numba.prange
         _kernel = numba.njit(parallel=False, **opts)(_replay_rows)
+        _settle_kernel = numba.njit(**opts)(_settle_rows)
     return _kernel
+
+
+def settle_rows(*args: Any) -> None:
+    """The compiled step of the running rows of a pre-crash run (arguments as
+    :func:`_settle_rows` documents them; :meth:`vfs.physics.precrash.PrecrashRun` calls it).
+    """
+    _compiled()
+    _settle_kernel(*args)
 
 
 def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any,
@@ -707,4 +853,5 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     return cases.result()
 
 
-__all__ = ["ENV_SWITCH", "enabled", "replay_precrash"]
+__all__ = ["ENV_SWITCH", "EVENT_CONTACT", "EVENT_IMPACT", "EVENT_NONE", "enabled",
+           "replay_precrash", "settle_rows"]

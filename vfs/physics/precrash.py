@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.physics import core
 from vfs.physics.braking import (
     BrakeActuatorParams,
     BrakeController,
@@ -426,6 +427,7 @@ class PrecrashRun(PrecrashCases):
             # a row started at step j of its record: its clock reads (k + j) dt
             self.k0 = -steps.copy()
         self.rows = rows
+        self._core_inputs: tuple[np.ndarray, ...] | None = None
         self.running[rows] = True
         self.track = _Track(rows.shape[0])
         self.active: tuple[np.ndarray, np.ndarray] | None = None
@@ -453,6 +455,9 @@ class PrecrashRun(PrecrashCases):
 
     def _settle(self) -> None:
         """Kinematics at the current step; impacts due, contacts, closest approach, ends."""
+        if core.enabled():
+            self._settle_compiled()
+            return
         params, dt, paths = self.params, self.dt, self.paths
         v1, v2 = self.v1, self.v2
         track = self.track
@@ -513,32 +518,14 @@ class PrecrashRun(PrecrashCases):
                     paths, v1, v2, self._d(rows[sel]), prev_tau[sel], tau[sel],
                     self.prev_dv[sel], track.dv[sel], self.prev_ds[sel], track.ds[sel],
                     params.contact_tolerance, (self.prev_ti[sel], self.prev_si[sel]))
-            self.collided[r] = True
-            self.contact_time[r] = t_c
-            pending[r] = True
-            self.min_distance[r] = 0.0
-            self.time_closest[r] = t_c
             w = np.where(first, 0.0, np.clip((t_c - prev_tau[new_contact]) / dt, 0.0,
                                              1.0))[:, None]
             dv_c = self.prev_dv[new_contact] + w * (track.dv[new_contact]
                                                     - self.prev_dv[new_contact])
             ds_c = self.prev_ds[new_contact] + w * (track.ds[new_contact]
                                                     - self.prev_ds[new_contact])
-            st_c = kinematics_at(paths, self._d(r), t_c, dv_c, ds_c)
-            put_rows(self.contact_state, r, st_c)
-            self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
-            t_pen = np.full(r.shape[0], params.penetration_time)
-            if self.penetration is not None:
-                t_pen = np.asarray(self.penetration(self._d(r), st_c), float)
-                if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
-                    raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
-            impact_time[r] = t_c + t_pen
-            instant = t_pen == 0.0
-            if instant.any():
-                ri = r[instant]
-                put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
-                pending[ri] = False
-                self.speed_reduction[ri] = dv_c[instant]
+            self._contact(r, t_c, kinematics_at(paths, self._d(r), t_c, dv_c, ds_c), dv_c,
+                          ds_c)
         # closest approach: exact outline distance while the outlines are
         # within CLOSE_RANGE; beyond it, the pose of minimal CG distance is
         # kept and measured at the end
@@ -559,6 +546,14 @@ class PrecrashRun(PrecrashCases):
             self.min_distance[r[better]] = dist[better]
             self.time_closest[r[better]] = tau[cand][better]
 
+        self._end_rows(ended, tau)
+
+    def _end_rows(self, ended: list[np.ndarray], tau: np.ndarray) -> None:
+        """The end of a step: drop the rows impacted with zero penetration time, close the
+        expired ones (own times ``tau`` [s] of the running rows) and, at the run's
+        horizon, all; ``ended`` lists the rows ended earlier in the step.
+        """
+        pending, rows = self.pending, self.rows
         # drop cases that are finished: impacted with zero penetration time
         done = ~pending[rows] & self.collided[rows]
         if done.any():
@@ -579,6 +574,85 @@ class PrecrashRun(PrecrashCases):
             self.done = True
         self.finished = np.concatenate(ended) if ended else np.zeros(0, dtype=np.int64)
         self.running[self.finished] = False
+
+    def _settle_compiled(self) -> None:
+        """:meth:`_settle` by the compiled step (:func:`vfs.physics.core.settle_rows`): the
+        same arithmetic row by row; the penetration time and the ends of the rows here.
+        """
+        params, dt, track, rows = self.params, self.dt, self.track, self.rows
+        if self._core_inputs is None:
+            paths, v1, v2 = self.paths, self.v1, self.v2
+            dims = np.stack([v1.cg_to_front, v1.cg_to_rear, v1.width, v2.cg_to_front,
+                             v2.cg_to_rear, v2.width], axis=1)
+            self._core_inputs = (np.ascontiguousarray(paths.knots, dtype=float),
+                                 np.ascontiguousarray(paths.count, dtype=np.int64),
+                                 np.ascontiguousarray(paths.end_curvature, dtype=float),
+                                 np.ascontiguousarray(dims, dtype=float))
+        knots, count, end_curvature, dims = self._core_inputs
+        m = rows.shape[0]
+        kk = self.k - self.k0[rows]  # steps since each case's start
+        st = np.empty((7, m, 2))
+        rec = np.empty((2, m, 2))
+        event = np.empty(m, dtype=np.int64)
+        ev_state = np.empty((m, 7, 2))
+        ev_f = np.empty((m, 5))
+        min_distance, time_closest = self.min_distance[rows], self.time_closest[rows]
+        core.settle_rows(knots, count, end_curvature, dims, self.reach[rows],
+                         np.ascontiguousarray(self._d(rows), dtype=np.int64), kk, dt,
+                         params.contact_tolerance, CLOSE_RANGE, track.dv, track.ds, track.gap,
+                         track.t_index, track.s_index, self.prev_dv, self.prev_ds,
+                         self.prev_ti, self.prev_si, track.best_centre, track.best_time,
+                         track.best_x, track.best_y, track.best_yaw, self.pending[rows],
+                         self.impact_time[rows], min_distance, time_closest, st, rec, event,
+                         ev_state, ev_f)
+        self.min_distance[rows], self.time_closest[rows] = min_distance, time_closest
+        self.state = KinematicState(*st)
+        self.v_rec, self.a_rec = rec[0], rec[1]
+        tau = kk * dt
+        ended: list[np.ndarray] = []
+        new = event == core.EVENT_CONTACT
+        if new.any():
+            r = rows[new]
+            t_c = ev_f[new, 0]
+            st_c = KinematicState(*np.ascontiguousarray(ev_state[new].transpose(1, 0, 2)))
+            self._contact(r, t_c, st_c, ev_f[new, 1:3], ev_f[new, 3:5])
+        due = event == core.EVENT_IMPACT
+        if due.any():
+            r = rows[due]
+            put_rows(self.impact_state, r,
+                     KinematicState(*np.ascontiguousarray(ev_state[due].transpose(1, 0, 2))))
+            self.pending[r] = False
+            self.speed_reduction[r] = ev_f[due, 1:3]
+            ended.append(r)
+            self._keep(~due)
+            tau = tau[~due]
+        self._end_rows(ended, tau)
+
+    def _contact(self, r: np.ndarray, t_c: np.ndarray, st_c: KinematicState,
+                 dv_c: np.ndarray, ds_c: np.ndarray) -> None:
+        """Record the first contact of rows ``r`` at times ``t_c`` [s] in state ``st_c``
+        with the reductions ``dv_c``, ``ds_c`` there; the penetration time sets the impact.
+        """
+        params = self.params
+        self.collided[r] = True
+        self.contact_time[r] = t_c
+        self.pending[r] = True
+        self.min_distance[r] = 0.0
+        self.time_closest[r] = t_c
+        put_rows(self.contact_state, r, st_c)
+        self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
+        t_pen = np.full(r.shape[0], params.penetration_time)
+        if self.penetration is not None:
+            t_pen = np.asarray(self.penetration(self._d(r), st_c), float)
+            if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
+                raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
+        self.impact_time[r] = t_c + t_pen
+        instant = t_pen == 0.0
+        if instant.any():
+            ri = r[instant]
+            put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
+            self.pending[ri] = False
+            self.speed_reduction[ri] = dv_c[instant]
 
     def _close(self, r: np.ndarray, sel: np.ndarray) -> None:
         """End rows ``r`` (= running rows ``sel``) without a collision at the current step."""

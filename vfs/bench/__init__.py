@@ -31,6 +31,7 @@ BENCHMARKS.add("uncertainty", uncertainty.bench_uncertainty)
 BENCHMARKS.add("uncertainty_sampling", uncertainty.bench_uncertainty_sampling)
 BENCHMARKS.add("gym_env", gym.bench_gym_env)
 BENCHMARKS.add("study", study.bench_study)
+BENCHMARKS.add("warmup", study.bench_warmup)
 BENCHMARKS.add("diagnose", study.bench_diagnose)
 
 

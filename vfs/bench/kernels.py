@@ -75,7 +75,7 @@ def bench_overlap(quick: bool) -> dict[str, Any]:
                     "compiled_max_area_difference_m2": float(np.max(np.abs(
                         ck.overlap_compiled(o1, o2).area - check.area)))}
     else:
-        compiled = {"compiled_polygons_per_s": "numba not installed (pip install vfs[fast])"}
+        compiled = {"compiled_polygons_per_s": "numba not installed (pip install numba)"}
     return {
         "batch": n,
         "ours_polygons_per_s": n / ours,

@@ -779,7 +779,7 @@ def settle_rows(*args: Any) -> None:
 
 
 def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any,
-                    params: Any, case_of: np.ndarray | None = None,
+                    params: Any, close_range: float, case_of: np.ndarray | None = None,
                     first_step: np.ndarray | None = None) -> Any:
     """The pre-crash replay of the records (no controller), compiled; the same
     :class:`~vfs.physics.precrash_result.PrecrashResult` as
@@ -792,6 +792,9 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     paths : PathArrays
         Participant 1's records, then participant 2's.
     params : PrecrashParams
+    close_range : float
+        Outline distances are tracked exactly while the bounding circles are closer
+        than this [m] (:data:`vfs.physics.precrash.CLOSE_RANGE`).
     case_of, first_step : ndarray of int, optional
         Case instances and the step of its record each starts at
         (:func:`~vfs.physics.precrash.simulate_precrash`).
@@ -800,8 +803,6 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     -------
     PrecrashResult
     """
-    from vfs.physics.precrash import CLOSE_RANGE
-
     n_data = vehicle1.size
     data_row = (np.arange(n_data, dtype=np.int64) if case_of is None
                 else np.ascontiguousarray(case_of, dtype=np.int64).reshape(-1))
@@ -829,7 +830,7 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
                     np.ascontiguousarray(reach, dtype=float),
                     np.ascontiguousarray(case_horizon, dtype=float), data_row, first,
                     float(params.dt), horizon, float(params.penetration_time),
-                    float(params.contact_tolerance), float(CLOSE_RANGE), out, states,
+                    float(params.contact_tolerance), float(close_range), out, states,
                     reductions)
     cases.collided[:] = out[:, _COLLIDED] > 0.5
     cases.contact_time[:] = out[:, _CONTACT_T]

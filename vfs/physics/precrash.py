@@ -285,13 +285,12 @@ def simulate_precrash(
     if first_step is not None and controller is not None:
         raise ParameterError("first_step replays the records: it takes no controller")
     if controller is None and penetration is None:
-        from vfs.physics import core  # numba is imported with the first replay
-
-        if core.enabled():
+        if core.enabled():  # numba is imported with the first compiled run
             instances = check_instances(vehicle1.size, paths, case_of, first_step)
             return core.replay_precrash(vehicle1, vehicle2, paths, params or PrecrashParams(),
-                                        case_of=instances[0], first_step=instances[1])
-    log_reference_path(controller, penetration)
+                                        CLOSE_RANGE, case_of=instances[0],
+                                        first_step=instances[1])
+    log_stepped_run(controller, penetration)
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
                       penetration=penetration, case_of=case_of, first_step=first_step)
     if controller is not None:
@@ -332,25 +331,25 @@ def check_instances(n_data: int, paths: PathArrays, case_of: npt.ArrayLike | Non
 _REPORTED: set[str] = set()
 
 
-def log_reference_path(controller: BrakeController | None,
-                       penetration: Callable[..., np.ndarray] | None) -> None:
-    """Say once per process (logging, INFO) why a run takes the numpy reference path
-    instead of the compiled core (:mod:`vfs.physics.core`).
+def log_stepped_run(controller: BrakeController | None,
+                    penetration: Callable[..., np.ndarray] | None) -> None:
+    """Say once per process and kind (logging, INFO) why a run is stepped from Python
+    instead of running in the compiled per-case loop (:mod:`vfs.physics.core`): a
+    controller or a penetration rule in Python (called between the compiled steps,
+    :meth:`PrecrashRun.advance`), or the compiled core switched off.
     """
     import logging
 
-    from vfs.physics import core
-
     if not core.enabled():
-        why = f"{core.ENV_SWITCH}=0"
+        why = f"{core.ENV_SWITCH}=0: the numpy reference path"
     elif controller is not None:
-        why = f"the controller {type(controller).__name__} is Python code"
+        why = (f"the controller {type(controller).__name__} runs in Python between "
+               "compiled steps")
     else:
-        why = "a Python penetration rule (an effect's penetration hook)"
+        why = "a Python penetration rule (an effect's hook) runs between compiled steps"
     if why not in _REPORTED:
         _REPORTED.add(why)
-        logging.getLogger("vfs.physics.precrash").info(
-            "pre-crash on the numpy reference path: %s", why)
+        logging.getLogger("vfs.physics.precrash").info("pre-crash: %s", why)
 
 
 class PrecrashRun(PrecrashCases):

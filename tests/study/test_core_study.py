@@ -20,7 +20,7 @@ from vfs.database import open_database
 from vfs.study import run_study
 
 #: The first cases of the bundled database (collisions and avoidances with both systems).
-WHERE = "case_id <= 30"
+WHERE = "case_id <= 20"
 
 
 def test_study_runs_equal_the_reference(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vfs.analysis import variants
+from vfs.diagnosis import variants
 from vfs.diagnosis.calibrate import CalibrationData
 from vfs.diagnosis.variants import VariantSimulator, leaves_precrash
 from vfs.effects.library import PenetrationDepth, RestitutionSpeed, WheelLock, YawInertia

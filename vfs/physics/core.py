@@ -84,7 +84,7 @@ def _advance(knots: np.ndarray, count: np.ndarray, p: int, col: int, idx: int,
              value: float) -> int:
     """Segment index of ``value`` advanced from ``idx`` (paths.advance_index, one row)."""
     limit = count[p] - 2
-    while idx < limit and knots[p, idx + 1, col] <= value:
+    while idx < limit and knots[idx + 1, p, col] <= value:
         idx += 1
     return idx
 
@@ -97,7 +97,7 @@ def _search(knots: np.ndarray, count: np.ndarray, p: int, col: int, value: float
         hi = 0
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if knots[p, mid, col] <= value:
+        if knots[mid, p, col] <= value:
             lo = mid
         else:
             hi = mid
@@ -120,19 +120,19 @@ def _record(knots: np.ndarray, count: np.ndarray, p: int, idx: int,
     """
     last = count[p] - 1
     i1 = idx + 1 if idx + 1 < last else last
-    t0 = knots[p, idx, _T]
-    t1 = knots[p, i1, _T]
+    t0 = knots[idx, p, _T]
+    t1 = knots[i1, p, _T]
     w = (tau - t0) / (t1 - t0) if t1 > t0 else 0.0
     w = _clip01(w)
-    s0 = knots[p, idx, _S]
-    v0 = knots[p, idx, _SPEED]
-    s = s0 + w * (knots[p, i1, _S] - s0)
-    v = v0 + w * (knots[p, i1, _SPEED] - v0)
-    a = knots[p, idx, _ACCEL]
-    t_end = knots[p, last, _T]
+    s0 = knots[idx, p, _S]
+    v0 = knots[idx, p, _SPEED]
+    s = s0 + w * (knots[i1, p, _S] - s0)
+    v = v0 + w * (knots[i1, p, _SPEED] - v0)
+    a = knots[idx, p, _ACCEL]
+    t_end = knots[last, p, _T]
     if tau > t_end:
-        v_end = knots[p, last, _SPEED]
-        s = knots[p, last, _S] + v_end * (tau - t_end)
+        v_end = knots[last, p, _SPEED]
+        s = knots[last, p, _S] + v_end * (tau - t_end)
         v = v_end
         a = 0.0
     return s, v, a
@@ -145,18 +145,18 @@ def _pose(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, p: in
     """
     last = count[p] - 1
     i1 = idx + 1 if idx + 1 < last else last
-    s0 = knots[p, idx, _S]
-    ds = knots[p, i1, _S] - s0
+    s0 = knots[idx, p, _S]
+    ds = knots[i1, p, _S] - s0
     w = (s - s0) / ds if ds > 0 else 0.0
     w = _clip01(w)
-    x0 = knots[p, idx, _X]
-    y0 = knots[p, idx, _Y]
-    dxk = knots[p, i1, _X] - x0
-    dyk = knots[p, i1, _Y] - y0
+    x0 = knots[idx, p, _X]
+    y0 = knots[idx, p, _Y]
+    dxk = knots[i1, p, _X] - x0
+    dyk = knots[i1, p, _Y] - y0
     x = x0 + w * dxk
     y = y0 + w * dyk
-    yaw0 = knots[p, idx, _YAW]
-    yaw1 = knots[p, i1, _YAW]
+    yaw0 = knots[idx, p, _YAW]
+    yaw1 = knots[i1, p, _YAW]
     yaw = yaw0 + w * (yaw1 - yaw0)
     moving = ds > 1e-9
     inv = 1.0 / ds if moving else 0.0
@@ -164,12 +164,12 @@ def _pose(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, p: in
     tx = dxk * inv
     ty = dyk * inv
     if not moving:
-        tx = math.cos(knots[p, idx, _HEADING])
-        ty = math.sin(knots[p, idx, _HEADING])
-    extra = s - knots[p, last, _S]
+        tx = math.cos(knots[idx, p, _HEADING])
+        ty = math.sin(knots[idx, p, _HEADING])
+    extra = s - knots[last, p, _S]
     if extra > 0:
         k = end_curvature[p]
-        psi0 = knots[p, last, _HEADING]
+        psi0 = knots[last, p, _HEADING]
         arc = k * extra
         c0 = math.cos(psi0)
         s0_ = math.sin(psi0)
@@ -181,9 +181,9 @@ def _pose(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, p: in
         else:
             dx = (s1_ - s0_) / k
             dy = (c0 - c1) / k
-        x = knots[p, last, _X] + dx
-        y = knots[p, last, _Y] + dy
-        yaw = knots[p, last, _YAW] + arc
+        x = knots[last, p, _X] + dx
+        y = knots[last, p, _Y] + dy
+        yaw = knots[last, p, _YAW] + arc
         tx = c1
         ty = s1_
         curvature = k
@@ -778,14 +778,6 @@ def settle_rows(*args: Any) -> None:
     _settle_kernel(*args)
 
 
-def path_major(knots: np.ndarray) -> np.ndarray:
-    """The knots (M, N, 8) of :class:`~vfs.physics.paths.PathArrays` as (N, M, 8), each path
-    contiguous: the compiled loops walk one case's record at a time (the sample-major
-    layout serves numpy's lock-step over all paths).
-    """
-    return np.ascontiguousarray(np.asarray(knots, dtype=float).transpose(1, 0, 2))
-
-
 def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any,
                     params: Any, close_range: float, case_of: np.ndarray | None = None,
                     first_step: np.ndarray | None = None) -> Any:
@@ -832,7 +824,7 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     states = np.empty((n, 4, 7, 2))
     reductions = np.empty((n, 3, 2))
     if n:
-        _compiled()(path_major(paths.knots),
+        _compiled()(np.ascontiguousarray(paths.knots, dtype=float),
                     np.ascontiguousarray(paths.count, dtype=np.int64),
                     np.ascontiguousarray(paths.end_curvature, dtype=float), dims,
                     np.ascontiguousarray(reach, dtype=float),
@@ -863,4 +855,4 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
 
 
 __all__ = ["ENV_SWITCH", "EVENT_CONTACT", "EVENT_IMPACT", "EVENT_NONE", "enabled",
-           "path_major", "replay_precrash", "settle_rows"]
+           "replay_precrash", "settle_rows"]

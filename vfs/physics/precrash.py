@@ -583,7 +583,7 @@ class PrecrashRun(PrecrashCases):
             paths, v1, v2 = self.paths, self.v1, self.v2
             dims = np.stack([v1.cg_to_front, v1.cg_to_rear, v1.width, v2.cg_to_front,
                              v2.cg_to_rear, v2.width], axis=1)
-            self._core_inputs = (core.path_major(paths.knots),
+            self._core_inputs = (np.ascontiguousarray(paths.knots, dtype=float),
                                  np.ascontiguousarray(paths.count, dtype=np.int64),
                                  np.ascontiguousarray(paths.end_curvature, dtype=float),
                                  np.ascontiguousarray(dims, dtype=float))

@@ -47,8 +47,10 @@ numba is a required dependency; the first call compiles the kernel (about
 
 from __future__ import annotations
 
+import logging
 import math
 import os
+import time
 from typing import Any
 
 import numpy as np
@@ -770,12 +772,33 @@ def _compiled() -> Any:
     return _kernel
 
 
+_REPORTED_COMPILE: set[str] = set()
+
+
+def _call(kernel: Any, name: str, *args: Any) -> None:
+    """Run ``kernel``; after its first call in this process, say (logging WARNING, once)
+    when numba compiled it instead of loading it from its cache: the first run after an
+    install or an upgrade.
+    """
+    if name in _REPORTED_COMPILE:
+        kernel(*args)
+        return
+    t0 = time.perf_counter()
+    kernel(*args)
+    _REPORTED_COMPILE.add(name)
+    stats = getattr(kernel, "stats", None)
+    if stats is not None and sum(stats.cache_misses.values()):
+        logging.getLogger("vfs.physics.core").warning(
+            "vfs: compiled the %s of the pre-crash core in %.0f s (once: numba cached it "
+            "in %s; later runs load it)", name, time.perf_counter() - t0, stats.cache_path)
+
+
 def settle_rows(*args: Any) -> None:
     """The compiled step of the running rows of a pre-crash run (arguments as
     :func:`_settle_rows` documents them; :meth:`vfs.physics.precrash.PrecrashRun` calls it).
     """
     _compiled()
-    _settle_kernel(*args)
+    _call(_settle_kernel, "step", *args)
 
 
 def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any,
@@ -824,7 +847,7 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     states = np.empty((n, 4, 7, 2))
     reductions = np.empty((n, 3, 2))
     if n:
-        _compiled()(np.ascontiguousarray(paths.knots, dtype=float),
+        _call(_compiled(), "replay", np.ascontiguousarray(paths.knots, dtype=float),
                     np.ascontiguousarray(paths.count, dtype=np.int64),
                     np.ascontiguousarray(paths.end_curvature, dtype=float), dims,
                     np.ascontiguousarray(reach, dtype=float),

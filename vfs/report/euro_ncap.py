@@ -135,13 +135,14 @@ def euro_ncap_blocks(tests: pd.DataFrame, scores: pd.DataFrame) -> list[Block]:
                 if values.empty:
                     continue
                 sub = mine[(mine["system"] == system) & (mine["scenario"] == name)]
+                measure = protocol["scenarios"][name]["measure"].replace("_", " ")
                 own = scores[(scores["system"] == system) & (scores["scenario"] == name)
                              & (scores["protocol"] == version)].iloc[0]
                 blocks.append(Paragraph(
                     f"**{name}**: {own['score']:.2f} / {own['max_score']:g} points "
                     f"({own['score_pct']:.0f} %); rows VUT speed [km/h] (0: start from "
-                    f"stop; with the GVT speed where one per row), cells the {protocol['scenarios'][name]['measure'].replace('_', ' ')}"
-                    f" [km/h] and its colour; FCW ({scored}): {_fcw_text(sub)}."))
+                    f"stop; with the GVT speed where one per row), cells the {measure} [km/h]"
+                    f" and its colour; FCW ({scored}): {_fcw_text(sub)}."))
                 rows = tuple((str(v), *(f"{c} {k}" if c else "" for c, k in
                                           zip(values.loc[v], colours.loc[v], strict=True)))
                              for v in values.index)

@@ -1,0 +1,92 @@
+"""Write ``results/reference/euro-ncap-side-by-side/``: the record docs/euro-ncap.md quotes.
+
+Runs, with the current code, the built-in systems on both Euro NCAP matrices (2026, the
+default ``--db euro-ncap-c2c``, and 2023, ``--db euro-ncap-c2c-2023``) and on the bundled
+accident database, then ``vfs report side-by-side`` for each version, and keeps the small
+text outputs: ``side_by_side_<version>.csv`` / ``.md`` (the side-by-side tables),
+``scores_<version>.csv`` (points per scenario and system), ``tests_<version>.csv`` (the
+result sheet: measure, colour, points per test and system), ``per_type.csv`` (share of the
+accident study's baseline crashes avoided per accident type) and ``printed.txt`` (the
+commands and what they printed, with CPU time).  Nothing there is edited by hand::
+
+    python benchmarks/euro_ncap_side_by_side.py [WORK_FOLDER]   # a few minutes on 2 cores
+"""
+
+from __future__ import annotations
+
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "results" / "reference" / "euro-ncap-side-by-side"
+SYSTEMS = "three-stage,ideal,openpass-like,ideal-ctra"
+VERSIONS = {"2026": "euro-ncap-c2c", "2023": "euro-ncap-c2c-2023"}
+#: Accident types of the per-type table (vfs.accident_types): rear-end, left turn across
+#: the oncoming path, straight crossing, head-on variants.
+TYPES = (601, 211, 321, 241, 242, 243, 264)
+
+
+def _run(args: list[str], log: list[str]) -> None:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = subprocess.run([sys.executable, "-m", "vfs", *args], cwd=ROOT, check=True,
+                          capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    log.append("$ vfs " + " ".join(args))
+    log.append(done.stdout.rstrip())
+    log.append(f"(CPU time {cpu:.1f} s)")
+
+
+def per_type(study: Path) -> pd.DataFrame:
+    """Share of the baseline crashes avoided per system and accident type."""
+    runs = pd.read_parquet(study / "runs.parquet")
+    runs = runs[runs["error"].fillna("").astype(str) == ""]
+    base = runs[runs["system"] == "baseline"].set_index("case_id")
+    crashed = base.index[base["collided"].fillna(False).astype(bool)]
+    rows = []
+    for system, own in runs[runs["system"] != "baseline"].groupby("system", sort=False):
+        own = own.set_index("case_id").loc[crashed]
+        row: dict[str, object] = {"system": system}
+        for kind in TYPES:
+            mine = own[own["accident_type"] == kind]
+            row[f"n_{kind}"] = len(mine)
+            row[f"avoided_{kind}"] = (float((~mine["collided"].astype(bool)).mean())
+                                      if len(mine) else float("nan"))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def main(argv: list[str]) -> int:
+    work = Path(argv[0]) if argv else Path(tempfile.mkdtemp(prefix="ncap-sbs-"))
+    work.mkdir(parents=True, exist_ok=True)
+    OUT.mkdir(parents=True, exist_ok=True)
+    log: list[str] = [f"# built-in systems: {SYSTEMS}; machine: shared 2-core, loaded"]
+    accidents = work / "study-default"
+    _run(["study", "--db", "default", "--systems", SYSTEMS, "--out", str(accidents),
+          "--overwrite"], log)
+    per_type(accidents).to_csv(OUT / "per_type.csv", index=False, float_format="%.4f")
+    for version, db in VERSIONS.items():
+        study = work / f"study-{db}"
+        _run(["study", "--db", db, "--systems", SYSTEMS, "--out", str(study), "--overwrite"],
+             log)
+        _run(["report", "effectiveness", str(study), "--no-case-pages"], log)
+        sbs = work / f"sbs-{version}"
+        _run(["report", "side-by-side", "--ncap", str(study), "--accidents", str(accidents),
+              "--out", str(sbs)], log)
+        shutil.copy(sbs / "side_by_side.csv", OUT / f"side_by_side_{version}.csv")
+        shutil.copy(sbs / "side_by_side.md", OUT / f"side_by_side_{version}.md")
+        shutil.copy(study / "report" / "euro_ncap_scores.csv", OUT / f"scores_{version}.csv")
+        shutil.copy(study / "report" / "euro_ncap_tests.csv", OUT / f"tests_{version}.csv")
+    (OUT / "printed.txt").write_text("\n".join(log) + "\n", encoding="utf-8")
+    print(f"wrote {OUT}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))

@@ -289,7 +289,7 @@ def write_side_by_side(ncap_study: str | os.PathLike[str],
         Paragraph(f"Euro NCAP: study `{Path(ncap_study).name}` on the Car-to-Car test "
                   f"matrix of protocol {versions} "
                   "(scenarios/euro-ncap-c2c/; colour bands, points and maxima of that "
-                  "version's file). Accidents: study `{Path(accident_study).name}`: share of its "
+                  f"version's file). Accidents: study `{Path(accident_study).name}`: share of its "
                   f"baseline crashes avoided, net crash reduction (avoided minus new) and "
                   f"relative reduction of the expected injured drivers per injury level, with "
                   f"{pct} % intervals ({n_boot} bootstrap resamples, seed {seed}; "

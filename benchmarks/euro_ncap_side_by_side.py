@@ -5,16 +5,19 @@ default ``--db euro-ncap-c2c``, and 2023, ``--db euro-ncap-c2c-2023``) and on th
 accident database, then ``vfs report side-by-side`` for each version, and keeps the small
 text outputs: ``side_by_side_<version>.csv`` / ``.md`` (the side-by-side tables),
 ``scores_<version>.csv`` (points per scenario and system), ``tests_<version>.csv`` (the
-result sheet: measure, colour, points per test and system), ``per_type.csv`` (share of the
-accident study's baseline crashes avoided per accident type) and ``printed.txt`` (the
-commands and what they printed, with their wall time: the study workers are not children
-this script can time for CPU).  Nothing there is edited by hand::
+result sheet: measure, colour, points per test and system), ``report.md`` (the 2026 study's
+effectiveness report with its Euro NCAP section and result sheets; figures left out, their
+captions kept), ``per_type.csv`` (share of the accident study's baseline crashes avoided per
+accident type), ``printed.txt`` (the commands and what they printed, times and paths left
+out, as results/README.md asks) and ``timing.txt`` (each command's wall time: the study
+workers are not children this script can time for CPU).  Nothing there is edited by hand::
 
     python benchmarks/euro_ncap_side_by_side.py [WORK_FOLDER]   # a few minutes on 2 cores
 """
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import sys
@@ -33,14 +36,18 @@ VERSIONS = {"2026": "euro-ncap-c2c", "2023": "euro-ncap-c2c-2023"}
 TYPES = (601, 211, 321, 241, 242, 243, 264)
 
 
-def _run(args: list[str], log: list[str]) -> None:
+def _run(args: list[str], work: Path, log: list[str], times: list[str]) -> None:
     started = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "vfs", *args], cwd=ROOT, check=True,
                           capture_output=True, text=True)
     wall = time.perf_counter() - started
-    log.append("$ vfs " + " ".join(args))
-    log.append(done.stdout.rstrip())
-    log.append(f"(wall time {wall:.1f} s, shared 2-core machine under load)")
+    command = "$ vfs " + " ".join(args).replace(f"{work}/", "results/")
+    log.append(command)
+    log += [ln for ln in done.stdout.splitlines()
+            if str(work) not in ln and " s (" not in ln and "->" not in ln]
+    times.append(f"{command}\n  wall time {wall:.1f} s"
+                 + "".join(f"\n  {ln.strip()}" for ln in done.stdout.splitlines()
+                           if "simulated in" in ln))
 
 
 def per_type(study: Path) -> pd.DataFrame:
@@ -67,24 +74,33 @@ def main(argv: list[str]) -> int:
     work = Path(argv[0]) if argv else Path(tempfile.mkdtemp(prefix="ncap-sbs-"))
     work.mkdir(parents=True, exist_ok=True)
     OUT.mkdir(parents=True, exist_ok=True)
-    log: list[str] = [f"# built-in systems: {SYSTEMS}"]
+    log: list[str] = []
+    times: list[str] = ["# wall times on the shared 2-core development machine, other jobs "
+                        "running (load not controlled)"]
     accidents = work / "study-default"
     _run(["study", "--db", "default", "--systems", SYSTEMS, "--out", str(accidents),
-          "--overwrite"], log)
+          "--overwrite"], work, log, times)
     per_type(accidents).to_csv(OUT / "per_type.csv", index=False, float_format="%.4f")
     for version, db in VERSIONS.items():
         study = work / f"study-{db}"
         _run(["study", "--db", db, "--systems", SYSTEMS, "--out", str(study), "--overwrite"],
-             log)
-        _run(["report", "effectiveness", str(study), "--no-case-pages"], log)
+             work, log, times)
+        _run(["report", "effectiveness", str(study), "--no-case-pages"], work, log, times)
         sbs = work / f"sbs-{version}"
         _run(["report", "side-by-side", "--ncap", str(study), "--accidents", str(accidents),
-              "--out", str(sbs)], log)
+              "--out", str(sbs)], work, log, times)
         shutil.copy(sbs / "side_by_side.csv", OUT / f"side_by_side_{version}.csv")
         shutil.copy(sbs / "side_by_side.md", OUT / f"side_by_side_{version}.md")
         shutil.copy(study / "report" / "euro_ncap_scores.csv", OUT / f"scores_{version}.csv")
         shutil.copy(study / "report" / "euro_ncap_tests.csv", OUT / f"tests_{version}.csv")
+        if version == "2026":
+            text = (study / "report" / "report.md").read_text(encoding="utf-8")
+            text = text.replace(str(study), "results/study-euro-ncap-c2c")
+            text = text.replace(f"file://{ROOT}/", "../../../").replace(f"{ROOT}/", "")
+            text = re.sub(r"!\[([^\]]*)\]\([^)]*\)", r"(figure: \1)", text)
+            (OUT / "report.md").write_text(text, encoding="utf-8")
     (OUT / "printed.txt").write_text("\n".join(log) + "\n", encoding="utf-8")
+    (OUT / "timing.txt").write_text("\n".join(times) + "\n", encoding="utf-8")
     print(f"wrote {OUT}")
     return 0
 

@@ -53,7 +53,7 @@ import pandas as pd
 
 from vfs.database.database import Database, default_meta
 from vfs.database.schema import TABLE_NAMES, empty_table, normalise_table
-from vfs.errors import DataError, DataProblem, DefinitionError
+from vfs.errors import DataError, DataProblem, DefinitionError, VfsError
 from vfs.units import KMH_PER_MS
 
 #: Protocol versions: version -> (``--db`` name, protocol file in ``scenarios/euro-ncap-c2c``).
@@ -774,7 +774,12 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     root = Path(args[0] if args else os.path.join("scenarios", "databases"))
     for version, (name, _) in PROTOCOL_VERSIONS.items():
-        save_database(build_euro_ncap_database(read_protocol(version=version)), root / name)
+        try:
+            database = build_euro_ncap_database(read_protocol(version=version))
+        except VfsError as err:  # a protocol file missing a table: one line, no traceback
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        save_database(database, root / name)
         print(f"wrote {root / name}")
     return 0
 

@@ -88,8 +88,11 @@ def test_speed_grids_and_matrix_size_follow_the_protocol(version: str) -> None:
         else:
             pairs = {(v, g) for v in sc["vut_speeds_kmh"] for g in sc["gvt_speeds_kmh"]}
         pairs -= {tuple(p) for p in sc.get("exclude_pairs_kmh", [])}
-        n = (len(pairs) * len(sc.get(lateral, [0])) * len(sc.get("headways_m", [0]))
-             * len(sc.get("gvt_decelerations_ms2", [0])))
+        sides = sc.get("gvt_from", ["right"]) if sc["kind"] == "crossing" else [0]
+        n = (len(pairs) * len(sc.get(lateral, [0]))
+             * len(sc.get("headways_m", sc.get("headway_times_s", [0])))
+             * len(sc.get("gvt_decelerations_ms2", [0])) * len([sides] if isinstance(sides, str)
+                                                              else sides))
         assert len(got) == n, name
         speeds = set(zip(np.round(got["ncap_vut_speed"] * KMH_PER_MS, 9),
                          np.round(got["ncap_gvt_speed"] * KMH_PER_MS, 9), strict=True))
@@ -99,9 +102,11 @@ def test_speed_grids_and_matrix_size_follow_the_protocol(version: str) -> None:
 
 
 def test_grid_shapes_of_each_version() -> None:
-    # 2026 (R26 MATRIX_INDICES, standard range): CCCscp 7 x 7 less the 8 extended cells;
-    # CCFhos/CCFhol VUT 30-80 x impact location 75 / 50 / 25 %
-    assert len(_tests("CCCscp")) == 49 - 8
+    # 2026 standard range (V26): CCCscp VUT 20-60 x GVT 20-60 from both sides;
+    # CCFhos/CCFhol VUT 30-80 x impact location 75 / 50 / 25 %; CCRb 30-80 x 5 locations
+    ccc = _tests("CCCscp")
+    assert len(ccc) == 2 * 25 and set(ccc["ncap_gvt_side"]) == {1.0, -1.0}
+    assert len(_tests("CCRb")) == 6 * 5 and len(_tests("CCFtap")) == 9
     assert sorted(set(np.round(_tests("CCFhos")["ncap_lateral_location"] * 100, 9))) == [
         25.0, 50.0, 75.0]
     # 2023: the CCCscp grid has a start-from-stop row: 30 combinations (issue 38)
@@ -178,24 +183,31 @@ def test_outlines_touch_exactly_at_the_impact_time(version: str, name: str) -> N
 
 
 def test_ccrb_gap_at_brake_onset_deceleration_and_impact() -> None:
+    """2026 CCRb (V26): time headway 1 s, 4 m/s2 down to 2 km/h; gap and impact closed forms."""
     sc = P26["scenarios"]["CCRb"]
+    final = sc["gvt_final_speed_kmh"] / KMH_PER_MS
     for _, test in _tests("CCRb").iterrows():
         t, t_impact, m1, m2 = ncap_test_motions(test, VUT, GVT, P26)
         t_brake = float(sc["steady_before_braking_s"])
-        dec, headway = test["ncap_gvt_deceleration"], test["ncap_headway"]
+        v, dec = test["ncap_vut_speed"], test["ncap_gvt_deceleration"]
+        headway = test["ncap_headway"]
+        assert headway == pytest.approx(v * sc["headway_times_s"][0])  # space = speed x 1 s
+        assert dec == 4.0 and test["ncap_gvt_speed"] == v
         k = _at(t, t_brake)
         gap = (m2.x - GVT.cg_to_rear) - (m1.x + VUT.cg_to_front)
         assert gap[k] == pytest.approx(headway)
         assert np.all(np.abs(gap[:k + 1] - headway) < 1e-9)
-        moving = (t > t_brake) & (m2.speed > 0)
+        moving = (t > t_brake) & (m2.speed > final + 1e-9)
         assert np.all(m2.accel[moving] == -dec)
+        # brakes down to 2 km/h, then keeps it
+        want = np.maximum(v - dec * np.maximum(t - t_brake, 0.0), final)
+        np.testing.assert_allclose(m2.speed, want, atol=1e-12)
         tau = t_impact - t_brake
-        assert tau == pytest.approx(ccrb_impact_after_braking(headway, test["ncap_gvt_speed"],
-                                                              dec))
-        s_gvt = (headway + test["ncap_gvt_speed"] * tau - 0.5 * dec * tau**2
-                 if tau < test["ncap_gvt_speed"] / dec
-                 else headway + test["ncap_gvt_speed"] ** 2 / (2 * dec))
-        assert s_gvt == pytest.approx(test["ncap_vut_speed"] * tau)
+        assert tau == pytest.approx(ccrb_impact_after_braking(headway, v, dec, final))
+        t_b = (v - final) / dec
+        s_gvt = (headway + v * tau - 0.5 * dec * tau**2 if tau <= t_b
+                 else headway + v * t_b - 0.5 * dec * t_b**2 + final * (tau - t_b))
+        assert s_gvt == pytest.approx(v * tau)
         assert np.all(gap[t < t_impact - 1e-9] > 0.0)
 
 
@@ -229,13 +241,21 @@ def test_turn_path_is_clothoid_arc_clothoid_through_90_degrees(radius: float,
 def test_ccftap_radius_clothoid_and_meeting_point() -> None:
     sc = P26["scenarios"]["CCFtap"]
     radius = dict(zip(sc["vut_speeds_kmh"], sc["turn_radii_m"], strict=True))
+    alpha = dict(zip(sc["vut_speeds_kmh"], sc["clothoid_angles_deg"], strict=True))
     assert radius[20] == 14.75  # 2026 at 20 km/h (issue 38, Frontal Collisions v1.1)
     lane = P26["protocol"]["lane_width_m"]
     for _, test in _tests("CCFtap").iterrows():
         v_kmh = round(test["ncap_vut_speed"] * KMH_PER_MS, 9)
         path = turn_path(test, P26)
-        assert path.radius == radius[v_kmh]
-        assert path.clothoid == pytest.approx(test["ncap_vut_speed"] * sc["clothoid_duration_s"])
+        assert path.radius == radius[v_kmh] and path.start_radius == 1500.0
+        # each clothoid turns through alpha, the arc through beta = 90 - 2 alpha (V26)
+        assert math.degrees(path.clothoid_angle) == pytest.approx(alpha[v_kmh])
+        assert math.degrees(path.arc / path.radius) == pytest.approx(90 - 2 * alpha[v_kmh])
+        s = np.linspace(0.0, path.length, 20001)
+        assert path.heading(np.array([path.length]))[0] == pytest.approx(0.5 * math.pi)
+        np.testing.assert_allclose(np.gradient(path.heading(s), s), path.curvature(s),
+                                   atol=2e-3)
+        assert path.curvature(np.array([0.0]))[0] == pytest.approx(1 / 1500.0)
         t, t_impact, m1, m2 = ncap_test_motions(test, VUT, GVT, P26)
         k = _at(t, t_impact)
         front1 = np.array([m1.x[k] + VUT.cg_to_front * math.cos(m1.yaw[k]),

@@ -164,7 +164,7 @@ def protocols_of(cases: pd.DataFrame) -> dict[str, dict[str, Any]]:
 
 #: Columns of the per-test result sheet (:func:`assess_tests`), in order.
 TEST_COLUMNS = ("case_id", "system", "protocol", "scenario", "vut_speed_kmh", "gvt_speed_kmh",
-                "overlap_pct", "impact_location_pct", "gvt_impact_location_pct",
+                "overlap_pct", "impact_location_pct", "gvt_impact_location_pct", "gvt_side",
                 "gvt_deceleration_ms2", "headway_m", "collided", "vut_impact_speed_kmh",
                 "relative_impact_speed_kmh", "speed_reduction_kmh", "measure",
                 "measure_kmh", "colour", "points", "fcw_ttc_s")
@@ -223,6 +223,7 @@ def assess_tests(runs: pd.DataFrame, cases: pd.DataFrame,
         "overlap_pct": col("ncap_overlap", 100.0),
         "impact_location_pct": col("ncap_lateral_location", 100.0),
         "gvt_impact_location_pct": col("ncap_impact_location", 100.0),
+        "gvt_side": col("ncap_gvt_side"),
         "gvt_deceleration_ms2": col("ncap_gvt_deceleration"),
         "headway_m": col("ncap_headway"),
         "collided": table["collided"].fillna(False).astype(bool),
@@ -305,6 +306,8 @@ def grid_column_label(test: pd.Series, with_gvt: bool = True) -> str:
         parts.append(f"ov {test['overlap_pct']:+g} %")
     if not math.isnan(test["gvt_deceleration_ms2"]):
         parts.append(f"{test['gvt_deceleration_ms2']:g} m/s2 {test['headway_m']:g} m")
+    if not math.isnan(test.get("gvt_side", math.nan)):
+        parts.append("from right" if test["gvt_side"] > 0 else "from left")
     return " / ".join(parts) or "-"
 
 

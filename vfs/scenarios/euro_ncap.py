@@ -40,6 +40,7 @@ data hash covers; a flag would have to travel beside ``--db`` through all of the
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import sys
@@ -86,7 +87,7 @@ LATERAL_CONVENTIONS = ("impact_location", "overlap")
 MATRIX_COLUMNS = ("ncap_protocol", "ncap_scenario", "ncap_vut_speed", "ncap_gvt_speed",
                   "ncap_overlap", "ncap_lateral_location", "ncap_gvt_deceleration",
                   "ncap_headway", "ncap_turn_radius", "ncap_impact_location",
-                  "ncap_impact_time")
+                  "ncap_gvt_side", "ncap_impact_time")
 
 #: Unit and description of the matrix columns (``meta.json`` key ``columns``).
 MATRIX_COLUMN_UNITS: dict[str, dict[str, str]] = {
@@ -105,6 +106,8 @@ MATRIX_COLUMN_UNITS: dict[str, dict[str, str]] = {
     "ncap_impact_location": {"unit": "-",
                              "description": "impact point as share of the GVT's length from "
                              "its front"},
+    "ncap_gvt_side": {"unit": "-", "description": "crossing GVT from the VUT's right (+1, "
+                      "nearside) or left (-1, farside)"},
     "ncap_impact_time": {"unit": "s", "description": "time of the undisturbed impact"},
 }
 
@@ -192,7 +195,9 @@ def check_protocol(protocol: dict[str, Any], file: str | os.PathLike[str] = "<pr
         lateral = "impact_locations_pct" if conv == "impact_location" else "overlaps_pct"
         if sc["kind"] in ("rear", "head_on", "head_on_lane_change"):
             _require(path, sc, where, (lateral,))
-        extra = {"turn": ("turn_radii_m", "clothoid_duration_s"),
+        if sc["kind"] == "turn" and not ({"clothoid_angles_deg", "clothoid_duration_s"} & set(sc)):
+            _require(path, sc, where, ("clothoid_angles_deg",))
+        extra = {"turn": ("turn_radii_m",),
                  "crossing": ("gvt_impact_location_pct",),
                  "head_on_lane_change": ("lane_change_width_m", "lane_change_lengths_m",
                                          "lane_change_end_ttc_s")}.get(sc["kind"], ())
@@ -365,18 +370,24 @@ def ncap_test_matrix(protocol: dict[str, Any] | None = None) -> pd.DataFrame:
         else:
             laterals = [(math.nan, math.nan)]
         loc = float(sc.get("gvt_impact_location_pct", math.nan)) / 100.0
+        sides = sc.get("gvt_from", ["right"]) if kind == "crossing" else [None]
+        sides = [sides] if isinstance(sides, str) else sides
         for v, g in _pairs(name, sc):
             radius = float(radii[vut.index(v)]) if radii is not None else math.nan
-            for overlap, lateral in laterals:
-                for dec in sc.get("gvt_decelerations_ms2", [math.nan]):
-                    for gap in sc.get("headways_m", [math.nan]):
-                        rows.append({
-                            "ncap_protocol": version, "ncap_scenario": name,
-                            "ncap_vut_speed": v / KMH_PER_MS, "ncap_gvt_speed": g / KMH_PER_MS,
-                            "ncap_overlap": overlap, "ncap_lateral_location": lateral,
-                            "ncap_gvt_deceleration": float(dec), "ncap_headway": float(gap),
-                            "ncap_turn_radius": radius, "ncap_impact_location": loc,
-                            "kind": kind, "accident_type": int(sc["accident_type"])})
+            gaps = ([float(h) for h in sc["headways_m"]] if "headways_m" in sc else
+                    [v / KMH_PER_MS * float(h) for h in sc["headway_times_s"]]
+                    if "headway_times_s" in sc else [math.nan])
+            for (overlap, lateral), dec, gap, side in itertools.product(
+                    laterals, sc.get("gvt_decelerations_ms2", [math.nan]), gaps, sides):
+                rows.append({
+                    "ncap_protocol": version, "ncap_scenario": name,
+                    "ncap_vut_speed": v / KMH_PER_MS, "ncap_gvt_speed": g / KMH_PER_MS,
+                    "ncap_overlap": overlap, "ncap_lateral_location": lateral,
+                    "ncap_gvt_deceleration": float(dec), "ncap_headway": float(gap),
+                    "ncap_turn_radius": radius, "ncap_impact_location": loc,
+                    "ncap_gvt_side": (math.nan if side is None
+                                      else 1.0 if side == "right" else -1.0),
+                    "kind": kind, "accident_type": int(sc["accident_type"])})
     table = pd.DataFrame(rows)
     table.insert(0, "case_id", np.arange(1, len(table) + 1, dtype=np.int64))
     return table
@@ -412,59 +423,84 @@ class TurnPath:
     """A left turn through 90 deg: clothoid - arc of ``radius`` - clothoid, then straight.
 
     Curvature along the arc length ``s`` [m] (``s < 0``: the straight
-    approach along +x): rises linearly from 0 to ``1 / radius`` over
-    ``clothoid`` metres, stays there, falls linearly to 0 over ``clothoid``
-    metres once the heading reaches ``pi/2 - clothoid / (2 radius)``; then
-    straight along +y.  Heading ``psi(s)`` is the integral of the curvature
-    (closed form); the position the integral of ``(cos psi, sin psi)``
-    (trapezoid rule on a :data:`PATH_STEP_M` grid, interpolated).
+    approach along +x): rises linearly from ``1 / start_radius`` to
+    ``1 / radius`` over ``clothoid`` metres, stays there, falls linearly back
+    to ``1 / start_radius`` over ``clothoid`` metres once the heading reaches
+    ``pi/2`` less the second clothoid's angle; then straight along +y.  Each
+    clothoid turns through ``(1/start_radius + 1/radius) clothoid / 2`` (the
+    protocol's angle alpha), the arc through the rest of the 90 deg (beta).
+    Heading ``psi(s)`` is the integral of the curvature (closed form); the
+    position the integral of ``(cos psi, sin psi)`` (trapezoid rule on a
+    :data:`PATH_STEP_M` grid, interpolated).
 
     Parameters
     ----------
     radius : float
-        Radius of the constant-curvature part [m].
+        Radius of the constant-curvature part [m] (R2 of the protocol).
     clothoid : float
-        Length of each clothoid [m]; ``clothoid / radius <= pi / 2``.
+        Length of each clothoid [m].
+    start_radius : float
+        Radius at the clothoids' outer ends [m] (R1; ``inf``: curvature from 0).
     """
 
     radius: float
     clothoid: float
+    start_radius: float = math.inf
 
     def __post_init__(self) -> None:
-        if not (self.radius > 0 and 0 <= self.clothoid <= 0.5 * math.pi * self.radius):
+        if not (self.radius > 0 and self.start_radius >= self.radius and self.clothoid >= 0
+                and self.arc >= -1e-12):
             raise DataError(DataProblem("meta", "", None, None,
-                                        f"turn path: radius {self.radius} m and clothoid "
-                                        f"{self.clothoid} m do not make a 90 deg turn "
-                                        "(need 0 <= clothoid <= pi/2 x radius)"))
+                                        f"turn path: radius {self.radius} m, start radius "
+                                        f"{self.start_radius} m and clothoid {self.clothoid} m "
+                                        "do not make a 90 deg turn (the clothoids turn more "
+                                        "than 90 deg)"))
+
+    @classmethod
+    def from_angle(cls, radius: float, clothoid_angle: float,
+                   start_radius: float = math.inf) -> TurnPath:
+        """The path whose clothoids each turn through ``clothoid_angle`` [rad].
+
+        Clothoid length ``2 alpha / (1/R1 + 1/R2)`` (the angle of a linear curvature ramp).
+        """
+        k1, k2 = 1.0 / start_radius, 1.0 / radius
+        return cls(radius, 2.0 * clothoid_angle / (k1 + k2), start_radius)
+
+    @property
+    def clothoid_angle(self) -> float:
+        """Heading change [rad] over one clothoid (alpha)."""
+        return 0.5 * (1.0 / self.start_radius + 1.0 / self.radius) * self.clothoid
 
     @property
     def arc(self) -> float:
         """Length of the constant-radius part [m]."""
-        return 0.5 * math.pi * self.radius - self.clothoid
+        return (0.5 * math.pi - 2.0 * self.clothoid_angle) * self.radius
 
     @property
     def length(self) -> float:
         """Arc length of the turn, first clothoid to the end of the second [m]."""
-        return 2.0 * self.clothoid + self.arc
+        return 2.0 * self.clothoid + max(self.arc, 0.0)
 
     def curvature(self, s: np.ndarray) -> np.ndarray:
         """Curvature [1/m] at arc length ``s`` [m]."""
         s = np.asarray(s, dtype=float)
-        k, c, a = 1.0 / self.radius, self.clothoid, self.arc
+        k1, k2, c, a = 1.0 / self.start_radius, 1.0 / self.radius, self.clothoid, max(self.arc,
+                                                                                     0.0)
         up = np.clip(s / c, 0.0, 1.0) if c > 0 else (s >= 0).astype(float)
         down = np.clip((s - c - a) / c, 0.0, 1.0) if c > 0 else (s > a).astype(float)
-        return np.where((s < 0) | (s > self.length), 0.0, k * (up - down))
+        return np.where((s < 0) | (s > self.length), 0.0, k1 + (k2 - k1) * (up - down))
 
     def heading(self, s: np.ndarray) -> np.ndarray:
         """Heading [rad] at arc length ``s`` [m] (0 along +x, pi/2 along +y)."""
         s = np.asarray(s, dtype=float)
-        k, c, a = 1.0 / self.radius, self.clothoid, self.arc
+        k1, k2, c, a = 1.0 / self.start_radius, 1.0 / self.radius, self.clothoid, max(self.arc,
+                                                                                     0.0)
         u = np.clip(s, 0.0, self.length)
         first = np.minimum(u, c)
-        psi = k * first**2 / (2 * c) if c > 0 else np.zeros_like(u)
-        psi = psi + k * np.clip(u - c, 0.0, a)
+        psi = k1 * first + ((k2 - k1) * first**2 / (2 * c) if c > 0 else 0.0 * u)
+        psi = psi + k2 * np.clip(u - c, 0.0, a)
         w = np.clip(u - c - a, 0.0, c)
-        psi = psi + (k * w - k * w**2 / (2 * c) if c > 0 else 0.0 * w)
+        psi = psi + k2 * w - ((k2 - k1) * w**2 / (2 * c) if c > 0 else 0.0 * w)
         return psi
 
     def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -569,34 +605,50 @@ def _accel(speed: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def _braking_gvt(t: np.ndarray, rear_at_brake: float, speed: float, decel: float,
-                 t_brake: float, cg_to_rear: float, y: float) -> Motion:
-    """GVT at ``speed`` braking at ``decel`` from ``t_brake`` to standstill (CCRb)."""
-    tau = np.clip(t - t_brake, None, speed / decel)
+                 t_brake: float, cg_to_rear: float, y: float, final: float = 0.0) -> Motion:
+    """GVT at ``speed`` braking at ``decel`` from ``t_brake`` down to ``final`` [m/s] (CCRb)."""
+    tau = np.clip(t - t_brake, None, (speed - final) / decel)
     s = np.where(tau < 0, speed * tau, speed * tau - 0.5 * decel * tau**2)
+    s = s + final * np.maximum(t - t_brake - (speed - final) / decel, 0.0)
     v = np.where(tau < 0, speed, speed - decel * tau)
-    braking = (t >= t_brake) & (v > 0)
+    braking = (t >= t_brake) & (v > final)
     return Motion(rear_at_brake + cg_to_rear + s, np.full_like(t, y), np.zeros_like(t),
-                  np.maximum(v, 0.0), np.where(braking, -decel, 0.0))
+                  np.maximum(v, final), np.where(braking, -decel, 0.0))
 
 
-def ccrb_impact_after_braking(headway: float, speed: float, decel: float) -> float:
+def ccrb_impact_after_braking(headway: float, speed: float, decel: float,
+                              final: float = 0.0) -> float:
     """Time [s] from the GVT's brake onset to the undisturbed impact in CCRb.
 
     The VUT keeps ``speed``; the GVT, ``headway`` ahead at the same speed,
-    brakes at ``decel`` to standstill: ``headway = decel t^2 / 2`` while it
-    moves, ``speed t = headway + speed^2 / (2 decel)`` once it stands.
+    brakes at ``decel`` down to ``final`` [m/s] and keeps that: the gap is
+    ``headway - decel t^2 / 2`` while it brakes (until ``t_b = (speed -
+    final) / decel``), then closes at ``speed - final``; with ``final = 0``
+    the GVT stands and ``speed t = headway + speed^2 / (2 decel)``.
     """
     t_moving = math.sqrt(2.0 * headway / decel)
-    if t_moving <= speed / decel:
+    t_b = (speed - final) / decel
+    if t_moving <= t_b:
         return t_moving
-    return (headway + speed**2 / (2.0 * decel)) / speed
+    return t_b + (headway - 0.5 * decel * t_b**2) / (speed - final)
 
 
 def turn_path(test: pd.Series, protocol: dict[str, Any]) -> TurnPath:
-    """The VUT's CCFtap path of ``test``: radius per VUT speed, clothoid = speed x duration."""
+    """The VUT's CCFtap path of ``test``: R2 per VUT speed; clothoids by angle or duration.
+
+    ``clothoid_angles_deg`` (the protocol's alpha per VUT speed, with
+    ``clothoid_start_radius_m``, R1) if the scenario has them, else each
+    clothoid driven in ``clothoid_duration_s``.
+    """
     sc = protocol["scenarios"][test["ncap_scenario"]]
-    return TurnPath(float(test["ncap_turn_radius"]),
-                    float(test["ncap_vut_speed"]) * float(sc["clothoid_duration_s"]))
+    radius = float(test["ncap_turn_radius"])
+    if "clothoid_angles_deg" in sc:
+        speeds = [float(v) for v in sc["vut_speeds_kmh"]]
+        v = round(float(test["ncap_vut_speed"]) * KMH_PER_MS, 6)
+        alpha = math.radians(float(sc["clothoid_angles_deg"][speeds.index(v)]))
+        return TurnPath.from_angle(radius, alpha, float(sc.get("clothoid_start_radius_m",
+                                                                 math.inf)))
+    return TurnPath(radius, float(test["ncap_vut_speed"]) * float(sc["clothoid_duration_s"]))
 
 
 def lane_change_length(test: pd.Series, protocol: dict[str, Any]) -> float:
@@ -632,8 +684,10 @@ def ncap_test_motions(test: pd.Series, vut: Car, gvt: Car, protocol: dict[str, A
     t_impact = lead
     if kind == "rear" and not math.isnan(test["ncap_gvt_deceleration"]):
         t_brake = float(sc["steady_before_braking_s"])
+        final = float(sc.get("gvt_final_speed_kmh", 0.0)) / KMH_PER_MS
         t_impact = t_brake + ccrb_impact_after_braking(float(test["ncap_headway"]), g,
-                                                       float(test["ncap_gvt_deceleration"]))
+                                                       float(test["ncap_gvt_deceleration"]),
+                                                       final)
     n = int(round((t_impact + after) / dt))
     t = np.round(np.arange(n + 1) * dt, 10)
     front_v = vut.cg_to_front
@@ -647,7 +701,7 @@ def ncap_test_motions(test: pd.Series, vut: Car, gvt: Car, protocol: dict[str, A
             rear_at_brake = float(test["ncap_headway"])  # VUT front at x = 0 at the onset
             m1 = _straight(t, -front_v, 0.0, 0.0, v, t_brake)
             m2 = _braking_gvt(t, rear_at_brake, g, float(test["ncap_gvt_deceleration"]),
-                              t_brake, gvt.cg_to_rear, offset)
+                              t_brake, gvt.cg_to_rear, offset, final)
     elif kind == "turn":
         path = turn_path(test, protocol)
         s_meet = path.front_crossing(front_v, lane)
@@ -667,7 +721,7 @@ def ncap_test_motions(test: pd.Series, vut: Car, gvt: Car, protocol: dict[str, A
             m1 = Motion(-front_v - d + 0.5 * a * tau**2, np.zeros_like(t), np.zeros_like(t),
                         a * tau, np.where(t >= t0, a, 0.0))
         loc = float(test["ncap_impact_location"])
-        sign = 1.0 if sc.get("gvt_from", "right") == "right" else -1.0
+        sign = float(test["ncap_gvt_side"])  # +1 from the VUT's right, -1 from its left
         # the VUT's front centre meets the GVT's side loc x length behind its front
         cg_y = -sign * (gvt.cg_to_front - loc * gvt.length)
         m2 = _straight(t, 0.5 * gvt.width, cg_y, sign * 0.5 * math.pi, g, t_impact)
@@ -710,6 +764,9 @@ def _describe(test: pd.Series) -> str:
         parts.append(f"turn radius {test['ncap_turn_radius']:g} m")
     if not math.isnan(test["ncap_impact_location"]):
         parts.append(f"impact at {100 * test['ncap_impact_location']:g} % of the GVT's length")
+    if not math.isnan(test["ncap_gvt_side"]):
+        parts.append("GVT from the " + ("right (nearside)" if test["ncap_gvt_side"] > 0
+                                        else "left (farside)"))
     return ", ".join(parts)
 
 

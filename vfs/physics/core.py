@@ -27,11 +27,13 @@ library rounds differently an ulp in a CG distance can move a tie of the
 closest approach by one step, which the test would show).
 
 What runs here: the replay of the records (no controller), the path of the
-study's baseline, of the model-variant searches of :mod:`vfs.analysis` and of
-the uncertainty tools.  A controller (the AEB systems, a gym agent, a user's
-Python controller) and a Python penetration rule (an effect's ``penetration``
-hook) run on the reference path (:func:`vfs.physics.precrash.simulate_precrash`
-says so once per process in the log).
+study's baseline, of the model-variant searches of :mod:`vfs.analysis`, of the
+generator and of ``vfs compare``, as one loop per case (:func:`replay_precrash`); and
+the step of every run with a controller (the AEB systems, a gym agent, a user's Python
+controller) or a Python penetration rule, as one call per step over the running rows
+(:func:`settle_rows`, from :class:`~vfs.physics.precrash.PrecrashRun`): the controller
+runs in Python between the compiled steps, and
+:func:`vfs.physics.precrash.simulate_precrash` says so once per process in the log.
 
 Quiet steps: while the bounding circles of a case are apart
 (CG distance > sum of the circumradii) no contact is possible and the

@@ -27,7 +27,7 @@ library rounds differently an ulp in a CG distance can move a tie of the
 closest approach by one step, which the test would show).
 
 What runs here: the replay of the records (no controller), the path of the
-study's baseline, of the model-variant searches of :mod:`vfs.analysis`, of the
+study's baseline, of the model-variant searches of :mod:`vfs.diagnosis`, of the
 generator and of ``vfs compare``, as one loop per case (:func:`replay_precrash`); and
 the step of every run with a controller (the AEB systems, a gym agent, a user's Python
 controller) or a Python penetration rule, as one call per step over the running rows
@@ -38,7 +38,7 @@ runs in Python between the compiled steps, and
 Quiet steps: while the bounding circles of a case are apart
 (CG distance > sum of the circumradii) no contact is possible and the
 replay is the record; the loop then does only the record look-up and the CG
-distance of the closest-approach bookkeeping (a few tens of ns per step),
+distance of the closest-approach bookkeeping,
 no contact test.  A step cannot be left out altogether without changing the
 closest approach, which the reference tracks at every step.
 

@@ -7,12 +7,18 @@ commands, so ``vfs --help`` stays fast.
 Exit codes (every command; tests/cli/test_exit_codes.py):
 
 * 0: done;
-* 1: ``vfs db validate`` found problems in the database it checks (its verdict), or the
-  system refused a file operation (a full disk, a read-only folder: one line);
+* 1: ``vfs db validate`` found problems in the database it checks (its verdict), the
+  system refused a file operation (a full disk, a read-only folder: one line), or no command
+  was given (the help is printed);
 * 2: a user error: a bad flag value (argparse), or a :class:`vfs.errors.VfsError` (unreadable
   input, a value out of range), printed as one line without a traceback;
 * 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
-* 130: interrupted (Ctrl-C).
+* 4: ``vfs study`` finished but some runs failed inside the simulation
+  (``vfs.study.faults.EXIT_FAILED_CASES``; ``--allow-failed`` accepts them);
+* 130: interrupted (Ctrl-C); 143: ``vfs study`` terminated by SIGTERM
+  (``vfs.study.faults.EXIT_TERMINATED``).
+
+README.md lists the same codes; tests/test_docs_figures.py checks that the two lists agree.
 """
 
 from __future__ import annotations

@@ -76,6 +76,8 @@ _DEG = math.degrees(1.0)
 def case_file(case_id: Any) -> str:
     """The page of a case relative to the report: ``cases/<id>.html``.
 
+    Examples
+    --------
     >>> case_file(42), case_file("A/7 b")
     ('cases/42.html', 'cases/A_7_b.html')
     """
@@ -85,6 +87,8 @@ def case_file(case_id: Any) -> str:
 def case_link(case_id: Any, pages: Mapping[Any, str] | None = None) -> str:
     """The case id as a table cell: a link to its page when ``pages`` has it, else plain.
 
+    Examples
+    --------
     >>> case_link(42, {42: "cases/42.html"})
     '[42](cases/42.html)'
     """

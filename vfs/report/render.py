@@ -200,6 +200,8 @@ _NUMERIC = re.compile(r"(?:[-+<>=~\s\d.,%\[\]()/:]|inf|nan|e(?=[-+]?\d)|\.\.)+")
 def is_numeric_text(text: str) -> bool:
     """True for a number, percentage or interval written as text.
 
+    Examples
+    --------
     >>> [is_numeric_text(t) for t in ("12.5", "< 0.001", "40 % [31, 49]", "full")]
     [True, True, True, False]
     """
@@ -330,7 +332,7 @@ _LINK = re.compile(r"\[([^\]\[]+)\]\(([^()\s]+)\)")
 
 
 def inline_html(text: object) -> str:
-    """Escape text for HTML, render `backtick` spans as ``<code>`` and [text](url) as links."""
+    """Escape text for HTML, render `backtick` spans as ``<code>`` and ``[text](url)`` as links."""
     parts = html.escape(str(text)).split("`")
     if len(parts) % 2 == 0:  # an unpaired backtick stays a backtick
         parts[-2:] = [parts[-2] + "`" + parts[-1]]

@@ -70,6 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
         add(subparsers)
+    from vfs.cli.common import add_verbosity_options
+
+    add_verbosity_options(parser)  # -v/-q on every command, declared here once
     return parser
 
 
@@ -81,7 +84,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 1
     from vfs.blas import single_threaded_blas
-    from vfs.cli.common import input_messages
+    from vfs.cli.common import configure_logging, input_messages
+
+    configure_logging(args.verbose - args.quiet)
 
     try:
         # input warnings as "warning:" lines; --strict; one BLAS thread (vfs.blas)

@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import importlib
 import importlib.util
+import logging
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
@@ -113,8 +114,53 @@ def open_db(args: argparse.Namespace) -> Database:
 
 
 def say(msg: str) -> None:
-    """Print a progress line now (not buffered)."""
-    print(msg, flush=True)
+    """A progress line (INFO on the ``vfs`` logger: standard error; ``-q`` silences it)."""
+    from vfs.progress import note
+
+    note("%s", msg)
+
+
+def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
+    """``-v/--verbose`` and ``-q/--quiet`` on every command below ``parser`` (its leaves)."""
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    if not subs:
+        group = parser.add_argument_group("output")
+        group.add_argument("-v", "--verbose", action="count", default=0,
+                           help="more detail on standard error (debug lines)")
+        group.add_argument("-q", "--quiet", action="count", default=0,
+                           help="no progress lines or bars, warnings and errors only")
+        return
+    for action in subs:
+        for sub in dict.fromkeys(action.choices.values()):
+            add_verbosity_options(sub)
+
+
+class _Format(logging.Formatter):
+    """Progress lines as they are; warnings and errors with their level."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = record.getMessage()
+        if record.levelno >= logging.WARNING:
+            return f"{record.levelname.lower()}: {text}"
+        return text
+
+
+def configure_logging(verbosity: int) -> None:
+    """The ``vfs`` logger of the command line: standard error, INFO by default, DEBUG with
+    ``-v``, WARNING with ``-q`` (``verbosity`` = number of -v minus number of -q).
+    """
+    from vfs.progress import LOGGER
+
+    level = logging.DEBUG if verbosity > 0 else logging.INFO if verbosity == 0 else \
+        logging.WARNING
+    for handler in [h for h in LOGGER.handlers if getattr(h, "vfs_cli", False)]:
+        LOGGER.removeHandler(handler)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Format())
+    handler.vfs_cli = True  # type: ignore[attr-defined]
+    LOGGER.addHandler(handler)
+    LOGGER.setLevel(level)
+    LOGGER.propagate = False
 
 
 def _register_laws(path: Path) -> list[str]:

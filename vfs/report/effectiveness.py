@@ -23,6 +23,7 @@ from vfs.accident_types import accident_type_label
 from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
+from vfs.progress import note
 from vfs.report.case_pages import case_link, write_effectiveness_case_pages
 from vfs.report.euro_ncap import euro_ncap_blocks, study_tables, write_euro_ncap_tables
 from vfs.report.figures import RUN_COLORS, new_figure, save_figure
@@ -505,10 +506,14 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
                                     f"{study}: the study is not complete (status "
                                     f"{result.manifest.get('status')!r}); finish it with "
                                     f"vfs study ... --resume (no {RUNS_FILE} yet)"))
+    note("effectiveness of %d system(s) over %d cases, intervals from %d bootstrap "
+         "resamples", len(result.manifest.get("system_names", [])),
+         result.table["case_id"].nunique(), n_boot)
     eff = effectiveness(result.table, risk_curves=risk_curves, n_boot=n_boot,
                         confidence=confidence, seed=seed)
     folder = Path(out) if out is not None else result.path / "report"
     folder.mkdir(parents=True, exist_ok=True)
+    note("drawing the figures")
     figures = write_figures(eff, folder) if baseline_crashes(eff) > 0 else {}
     manifest = {**result.manifest, "name": result.path.name}
     notable = notable_cases(eff, list_cases)
@@ -523,6 +528,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
     if ncap is not None:
         blocks += euro_ncap_blocks(*ncap)
         write_euro_ncap_tables(folder, *ncap)
+    note("writing the report")
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))
     write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
     cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()

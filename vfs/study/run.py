@@ -29,7 +29,6 @@ line in docs/study.md.
 from __future__ import annotations
 
 import os
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -203,14 +202,10 @@ def acquire_lock(out: Path) -> Path:
 
 
 def _progress_bar(total: int, show: bool | None) -> Any:
-    from tqdm import tqdm
+    """The study's progress (:mod:`vfs.progress`): a bar on a terminal, lines when piped."""
+    from vfs.progress import progress
 
-    if show is None:
-        show = sys.stderr.isatty() and not os.environ.get("CI")
-    return tqdm(total=total, unit="case", desc="vfs study", disable=not show, smoothing=0.1,
-                file=sys.stderr,
-                bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
-                           "{rate_fmt}]")
+    return progress(total, "simulating the cases", "case", bar=show)
 
 
 def run_study(db: str | os.PathLike[str] | Database | StudySpec,
@@ -275,8 +270,9 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
         registry : mapping or callable, optional
             System lookup instead of :func:`vfs.adas.get_system`.
         progress : bool, optional
-            Progress bar on stderr; default when stderr is a terminal and the
-            environment variable CI is not set.
+            Progress bar on stderr (True), lines through the ``vfs`` logger (False);
+            default: the bar when stderr is a terminal and the environment variable CI is
+            not set (:func:`vfs.progress.bar_wanted`).
         dask_processes : bool
             Local dask cluster with processes (True) or threads.
         max_chunks : int, optional

@@ -3,8 +3,8 @@
 Every step that can take more than a few seconds (a study's cases, the bootstrap of a report,
 the replay of case pages, the comparison, a diagnosis, uncertainty samples) reports through
 :func:`progress`: a tqdm bar when standard error is a terminal, otherwise a line through the
-``vfs`` logger at most every :data:`INTERVAL_S` seconds and one when the step ends, so that a
-piped or logged run (CI, ``nohup``, a cluster job) shows where it is.  One-off news ("writing
+``vfs`` logger at most every :data:`INTERVAL_S` seconds and one when a step that long ends, so
+that a piped or logged run (CI, ``nohup``, a cluster job) shows where it is.  One-off news ("writing
 the figures") goes through :func:`note`.
 
 The command line sets the level (``-v`` debug, ``-q`` warnings only; :mod:`vfs.cli.common`);
@@ -98,10 +98,14 @@ class Progress:
                  _duration(elapsed), _duration(left))
 
     def close(self) -> None:
-        """End the step (one closing line when no bar is shown)."""
+        """End the step: one closing line when no bar is shown and the step lasted at least
+        ``interval_s`` (a short step stays silent).
+        """
         if self._bar is not None:
             self._bar.close()
             self._bar = None
+            return
+        if time.perf_counter() - self.started < self.interval_s:
             return
         note("%s: %.0f %ss done in %s", self.desc, self.done, self.unit,
              _duration(time.perf_counter() - self.started))

@@ -9,4 +9,26 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
     __version__ = "0+unknown"
 
-__all__ = ["__version__"]
+
+
+def source_commit() -> str:
+    """The git commit of the vfs source tree ("<hash>", "<hash>+changes" when the tree has
+    uncommitted changes), or "" when vfs does not run from a git checkout (an installed
+    wheel).  Recorded in every study (``study.json``) and shown in the reports' provenance.
+    """
+    import subprocess
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "-C", str(here), "rev-parse", "--short=12", "HEAD"],
+                              capture_output=True, text=True, timeout=10, check=True)
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain",
+                                "--untracked-files=no", "--", str(here)],
+                               capture_output=True, text=True, timeout=10, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
+
+
+__all__ = ["__version__", "source_commit"]

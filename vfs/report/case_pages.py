@@ -43,6 +43,7 @@ from vfs.report.figures import (
     reconstruction_scene,
     save_figure,
 )
+from vfs.report.provenance import database_argument, database_label
 from vfs.report.render import (
     Block,
     BulletList,
@@ -611,7 +612,7 @@ def write_effectiveness_case_pages(folder: str | Path, study: Any, case_ids: Seq
     colors = {name: RUN_COLORS[k % len(RUN_COLORS)] for k, name in enumerate(names)}
     meta = table.drop_duplicates("case_id").set_index("case_id")
     pages: dict[Any, str] = {}
-    db = m.get("db", "?")
+    db, db_shown = database_argument(m), database_label(m)
     first_system = next(iter(m.get("system_names", [])), "three-stage")
     for cid, replayed in replays.items():
         runs = []
@@ -628,7 +629,7 @@ def write_effectiveness_case_pages(folder: str | Path, study: Any, case_ids: Seq
         info = {
             "accident_type": meta.loc[cid, "accident_type"] if cid in meta.index else "",
             "weight": f"{float(meta.loc[cid, 'weight']):g}" if cid in meta.index else "1",
-            "study": Path(study.path).name, "db": db, "equip": m.get("equip", "?"),
+            "study": Path(study.path).name, "db": db_shown, "equip": m.get("equip", "?"),
             "animate": (f"vfs run-case --db {db} --case {cid} --system {first_system} "
                         f"--animate case_{cid}.gif"),
         }

@@ -360,9 +360,23 @@ def _html_table(t: Table) -> str:
             + "\n".join(body) + "\n</tbody></table></div>")
 
 
+def heading_anchor(text: str) -> str:
+    """The anchor of a heading as GitHub makes it for Markdown (lower case, punctuation
+    dropped, spaces to hyphens); the HTML renderer gives its headings the same ``id``.
+
+    Examples
+    --------
+    >>> heading_anchor("Crashes avoided (per `system`)")
+    'crashes-avoided-per-system'
+    """
+    text = re.sub(r"[`*]", "", text.strip().lower())
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
 def _html_block(b: Block) -> str:
     if isinstance(b, Heading):
-        return f"<h{b.level}>{inline_html(b.text)}</h{b.level}>"
+        return (f'<h{b.level} id="{heading_anchor(b.text)}">{inline_html(b.text)}'
+                f"</h{b.level}>")
     if isinstance(b, Paragraph):
         return f"<p>{inline_html(b.text)}</p>"
     if isinstance(b, Table):
@@ -414,6 +428,7 @@ def write_report(folder: str | os.PathLike[str], report: Report, *, name: str = 
 
 __all__ = [
     "STYLESHEET",
+    "heading_anchor",
     "Align",
     "Block",
     "BulletList",

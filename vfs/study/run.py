@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.adas.describe import describe_system
 from vfs.atomic import write_json, write_table
 from vfs.database import Database
 from vfs.database.metadata import field_metadata
@@ -72,6 +73,7 @@ from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunks, error_text
+from vfs.version import source_commit
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
 IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
@@ -89,11 +91,14 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
         "db_reference": selection.reference, "db_format": selection.fmt,
         "db_name": str(selection.meta.get("name", "")),
+        "db_description": str(selection.meta.get("description", "")),
+        "db_created_by": str(selection.meta.get("created_by", "")),
         "where": spec.where, "data_hash": selection.data_hash,
         "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": spec.chunk_size, "n_chunks": len(plan.chunks),
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
+                     "parameters": describe_system(s),
                      "brake": repr(getattr(s, "brake", None))}
                     for n, s in zip(names, systems, strict=True)],
         "system_definitions": [repr(s) for s in systems],
@@ -101,6 +106,7 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "rng": "numpy.random.default_rng([seed, chunk, system index]); baseline index 0",
         "impact_parameters": str(spec.impact_parameters), "params": repr(spec.params),
         "engine": spec.engine, "versions": environment_versions(),
+        "commit": source_commit(),
     }
 
 

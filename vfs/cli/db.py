@@ -115,7 +115,7 @@ def _column_listing(table: str) -> tuple[str, dict[str, object]]:
              if table == "runs" else f"the database table {table}, units as stored in its files")
     lines = [f"{table}: {where}", f"{'column':{width}}  {'unit':{units}}  description"]
     lines += [f"{c:{width}}  {u:{units}}  {d}" for c, u, d in rows]
-    doc = {"table": table, "columns": [{"name": c, "unit": u, "description": d}
+    doc: dict[str, object] = {"table": table, "columns": [{"name": c, "unit": u, "description": d}
                                        for c, u, d in rows]}
     return "\n".join(lines) + "\n", doc
 

@@ -31,8 +31,9 @@ def test_every_command_takes_verbose_and_quiet() -> None:
 
 def test_lines_when_piped(caplog: pytest.LogCaptureFixture,
                           monkeypatch: pytest.MonkeyPatch) -> None:
-    clock = iter([0.0, 5.0, 12.0, 13.0, 30.0, 31.0])
+    clock = iter([0.0, 5.0, 12.0, 13.0, 30.0, 31.0, 31.0])
     monkeypatch.setattr(prog.time, "perf_counter", lambda: next(clock))
+    monkeypatch.setattr(prog.LOGGER, "propagate", True)  # a CLI test may have turned it off
     with caplog.at_level(logging.INFO, logger="vfs"):
         with prog.progress(4, "simulating the cases", "case", bar=False) as shown:
             for _ in range(4):
@@ -42,6 +43,15 @@ def test_lines_when_piped(caplog: pytest.LogCaptureFixture,
     assert lines[0] == "simulating the cases: 2 of 4 cases (50 %), 12 s so far, about 12 s left"
     assert lines[-1] == "simulating the cases: 4 cases done in 31 s"
     assert len(lines) == 2
+
+
+def test_a_short_step_stays_silent(caplog: pytest.LogCaptureFixture,
+                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(prog.LOGGER, "propagate", True)
+    with caplog.at_level(logging.INFO, logger="vfs"):
+        with prog.progress(3, "quick", "case", bar=False) as shown:
+            shown.update(3)
+    assert caplog.records == []
 
 
 def test_quiet_silences_progress_and_verbose_shows_debug(

@@ -1,13 +1,27 @@
-"""The installed version of vfs (from the distribution's metadata, so it exists once)."""
+"""The installed version of vfs (from the distribution's metadata, so it exists once).
+
+The distribution is called ``vfs-accident`` (the name ``vfs`` on the package index belongs to
+another project); the import package and the command are ``vfs``.
+"""
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
-try:
-    __version__: str = version("vfs")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
-    __version__ = "0+unknown"
+#: The name of vfs's distribution (``pip install vfs-accident``; ``import vfs``).
+DISTRIBUTION = "vfs-accident"
+
+
+def _installed_version() -> str:
+    for name in (DISTRIBUTION, "vfs"):  # "vfs": an install made before the rename
+        try:
+            return version(name)
+        except PackageNotFoundError:
+            continue
+    return "0+unknown"  # running from a source tree without install
+
+
+__version__: str = _installed_version()
 
 
 
@@ -31,4 +45,4 @@ def source_commit() -> str:
     return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
 
 
-__all__ = ["__version__", "source_commit"]
+__all__ = ["DISTRIBUTION", "__version__", "source_commit"]

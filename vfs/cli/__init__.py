@@ -58,22 +58,34 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
 )
 
 
+#: Shown below the command list of ``vfs --help``.
+EXAMPLES = """examples:
+  vfs study --db default --systems three-stage,ideal --out results/quickstart
+  vfs report effectiveness results/quickstart      # report.html, a page per case
+  vfs run-case --plot case.png                     # the built-in example, pre-crash to rest
+  vfs compare --db default                         # simulation against reconstructions
+  vfs diagnose --db DIR                            # which physical effect is missing
+  vfs db schema runs                               # the columns of runs.parquet, with units
+  vfs COMMAND --help                               # the options of one command
+
+documentation: README.md and docs/ (mkdocs build), exit codes: README.md"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command."""
+    from vfs.cli.common import Parser
     from vfs.version import __version__
 
-    parser = argparse.ArgumentParser(
-        prog="vfs",
+    parser = Parser(
+        prog="vfs", verbosity=False,
         description="Virtual forward simulation of real accidents for the assessment of ADAS.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"vfs {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
         add(subparsers)
-    from vfs.cli.common import add_verbosity_options
-
-    add_verbosity_options(parser)  # -v/-q on every command, declared here once
-    return parser
+    return parser  # -v/-q: declared once, by every sub-parser (vfs.cli.common.Parser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -111,4 +123,4 @@ def _run(args: argparse.Namespace) -> int:
     return int(args.func(args))
 
 
-__all__ = ["COMMAND_GROUPS", "build_parser", "main"]
+__all__ = ["COMMAND_GROUPS", "EXAMPLES", "build_parser", "main"]

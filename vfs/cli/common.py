@@ -11,7 +11,7 @@ import sys
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, ClassVar, NoReturn
 
 from vfs.errors import ParameterError
 from vfs.registry import import_file
@@ -120,19 +120,59 @@ def say(msg: str) -> None:
     note("%s", msg)
 
 
-def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
-    """``-v/--verbose`` and ``-q/--quiet`` on every command below ``parser`` (its leaves)."""
-    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
-    if not subs:
-        group = parser.add_argument_group("output")
-        group.add_argument("-v", "--verbose", action="count", default=0,
-                           help="more detail on standard error (debug lines)")
-        group.add_argument("-q", "--quiet", action="count", default=0,
-                           help="no progress lines or bars, warnings and errors only")
-        return
-    for action in subs:
-        for sub in dict.fromkeys(action.choices.values()):
-            add_verbosity_options(sub)
+class Parser(argparse.ArgumentParser):
+    """The parser of ``vfs`` and of every command (argparse gives sub-parsers their parent's
+    class): ``-v/--verbose`` and ``-q/--quiet`` on every command, declared here once, and
+    "did you mean" for a mistyped command, choice or option (Python 3.11's argparse has no
+    ``suggest_on_error``).
+
+    Parameters
+    ----------
+    verbosity : bool
+        Declare ``-v/-q`` (every command; not the top-level ``vfs``, whose value the
+        command's own default would override).
+    **kwargs
+        Those of :class:`argparse.ArgumentParser`.
+    """
+
+    #: Every option string a vfs parser declared (the candidates of "did you mean").
+    declared: ClassVar[set[str]] = set()
+
+    def __init__(self, *args: Any, verbosity: bool = True, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        if verbosity:
+            group = self.add_argument_group("output")
+            group.add_argument("-v", "--verbose", action="count", default=0,
+                               help="more detail on standard error (debug lines)")
+            group.add_argument("-q", "--quiet", action="count", default=0,
+                               help="no progress lines or bars, warnings and errors only")
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> Any:
+        """:meth:`argparse.ArgumentParser.add_argument`, remembering the option strings."""
+        Parser.declared.update(a for a in args if isinstance(a, str) and a.startswith("-"))
+        return super().add_argument(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        """Print usage and ``message`` with the closest valid word, exit with code 2."""
+        import difflib
+        import re
+
+        m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if m:
+            choices = re.findall(r"'([^']*)'", m.group(2)) or \
+                [c.strip() for c in m.group(2).split(",")]
+            close = difflib.get_close_matches(m.group(1), choices, n=3, cutoff=0.5)
+            if close:
+                message += "; did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+        m = re.search(r"unrecognized arguments: (.*)", message)
+        if m:
+            for word in m.group(1).split():
+                close = difflib.get_close_matches(word.split("=")[0], sorted(Parser.declared),
+                                                  n=1, cutoff=0.6) \
+                    if word.startswith("-") else []
+                if close:
+                    message += f"; did you mean '{close[0]}' for '{word}'?"
+        super().error(message)
 
 
 class _Format(logging.Formatter):

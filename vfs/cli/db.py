@@ -298,7 +298,7 @@ def add_parsers(
         "trajectories as timed polylines, a two-lane road (straight, or fitted to the "
         "recorded paths). With --system the motion is re-simulated with that AEB system; "
         "with --run STUDY exactly as that study simulated it. Needs the optional extra: "
-        'pip install "vfs[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
+        'pip install "vfs-accident[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
         "case_1.xosc. See docs/interop.md.")
     add_input_option(export, help="database folder, or 'default'")  # reads a database
     export.add_argument("--case", required=True, nargs="+", metavar="ID", help="case id(s)")

@@ -108,6 +108,18 @@ def on_files(files: Files, config: Any) -> Files:
     return files
 
 
+#: Sphinx roles in the docstrings (``:func:`x```), rendered by mkdocstrings as the role's name
+#: in front of the code span: the name is dropped, the code span stays.
+_ROLE = re.compile(r":(?:class|func|meth|mod|data|attr|exc|obj|const):\s*(?=<code)")
+
+
+def on_page_content(html: str, page: Any, config: Any, files: Files) -> str:
+    """Drop the Sphinx role names from the API reference pages."""
+    if page.file.src_uri.startswith("reference/"):
+        return _ROLE.sub("", html)
+    return html
+
+
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str:
     """Point the guides' links to repository files at their generated pages."""
     for source, (target, _title) in REPO_PAGES.items():

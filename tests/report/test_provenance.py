@@ -102,3 +102,16 @@ def test_run_colours_never_reuse_the_vehicle_colours():
     assert not set(RUN_COLORS) & set(COLORS)
     assert len(set(RUN_COLORS)) == len(RUN_COLORS)
     assert np.all([c.startswith("#") for c in RUN_COLORS])
+
+
+def test_comparison_report_has_provenance_and_the_synthetic_note(tmp_path):
+    from vfs.analysis.compare import compare_database
+    from vfs.database import open_database
+    from vfs.report.compare import write_comparison_report
+
+    db = open_database("default", "case_id IN (10, 20, 50, 60, 150, 480)")
+    write_comparison_report(compare_database(db), tmp_path / "c", database=db, top=2,
+                            sketches=0, case_pages=False, database_reference="default")
+    md = (tmp_path / "c" / "report.md").read_text(encoding="utf-8")
+    assert "## Provenance" in md and "Synthetic data" in md and "default (bundled)" in md
+    assert "scenarios/databases" not in md

@@ -79,6 +79,7 @@ def run_compare(args: argparse.Namespace) -> int:
 
     note("writing the report, its figures and case pages")
     files = write_comparison_report(comparison, args.out, database=db, top=args.top,
+                                    database_reference=str(args.db),
                                     sketches=args.sketches, case_pages=args.case_pages)
     print(comparison.summary())
     print(f"report -> {files['report_md']} and {files['report_html']} ({len(files)} files)")

@@ -76,6 +76,28 @@ def synthetic_note(manifest: dict[str, Any]) -> list[Block]:
                  "a system is on real roads.", "warning")]
 
 
+def database_manifest(db: Any, reference: str | None = None) -> dict[str, Any]:
+    """The provenance fields of a report on a database (no study): what :func:`provenance_blocks`
+    and :func:`synthetic_note` read from a study's manifest, computed now.
+
+    Parameters
+    ----------
+    db : Database
+    reference : str, optional
+        How the user named it (``--db``: a bundled name, a folder, a URL).
+    """
+    from vfs.study.manifest import data_hash, environment_versions, now
+    from vfs.version import source_commit
+
+    meta = dict(getattr(db, "meta", {}) or {})
+    return {"db_reference": reference or str(meta.get("name", "")),
+            "db_name": str(meta.get("name", "")),
+            "db_description": str(meta.get("description", "")),
+            "db_created_by": str(meta.get("created_by", "")),
+            "data_hash": data_hash(db), "n_cases": int(db.n_cases), "created": now(),
+            "versions": environment_versions(), "commit": source_commit()}
+
+
 def provenance_blocks(manifest: dict[str, Any], *, written: _dt.datetime | None = None
                       ) -> list[Block]:
     """The provenance section of a study report (heading and table)."""
@@ -86,7 +108,7 @@ def provenance_blocks(manifest: dict[str, Any], *, written: _dt.datetime | None 
         ("vfs version", str(versions.get("vfs", "not recorded"))),
         ("source commit", str(manifest.get("commit") or "not recorded (not a git checkout, "
                                                        "or a study older than this field)")),
-        ("study run", str(manifest.get("created", "?"))),
+        ("study run" if "seed" in manifest else "analysed", str(manifest.get("created", "?"))),
         ("report written", written.replace(microsecond=0).isoformat()),
         ("database", database_label(manifest)
          + (f" ({manifest['db_name']})" if manifest.get("db_name") else "")),
@@ -96,16 +118,17 @@ def provenance_blocks(manifest: dict[str, Any], *, written: _dt.datetime | None 
          + (f", selection `{manifest['where']}`" if manifest.get("where") else "")
          + (f" (ids hash `{str(manifest['case_ids_hash'])[:16]}...`)"
             if manifest.get("case_ids_hash") else "")),
-        ("seed, equipped vehicles", f"{manifest.get('seed', '?')}, "
-                                    f"{manifest.get('equip', '?')}"),
+        *([("seed, equipped vehicles", f"{manifest.get('seed', '?')}, "
+                                       f"{manifest.get('equip', '?')}")]
+          if "seed" in manifest else []),
         ("software", ", ".join(f"{k} {v}" for k, v in versions.items()
                                if k not in ("vfs", "platform")) or "not recorded"),
     ]
     return [Heading("Provenance", 2),
             Table(("", "value"), tuple(rows), align=("left", "left")),
-            Paragraph("Everything above is read from the study's `study.json`; rerunning the "
+            Paragraph("Read from the study's `study.json` where there is one; rerunning the "
                       "same vfs version and commit on data with the same hash gives the same "
-                      "runs (the seed fixes every random draw).")]
+                      "numbers (a seed fixes every random draw).")]
 
 
 def table_of_contents(blocks: list[Block], level: int = 2) -> list[Block]:
@@ -115,5 +138,5 @@ def table_of_contents(blocks: list[Block], level: int = 2) -> list[Block]:
     return [Heading("Contents", level), BulletList(items)] if items else []
 
 
-__all__ = ["database_argument", "database_label", "is_synthetic", "provenance_blocks",
-           "synthetic_note", "table_of_contents"]
+__all__ = ["database_argument", "database_label", "database_manifest", "is_synthetic",
+           "provenance_blocks", "synthetic_note", "table_of_contents"]

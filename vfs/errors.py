@@ -158,7 +158,7 @@ class TargetExistsError(VfsError, FileExistsError):
 
 class MissingExtraError(VfsError, ImportError):
     """An optional dependency of a feature is not installed; the message names the extra
-    (``pip install "vfs[NAME]"``).
+    (``pip install "vfs-accident[NAME]"``).
     """
 
 

@@ -48,6 +48,7 @@ from vfs.database.schema import OUTCOME_MEASUREMENT, RECONSTRUCTION
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import Outcome, from_reconstruction, from_results, get_outcome, unit_factors
 from vfs.physics.geometry import to_vehicle_frame
+from vfs.progress import note
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 from vfs.units import KMH_PER_MS, wrap_angle
 
@@ -546,6 +547,7 @@ def compare_database(
     rec = _reconstruction(db)
     ids = rec["case_id"].to_numpy()
     if run is None:
+        note("simulating %d reconstructed case(s), from pre-crash to rest", len(ids))
         batch = CaseBatch.from_database(db, ids, impact_parameters=impact_parameters)
         res = simulate_cases(batch, params=params or SimulationParams())
         vfs = results_table(batch, res)
@@ -555,6 +557,7 @@ def compare_database(
         vfs = read_run_table(run)
         source = "run table" if isinstance(run, pd.DataFrame) else f"run {run}"
         setting = ""
+    note("comparing the simulation with the reconstructions (tests and intervals)")
     comparison = compare_tables(rec, vfs, participants=getattr(db, "participants", None),
                                 margins=margins, alpha=alpha, confidence=confidence,
                                 source=source, params=params)

@@ -7,12 +7,18 @@ commands, so ``vfs --help`` stays fast.
 Exit codes (every command; tests/cli/test_exit_codes.py):
 
 * 0: done;
-* 1: ``vfs db validate`` found problems in the database it checks (its verdict), or the
-  system refused a file operation (a full disk, a read-only folder: one line);
+* 1: ``vfs db validate`` found problems in the database it checks (its verdict), the
+  system refused a file operation (a full disk, a read-only folder: one line), or no command
+  was given (the help is printed);
 * 2: a user error: a bad flag value (argparse), or a :class:`vfs.errors.VfsError` (unreadable
   input, a value out of range), printed as one line without a traceback;
 * 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
-* 130: interrupted (Ctrl-C).
+* 4: ``vfs study`` finished but some runs failed inside the simulation
+  (``vfs.study.faults.EXIT_FAILED_CASES``; ``--allow-failed`` accepts them);
+* 130: interrupted (Ctrl-C); 143: ``vfs study`` terminated by SIGTERM
+  (``vfs.study.faults.EXIT_TERMINATED``).
+
+README.md lists the same codes; tests/test_docs_figures.py checks that the two lists agree.
 """
 
 from __future__ import annotations
@@ -52,19 +58,34 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
 )
 
 
+#: Shown below the command list of ``vfs --help``.
+EXAMPLES = """examples:
+  vfs study --db default --systems three-stage,ideal --out results/quickstart
+  vfs report effectiveness results/quickstart      # report.html, a page per case
+  vfs run-case --plot case.png                     # the built-in example, pre-crash to rest
+  vfs compare --db default                         # simulation against reconstructions
+  vfs diagnose --db DIR                            # which physical effect is missing
+  vfs db schema runs                               # the columns of runs.parquet, with units
+  vfs COMMAND --help                               # the options of one command
+
+documentation: README.md and docs/ (mkdocs build), exit codes: README.md"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command."""
+    from vfs.cli.common import Parser
     from vfs.version import __version__
 
-    parser = argparse.ArgumentParser(
-        prog="vfs",
+    parser = Parser(
+        prog="vfs", verbosity=False,
         description="Virtual forward simulation of real accidents for the assessment of ADAS.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"vfs {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
         add(subparsers)
-    return parser
+    return parser  # -v/-q: declared once, by every sub-parser (vfs.cli.common.Parser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -75,7 +96,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 1
     from vfs.blas import single_threaded_blas
-    from vfs.cli.common import input_messages
+    from vfs.cli.common import configure_logging, input_messages
+
+    configure_logging(args.verbose - args.quiet)
 
     try:
         # input warnings as "warning:" lines; --strict; one BLAS thread (vfs.blas)
@@ -100,4 +123,4 @@ def _run(args: argparse.Namespace) -> int:
     return int(args.func(args))
 
 
-__all__ = ["COMMAND_GROUPS", "build_parser", "main"]
+__all__ = ["COMMAND_GROUPS", "EXAMPLES", "build_parser", "main"]

@@ -266,7 +266,7 @@ class SB3Policy:
             import stable_baselines3 as sb3
         except ImportError:
             raise ParameterError("sb3: policies need stable-baselines3 (pip install "
-                                 "'vfs[rl]')") from None
+                                 "'vfs-accident[rl]')") from None
         file = Path(path)
         stem = file.with_suffix("") if file.suffix == ".zip" else file
         zip_file = stem.with_suffix(".zip")

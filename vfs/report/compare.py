@@ -37,6 +37,7 @@ from vfs.analysis.compare import (
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.case_pages import case_link, write_comparison_case_pages
 from vfs.report.figures import new_figure, save_figure
+from vfs.report.provenance import database_manifest, provenance_blocks, synthetic_note
 from vfs.report.references import cite
 from vfs.report.render import (
     Block,
@@ -540,6 +541,7 @@ def _margins_text(comparison: Comparison) -> str:
 
 def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str], *,
                             database: Database | None = None, top: int = 10,
+                            database_reference: str | None = None,
                             sketches: int = 4, case_pages: bool = True) -> dict[str, Path]:
     """Write every table, figure and the Markdown / HTML report into a folder.
 
@@ -550,7 +552,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     out : path
         Output folder (created; existing files of the same names are replaced).
     database : Database, optional
-        The compared database, for the top views of the worst cases.
+        The compared database, for the top views of the worst cases and the provenance
+        section (its data hash; a warning when it is synthetic).
+    database_reference : str, optional
+        How the user named the database (``--db``), shown in the provenance section.
     top : int
         Number of worst cases listed in the report.
     sketches : int
@@ -618,6 +623,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
             linked = [*comparison.measured["case_id"].tolist(), *linked]
         pages = write_comparison_case_pages(folder, comparison, database, linked)
     blocks = _report_blocks(comparison, top, worst, folder, pages)
+    if database is not None:  # where the numbers come from; synthetic data said so
+        manifest = database_manifest(database, database_reference)
+        blocks = [blocks[0], *synthetic_note(manifest), *blocks[1:],
+                  *provenance_blocks(manifest)]
     files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))
     return files
 

@@ -209,6 +209,8 @@ _NUMERIC = re.compile(r"(?:[-+<>=~\s\d.,%\[\]()/:]|inf|nan|e(?=[-+]?\d)|\.\.)+")
 def is_numeric_text(text: str) -> bool:
     """True for a number, percentage or interval written as text.
 
+    Examples
+    --------
     >>> [is_numeric_text(t) for t in ("12.5", "< 0.001", "40 % [31, 49]", "full")]
     [True, True, True, False]
     """
@@ -342,7 +344,7 @@ _LINK = re.compile(r"\[([^\]\[]+)\]\(([^()\s]+)\)")
 
 
 def inline_html(text: object) -> str:
-    """Escape text for HTML, render `backtick` spans as ``<code>`` and [text](url) as links."""
+    """Escape text for HTML, render `backtick` spans as ``<code>`` and ``[text](url)`` as links."""
     parts = html.escape(str(text)).split("`")
     if len(parts) % 2 == 0:  # an unpaired backtick stays a backtick
         parts[-2:] = [parts[-2] + "`" + parts[-1]]
@@ -371,9 +373,23 @@ def _html_table(t: Table) -> str:
             + "\n".join(body) + "\n</tbody></table></div>")
 
 
+def heading_anchor(text: str) -> str:
+    """The anchor of a heading as GitHub makes it for Markdown (lower case, punctuation
+    dropped, spaces to hyphens); the HTML renderer gives its headings the same ``id``.
+
+    Examples
+    --------
+    >>> heading_anchor("Crashes avoided (per `system`)")
+    'crashes-avoided-per-system'
+    """
+    text = re.sub(r"[`*]", "", text.strip().lower())
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
 def _html_block(b: Block) -> str:
     if isinstance(b, Heading):
-        return f"<h{b.level}>{inline_html(b.text)}</h{b.level}>"
+        return (f'<h{b.level} id="{heading_anchor(b.text)}">{inline_html(b.text)}'
+                f"</h{b.level}>")
     if isinstance(b, Paragraph):
         return f"<p>{inline_html(b.text)}</p>"
     if isinstance(b, Table):
@@ -425,6 +441,7 @@ def write_report(folder: str | os.PathLike[str], report: Report, *, name: str = 
 
 __all__ = [
     "STYLESHEET",
+    "heading_anchor",
     "Align",
     "Block",
     "BulletList",

@@ -29,6 +29,7 @@ from vfs.study.manifest import (
     data_hash,
     load_study,
     read_manifest,
+    read_runs,
 )
 from vfs.study.run import run_study
 from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
@@ -61,6 +62,7 @@ __all__ = [
     "load_study",
     "normalise_runs",
     "read_manifest",
+    "read_runs",
     "register_executor",
     "resolve_system",
     "resolve_systems",

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.database import Database
+from vfs.database.metadata import read_parquet_with_units
 from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
 from vfs.study.layout import (
     BASELINE,
@@ -234,13 +235,47 @@ def load_study(folder: str | os.PathLike[str]) -> StudyResult:
     path = Path(folder)
     manifest = read_manifest(path)
     runs = path / RUNS_FILE
-    table = pd.read_parquet(runs) if runs.exists() and manifest.get("status") == "complete" \
-        else None
+    table = read_parquet_with_units(runs) if runs.exists() and \
+        manifest.get("status") == "complete" else None
     return StudyResult(path, table, manifest)
+
+
+def read_runs(source: str | os.PathLike[str]) -> pd.DataFrame:
+    """The runs of a study (``runs.parquet``) with units and descriptions in ``attrs``.
+
+    Parameters
+    ----------
+    source : path
+        A study folder or a runs Parquet file.
+
+    Returns
+    -------
+    DataFrame
+        One row per case and run (the baseline and each system), SI units;
+        ``df.attrs["units"]["impact_speed1"] == "m/s"``, ``df.attrs["descriptions"]``
+        likewise (``vfs db schema runs`` prints them).
+
+    Raises
+    ------
+    DataError
+        The folder is no study or the study is not complete.
+    """
+    path = Path(source)
+    if path.is_dir():
+        manifest = read_manifest(path)
+        if manifest.get("status") != "complete" or not (path / RUNS_FILE).exists():
+            raise DataError(DataProblem("study", "", None, None,
+                                        f"{path}: the study is not complete (status "
+                                        f"{manifest.get('status')!r}); no {RUNS_FILE} yet"))
+        path = path / RUNS_FILE
+    if not path.is_file():
+        raise DataError(DataProblem("runs", "", None, None, f"{path}: no such file"))
+    return read_parquet_with_units(path)
 
 
 __all__ = [
     "StudyResult",
+    "read_runs",
     "case_ids_hash",
     "combine_chunks",
     "counts_summary",

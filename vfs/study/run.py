@@ -29,7 +29,6 @@ line in docs/study.md.
 from __future__ import annotations
 
 import os
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.adas.describe import describe_system
 from vfs.atomic import write_json, write_table
 from vfs.database import Database
 from vfs.database.metadata import field_metadata
@@ -73,6 +73,7 @@ from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunks, error_text
+from vfs.version import source_commit
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
 IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
@@ -90,11 +91,14 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
         "db_reference": selection.reference, "db_format": selection.fmt,
         "db_name": str(selection.meta.get("name", "")),
+        "db_description": str(selection.meta.get("description", "")),
+        "db_created_by": str(selection.meta.get("created_by", "")),
         "where": spec.where, "data_hash": selection.data_hash,
         "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": spec.chunk_size, "n_chunks": len(plan.chunks),
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
+                     "parameters": describe_system(s),
                      "brake": repr(getattr(s, "brake", None))}
                     for n, s in zip(names, systems, strict=True)],
         "system_definitions": [repr(s) for s in systems],
@@ -102,6 +106,7 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "rng": "numpy.random.default_rng([seed, chunk, system index]); baseline index 0",
         "impact_parameters": str(spec.impact_parameters), "params": repr(spec.params),
         "engine": spec.engine, "versions": environment_versions(),
+        "commit": source_commit(),
     }
 
 
@@ -203,14 +208,10 @@ def acquire_lock(out: Path) -> Path:
 
 
 def _progress_bar(total: int, show: bool | None) -> Any:
-    from tqdm import tqdm
+    """The study's progress (:mod:`vfs.progress`): a bar on a terminal, lines when piped."""
+    from vfs.progress import progress
 
-    if show is None:
-        show = sys.stderr.isatty() and not os.environ.get("CI")
-    return tqdm(total=total, unit="case", desc="vfs study", disable=not show, smoothing=0.1,
-                file=sys.stderr,
-                bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
-                           "{rate_fmt}]")
+    return progress(total, "simulating the cases", "case", bar=show)
 
 
 def run_study(db: str | os.PathLike[str] | Database | StudySpec,
@@ -275,8 +276,9 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
         registry : mapping or callable, optional
             System lookup instead of :func:`vfs.adas.get_system`.
         progress : bool, optional
-            Progress bar on stderr; default when stderr is a terminal and the
-            environment variable CI is not set.
+            Progress bar on stderr (True), lines through the ``vfs`` logger (False);
+            default: the bar when stderr is a terminal and the environment variable CI is
+            not set (:func:`vfs.progress.bar_wanted`).
         dask_processes : bool
             Local dask cluster with processes (True) or threads.
         max_chunks : int, optional

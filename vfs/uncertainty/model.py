@@ -51,6 +51,7 @@ from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import IMPACT_SLIDING, ImpactConfig, contact_frame
 from vfs.physics.precrash import KinematicState
 from vfs.physics.vehicle import VehicleArrays
+from vfs.progress import progress
 from vfs.simulation import ImpactInputs, SimulationParams, impact_stage, runout_stage
 from vfs.uncertainty.cases import CaseSet
 from vfs.uncertainty.config import INPUT_NAMES, UncertaintyConfig
@@ -94,7 +95,7 @@ class _Cases(NamedTuple):
 
 
 def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
-             chunk: int = CHUNK_ROWS) -> ModelRuns:
+             chunk: int = CHUNK_ROWS, *, show: str = "") -> ModelRuns:
     """Run the impact and run-out model for M sampled input sets (vectorised).
 
     Parameters
@@ -106,6 +107,9 @@ def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
         Model settings (run-out time step, horizon).
     chunk : int
         Runs per vectorised block.
+    show : str
+        What the runs are, for a progress bar or lines (:mod:`vfs.progress`); empty: none
+        (the many small evaluations of a reconstruction).
 
     Returns
     -------
@@ -113,8 +117,16 @@ def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
     """
     m = inputs.rows.shape[0]
     params = SimulationParams(runout=config.runout_params())
-    parts = [_evaluate_block(cases, inputs.rows[s:s + chunk], inputs.values[s:s + chunk],
-                             params) for s in range(0, m, max(1, chunk))]
+    step = max(1, chunk)
+    parts = []
+    shown = progress(m, show, "run") if show else None
+    for s in range(0, m, step):
+        parts.append(_evaluate_block(cases, inputs.rows[s:s + step],
+                                     inputs.values[s:s + step], params))
+        if shown is not None:
+            shown.update(min(step, m - s))
+    if shown is not None:
+        shown.close()
     if not parts:
         raise ParameterError("no model runs to evaluate")
     outcomes = {k: np.concatenate([p.outcomes[k] for p in parts]) for k in OUTCOME_NAMES}

@@ -920,15 +920,14 @@ def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
     v0 = c * w.vy - s * w.vx
     um, vm = c * vx_m + s * vy_m, c * vy_m - s * vx_m
     k = (1.0 - 2.0 * _GAMMA) * dt
-    if not steered:
-        a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
-        solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
-        u1, v1, r1 = solver.solve(u0, v0, w.r)
-        u2, v2, r2 = solver.solve(u1, v1, r1)
-        u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
-        v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
-        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
-    else:
+    a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
+    solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+    u1, v1, r1 = solver.solve(u0, v0, w.r)
+    u2, v2, r2 = solver.solve(u1, v1, r1)
+    u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
+    v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
+    r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    if steered:
         # the share of the step after the onset, so that the onset falls between steps
         # without a first-order error: the turned share of the step's impulse
         delta = w.steer * np.clip((t + dt - w.onset) / dt, 0.0, 1.0)
@@ -938,9 +937,13 @@ def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
         u1, v1, r1 = full.solve(u0, v0, w.r)
         u2, v2, r2 = full.solve(u1, v1, r1)
         uv = a.uv if a.uv is not None else 0.0
-        u_new = u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass
-        v_new = v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass
-        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+        # only the steered vehicles take the cofactor solution: a vehicle's run-out never
+        # depends on the others of its batch, to the last bit (the memo relies on it)
+        turned = w.steer != 0.0
+        u_new = np.where(turned, u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass, u_new)
+        v_new = np.where(turned, v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass, v_new)
+        r_new = np.where(turned, r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia,
+                         r_new)
     vx_new = c * u_new - s * v_new
     vy_new = s * u_new + c * v_new
     if params.load_transfer:

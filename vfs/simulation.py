@@ -657,7 +657,8 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         Flag pairs that touch again after separating
         (:func:`vfs.physics.runout.run_out_pair`); False skips that check (the
         rest poses are the same: secondary collisions are detected, not solved),
-        and the result reports none.
+        and the result reports none.  With ``params.contact`` (contacts solved) the pair
+        always runs together; False then only leaves the flags out (and the memo unused).
     paths : bool
         Record the path samples and kinetic energies (default); False (only without
         the secondary-collision check) leaves them empty (:func:`vfs.physics.runout.run_out`).
@@ -675,6 +676,18 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     post1, post2 = (RunoutState(st.x[:, j], st.y[:, j], st.yaw[:, j], result.vx_post[:, j],
                                 result.vy_post[:, j], result.yaw_rate_post[:, j])
                     for j in (0, 1))
+    if params.contact and not secondary_collisions:
+        # the vehicles of a pair interact: no memo of single vehicles; the flags left out
+        pair = runout_stage(vehicle1, vehicle2, impact_state, result, road_friction, params,
+                            wheel_brake1, wheel_brake2, post_impact=post_impact)
+        m = pair.rest_x.shape[0]
+        pair = pair._replace(secondary_collision=np.zeros(m, dtype=bool),
+                             secondary_collision_time=np.full(m, np.nan))
+        if paths:
+            return pair
+        k = pair.path.shape[2]
+        return pair._replace(path=pair.path[:, :, :0], path_t=pair.path_t[:0],
+                             kinetic_energy=pair.kinetic_energy[:, :, :0]) if k else pair
     if secondary_collisions:
         if memo is not None or not paths:
             raise ParameterError("a run-out memo or paths=False needs "

@@ -63,7 +63,8 @@ import numpy.typing as npt
 
 from vfs.errors import ParameterError
 from vfs.physics import compiled_runout
-from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
+from vfs.physics.geometry import AREA_TOLERANCE, contact_geometry, overlap, vehicle_outline
+from vfs.physics.impact import ImpactConfig, ImpactParams, contact_frame, solve_impact
 from vfs.physics.vehicle import VehicleArrays
 from vfs.units import G
 
@@ -138,6 +139,19 @@ class RunoutParams:
     path_interval : float
         Time between the recorded path samples [s]; a whole multiple of dt.
         Default 0.05 s.
+    contact : bool
+        Resolve the contact of the two vehicles of a pair (:func:`run_out_pair`): where
+        their outlines overlap and the contact points approach each other, an impulse of
+        the impact model (:func:`vfs.physics.impact.solve_impact`, POI and contact plane
+        of the overlap, restitution ``contact_restitution``, inter-vehicle friction
+        ``ImpactParams().contact_friction``) stops the approach, every step it recurs:
+        a second impact after separating, or the two moving together, hooked, until
+        they separate.  Default False: vehicles pass through each other (secondary
+        collisions are detected, not solved), as the published comparisons of vfs were
+        made.
+    contact_restitution : float
+        Impulse ratio of those contact impulses [-], in [0, 1]; default 0 (plastic:
+        the contact points share their normal velocity afterwards).
     """
 
     dt: float = 0.005
@@ -148,6 +162,8 @@ class RunoutParams:
     v_stop: float = 0.05
     max_time: float = 30.0
     path_interval: float = 0.05
+    contact: bool = False
+    contact_restitution: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, value: object, lo: float, hi: float, lo_open: bool) -> float:
@@ -167,6 +183,9 @@ class RunoutParams:
         check("rolling_resistance", self.rolling_resistance, 0.0, 0.5, False)
         check("cornering_stiffness", self.cornering_stiffness, 0.0, 100.0, True)
         check("v_stop", self.v_stop, 0.0, 1.0, True)
+        check("contact_restitution", self.contact_restitution, 0.0, 1.0, False)
+        if not isinstance(self.contact, (bool, np.bool_)):
+            raise ParameterError(f"contact={self.contact!r} must be True or False")
         max_time = check("max_time", self.max_time, 0.0, 3600.0, True)
         interval = check("path_interval", self.path_interval, 0.0, 3600.0, True)
         brake = self.wheel_brake
@@ -987,14 +1006,25 @@ def _compact(w: _Working) -> _Working:
     return _Working(*(a.compress(keep, axis=-1) for a in w))
 
 
+class Kick(NamedTuple):
+    """New velocities of some vehicles after a step, from a step callback (contacts)."""
+
+    rows: np.ndarray  # (k,) positions in the batch
+    vx: np.ndarray  # [m/s] global
+    vy: np.ndarray  # [m/s]
+    yaw_rate: np.ndarray  # [rad/s]
+
+
 #: Called after every step with the time [s], the state of all N vehicles
-#: (read-only views) and the mask of the vehicles that moved during the step.
-StepCallback = Callable[[float, RunoutState, np.ndarray], None]
+#: (read-only views) and the mask of the vehicles that moved during the step; it may
+#: return new velocities of some vehicles (:class:`Kick`), which then move on from them
+#: (a vehicle at rest starts again).
+StepCallback = Callable[[float, RunoutState, np.ndarray], "Kick | None"]
 
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
               params: RunoutParams, wheels: _Wheels, on_step: StepCallback | None = None,
-              record: bool = True) -> RunoutResult:
+              record: bool = True, compact: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
     Without ``on_step`` the vehicles never interact; on request
@@ -1057,7 +1087,8 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     step = 0
     while step < params.max_steps and moving.any():
         size = w.rows.shape[0]
-        if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
+        if (compact and size > _COMPACT_MIN
+                and np.count_nonzero(w.moving) < _COMPACT_SHARE * size):
             w = _compact(w)
         moved = moving.copy() if on_step is not None else moving
         _advance(w, params, step == 0, step * params.dt, steered)
@@ -1066,7 +1097,18 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         stop(t)
         if on_step is not None:
             publish()
-            on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            kick = on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            if kick is not None and kick.rows.size:
+                # compaction is off with kicks: the working rows are the batch rows
+                k = kick.rows
+                for a, b, value in ((w.vx, w.vx_prev, kick.vx), (w.vy, w.vy_prev, kick.vy),
+                                    (w.r, w.r_prev, kick.yaw_rate)):
+                    a[k] = value
+                    b[k] = value  # no predictor across the jump
+                w.moving[k] = True
+                moving[k] = True
+                time_to_rest[k] = np.nan
+                vx[k], vy[k], r[k] = kick.vx, kick.vy, kick.yaw_rate
         if step % per_sample == 0:
             sample()
     if step % per_sample != 0:
@@ -1397,6 +1439,77 @@ class _SecondaryCollisions:
         self.separated[check[~was_separated & ~over]] = True
 
 
+#: Closing speed [m/s] of the contact points below which touching vehicles are left alone
+#: (a resting contact: far below the stop speed v_stop).
+_CONTACT_CLOSING_SPEED = 1e-3
+
+
+class _Contacts:
+    """Resolves the contact of the pairs (k, k + N) of a 2N batch (``RunoutParams.contact``).
+
+    After every step the pairs whose outlines overlap (the tests of
+    :class:`_SecondaryCollisions`) get their POI and contact plane from the overlap
+    (:func:`vfs.physics.geometry.contact_geometry`, as the impact); where the contact
+    points approach each other faster than :data:`_CONTACT_CLOSING_SPEED` (u_n < 0 in the
+    contact frame of :func:`vfs.physics.impact.contact_frame`), the impact model's
+    impulse (:func:`vfs.physics.impact.solve_impact`, restitution
+    ``RunoutParams.contact_restitution``) changes both velocities.  Momentum is kept and
+    the Kudlich-Slibar impulse never adds energy, so the run-out stays dissipative.
+    Secondary collisions are flagged as without contacts (:class:`_SecondaryCollisions`).
+    """
+
+    def __init__(self, vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray,
+                 yaw: np.ndarray, params: RunoutParams) -> None:
+        self.flags = _SecondaryCollisions(vehicles, x, y, yaw)
+        self.vehicles = vehicles
+        self.n = x.shape[0] // 2
+        self.restitution = float(params.contact_restitution)
+        self.friction = ImpactParams().contact_friction
+        self.impulses = np.zeros(self.n, dtype=int)  # contact impulses per pair
+
+    def __call__(self, t: float, state: RunoutState, moved: np.ndarray) -> Kick | None:
+        self.flags(t, state, moved)
+        n = self.n
+        check = np.flatnonzero(moved[:n] | moved[n:])
+        if check.size == 0:
+            return None
+        over, _ = self.flags._overlapping(check, state.x, state.y, state.yaw)
+        pairs = check[over]
+        if pairs.size == 0:
+            return None
+        i, j = pairs, pairs + n
+        v = self.vehicles
+        o1 = vehicle_outline(v.take(i), state.x[i], state.y[i], state.yaw[i])
+        o2 = vehicle_outline(v.take(j), state.x[j], state.y[j], state.yaw[j])
+        geo = contact_geometry(o1, o2, np.stack([state.x[i], state.y[i]], axis=1),
+                               np.stack([state.x[j], state.y[j]], axis=1))
+        ok = np.isfinite(geo.poi[:, 0]) & np.isfinite(geo.cp_angle)
+        if not ok.any():
+            return None
+        pairs, i, j = pairs[ok], i[ok], j[ok]
+
+        def both(a: np.ndarray) -> np.ndarray:
+            return np.stack([a[i], a[j]], axis=1)
+
+        config = ImpactConfig.from_arrays(
+            m=both(v.mass), izz=both(v.yaw_inertia), x=both(state.x), y=both(state.y),
+            yaw=both(state.yaw), vx=both(state.vx), vy=both(state.vy),
+            yaw_rate=both(state.yaw_rate), poi_x=geo.poi[ok, 0], poi_y=geo.poi[ok, 1],
+            cp_angle=geo.cp_angle[ok], restitution=self.restitution,
+            contact_friction=self.friction)
+        closing = contact_frame(config).u_n < -_CONTACT_CLOSING_SPEED
+        if not closing.any():
+            return None
+        config = ImpactConfig(*(a[closing] for a in config))
+        pairs, i, j = pairs[closing], i[closing], j[closing]
+        res = solve_impact(config)
+        self.impulses[pairs] += 1
+        return Kick(np.concatenate([i, j]),
+                    np.concatenate([res.vx_post[:, 0], res.vx_post[:, 1]]),
+                    np.concatenate([res.vy_post[:, 0], res.vy_post[:, 1]]),
+                    np.concatenate([res.yaw_rate_post[:, 0], res.yaw_rate_post[:, 1]]))
+
+
 def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: RunoutState,
                  state2: RunoutState, road_friction: npt.ArrayLike,
                  params: RunoutParams | None = None,
@@ -1414,8 +1527,10 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     <= :data:`vfs.physics.geometry.AREA_TOLERANCE` the pair counts as separated, and a
     later overlap is a secondary collision (checked after every step: a circle
     broad phase, a separating-axis test, then :func:`vfs.physics.geometry.overlap`).
-    Secondary collisions are detected, not solved: the vehicles pass through
-    each other.
+    Secondary collisions are detected; they are solved only with
+    ``params.contact`` (impulses of the impact model wherever the overlapping outlines
+    approach each other: a second impact, or moving together until they separate),
+    otherwise the vehicles pass through each other.
 
     Parameters
     ----------
@@ -1453,6 +1568,12 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     wheels = _Wheels(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
+    if params.contact:
+        contacts = _Contacts(both, state.x, state.y, state.yaw, params)
+        res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]),
+                        params, wheels, on_step=contacts, compact=False)
+        return PairRunoutResult.from_batch(res, contacts.flags.secondary,
+                                           contacts.flags.time)
     tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
                     wheels, on_step=tracker)

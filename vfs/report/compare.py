@@ -33,6 +33,7 @@ from vfs.analysis.compare import (
     OUTCOMES_BY_NAME,
     TABLE1_OUTCOMES,
     Comparison,
+    staged_summary,
 )
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.case_pages import case_link, write_comparison_case_pages
@@ -588,6 +589,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", tables[name])
     files["contingency"] = write_atomic(folder / "contingency.csv",
                                         comparison.contingency.table.to_csv)
+    if comparison.staged is not None and len(comparison.staged):
+        files["staged_tests"] = write_table(folder / "staged_tests.csv", comparison.staged)
+        files["staged_summary"] = write_table(folder / "staged_summary.csv",
+                                              staged_summary(comparison.staged))
     if comparison.measured is None or not len(comparison.measured):
         from vfs.analysis.paper_reference import side_by_side_table1, side_by_side_types
 
@@ -662,6 +667,52 @@ def measured_blocks(c: Comparison, pages: dict[Any, str] | None = None) -> list[
                   "pairs. docs/validation.md discusses them."),
         Table(("case", "outcome", "measured", "sd", "model", "model - measured", "relative",
                "z"), tuple(rows)),
+    ]
+
+
+def staged_blocks(c: Comparison, pages: dict[Any, str] | None = None) -> list[Block]:
+    """Staged tests: delta-v, heading-change and range errors per test and vehicle, with the
+    published errors of other codes on the same tests where the database gives them.
+    """
+    st = c.staged
+    if st is None or len(st) == 0:
+        return []
+    codes = [name[: -len("_range_error")] for name in st.columns
+             if name.endswith("_range_error") and name != "range_error"]
+
+    def pct(v: float) -> str:
+        return "" if not np.isfinite(v) else f"{100 * v:.1f} %"
+
+    def deg(v: float) -> str:
+        return "" if not np.isfinite(v) else f"{np.degrees(v):.1f}"
+
+    rows = []
+    for r in st.itertuples(index=False):
+        d = r._asdict()
+        rows.append((case_link(r.case_id, pages), f"{r.vehicle}",
+                     _num(r.measured_delta_v * KMH_PER_MS, 1),
+                     _num(r.model_delta_v * KMH_PER_MS, 1), pct(r.delta_v_error),
+                     deg(r.measured_heading_change), deg(r.model_heading_change),
+                     deg(r.heading_change_error), _num(r.runout_range, 2),
+                     _num(r.rest_distance, 2), pct(r.range_error),
+                     *(pct(d.get(f"{code}_range_error", np.nan)) for code in codes)))
+    summary = staged_summary(st)
+    srows = [(r.code, r.metric, f"{r.n}",
+              deg(r.mean) if r.metric == "heading_change_error" else pct(r.mean))
+             for r in summary.itertuples(index=False)]
+    return [
+        Heading("Staged tests: delta-v, heading change and rest positions", 2),
+        Paragraph("Per test and vehicle: delta-v [km/h] and its relative error, the change "
+                  "of heading from the impact to rest [deg] and its error, the measured "
+                  "impact-to-rest distance [m], the distance between the model's and the "
+                  "measured rest position [m] and the range error (that distance over the "
+                  "measured one); the last columns: other codes' published range errors on "
+                  "the same tests. Files: `staged_tests.csv`, `staged_summary.csv`."),
+        Table(("case", "vehicle", "delta-v measured", "delta-v vfs", "delta-v error",
+               "heading change measured", "heading change vfs", "heading error [deg]",
+               "run-out [m]", "rest miss [m]", "range error",
+               *(f"{code} range error" for code in codes)), tuple(rows)),
+        Table(("code", "metric", "n", "mean"), tuple(srows)),
     ]
 
 
@@ -775,6 +826,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   f"{cite('momentum-impact-model')} (Figures 4-6, Table 1); formulas "
                   "and conventions: docs/compare.md."),
         *measured_blocks(c, pages),
+        *staged_blocks(c, pages),
         Heading("1 Impact type (the Momentum Based Impact Model paper, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "

@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from vfs.analysis.compare import compare_database, staged_summary, staged_test_errors
+from vfs.analysis.compare import compare_database
+from vfs.analysis.staged_tests import staged_summary, staged_test_errors
 from vfs.database import open_database
 from vfs.report.compare import write_comparison_report
 

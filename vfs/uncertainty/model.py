@@ -50,8 +50,8 @@ from vfs.errors import ParameterError
 from vfs.outcomes import from_results
 from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import IMPACT_SLIDING, ImpactConfig, contact_frame
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.precrash import KinematicState
-from vfs.physics.runout import PostImpactInputs
 from vfs.physics.vehicle import VehicleArrays
 from vfs.simulation import ImpactInputs, SimulationParams, impact_stage, runout_stage
 from vfs.uncertainty.cases import CaseSet
@@ -152,7 +152,7 @@ def _run_brakes(post: PostImpactInputs | None, rows: np.ndarray, sampled: np.nda
                 nominal: float, i: int) -> np.ndarray:
     """Brake factors (M, 4) [-] of vehicle ``i`` in the runs: the sampled factor on every
     wheel; where the case's data give the vehicle's post-impact brakes
-    (:class:`vfs.physics.runout.PostImpactInputs`), those wheel by wheel, shifted by the
+    (:class:`vfs.physics.post_impact.PostImpactInputs`), those wheel by wheel, shifted by the
     sampled deviation from the nominal ``nominal`` and clipped to [0, 1].
     """
     plain = np.repeat(sampled[:, None], 4, axis=1)

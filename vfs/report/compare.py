@@ -34,6 +34,7 @@ from vfs.analysis.compare import (
     TABLE1_OUTCOMES,
     Comparison,
 )
+from vfs.analysis.staged_tests import staged_summary
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.case_pages import case_link, write_comparison_case_pages
 from vfs.report.figures import new_figure, save_figure
@@ -49,6 +50,7 @@ from vfs.report.render import (
     Table,
     write_report,
 )
+from vfs.report.staged_tests import staged_blocks
 from vfs.units import KMH_PER_MS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -593,6 +595,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", tables[name])
     files["contingency"] = write_atomic(folder / "contingency.csv",
                                         comparison.contingency.table.to_csv)
+    if comparison.staged is not None and len(comparison.staged):
+        files["staged_tests"] = write_table(folder / "staged_tests.csv", comparison.staged)
+        files["staged_summary"] = write_table(folder / "staged_summary.csv",
+                                              staged_summary(comparison.staged))
     if comparison.measured is None or not len(comparison.measured):
         from vfs.analysis.paper_reference import side_by_side_table1, side_by_side_types
 
@@ -784,6 +790,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   f"{cite('momentum-impact-model')} (Figures 4-6, Table 1); formulas "
                   "and conventions: docs/compare.md."),
         *measured_blocks(c, pages),
+        *staged_blocks(c, pages),
         Heading("1 Impact type (the Momentum Based Impact Model paper, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "

@@ -3,12 +3,14 @@
 Everything that runs a system (a study's tasks, the replay, the OpenSCENARIO
 export, the gym's evaluation) takes a :class:`System`: a picklable object with
 a ``name``, a ``description``, ``controller(batch, equipped)`` and
-``precrash_params(base)``.  Its controller is a
-:class:`vfs.physics.precrash.BrakeController` (``reset``, ``demand``) that also
-reports its events (``events()``, per case and participant, NaN where never)
-and can run several chunks with one random stream each (``reset_segments``).
-:class:`ControllerDefaults` gives a controller that records no events and has
-no per-chunk state the last two.
+``precrash_params(base)``.  Its controller is a :class:`SystemController`
+(``reset``, ``demand``: a :class:`vfs.physics.precrash.BrakeController`) and,
+to keep the whole contract, also :class:`ReportsEvents` (``events()``, per case
+and participant, NaN where never) and :class:`Segmentable` (``reset_segments``:
+several chunks with one random stream each).  A study asks for the last two by
+these Protocols (a controller without them adds no event columns and runs chunk
+by chunk).  :class:`ControllerDefaults` gives a controller that records no events
+and draws nothing the last two.
 
 :func:`is_system` is the one answer to "is this a system?"; :func:`check_system`
 (like gymnasium's ``check_env``) runs a system on a small batch and reports
@@ -34,28 +36,53 @@ if TYPE_CHECKING:
 
 @runtime_checkable
 class SystemController(Protocol):
-    """What a system's controller does for a batch of cases (all four methods)."""
+    """What every system's controller does for a batch of cases
+    (:class:`vfs.physics.precrash.BrakeController`).
+    """
 
     def reset(self, n_cases: int, rng: np.random.Generator) -> None:
         """Prepare for a batch of ``n_cases`` cases (draws from ``rng`` only)."""
 
-    def reset_segments(self, sizes: tuple[int, ...],
-                       generators: tuple[np.random.Generator, ...]) -> None:
-        """Prepare for consecutive segments of ``sizes`` cases, one generator each."""
-
     def demand(self, obs: PrecrashObservation) -> np.ndarray:
         """Demanded deceleration [m/s^2] (>= 0), shape (n, 2), for ``obs.rows``."""
+
+
+@runtime_checkable
+class ReportsEvents(Protocol):
+    """A controller whose events become columns of a study's runs table
+    (``<key>1``, ``<key>2``); one without ``events`` adds none.
+    """
 
     def events(self) -> Mapping[str, np.ndarray]:
         """Event times [s] by key, each (N, 2) (NaN where never); ``{}`` for none."""
 
 
 @runtime_checkable
+class Segmentable(Protocol):
+    """A controller that runs several study chunks as one batch, one random stream each;
+    one without ``reset_segments`` runs chunk by chunk (same results, slower).
+    """
+
+    def reset_segments(self, sizes: tuple[int, ...],
+                       generators: tuple[np.random.Generator, ...]) -> None:
+        """Prepare for consecutive segments of ``sizes`` cases, one generator each."""
+
+
+#: The methods of a controller that keeps the whole contract (:func:`check_system`).
+CONTROLLER_METHODS: tuple[str, ...] = ("reset", "demand", "events", "reset_segments")
+
+
+@runtime_checkable
 class System(Protocol):
     """An AEB system as everything that runs one sees it; it must be picklable."""
 
-    name: str
-    description: str
+    @property
+    def name(self) -> str:
+        """Its name in studies and reports (not ``"baseline"``)."""
+
+    @property
+    def description(self) -> str:
+        """One line for reports."""
 
     def controller(self, batch: CaseBatch, equipped: npt.ArrayLike
                    ) -> SystemController | None:
@@ -123,7 +150,8 @@ def require_system(obj: object, what: str = "") -> System:
     return obj  # type: ignore[return-value]
 
 
-def check_system(system: object, batch: CaseBatch | None = None, *, steps: int = 0) -> None:
+def check_system(system: object, batch: CaseBatch | None = None, *, steps: int = 0,
+                 strict: bool = True) -> None:
     """Check that ``system`` keeps the whole contract (like gymnasium's ``check_env``).
 
     It checks the attributes, that the system pickles and unpickles to a system of
@@ -139,6 +167,9 @@ def check_system(system: object, batch: CaseBatch | None = None, *, steps: int =
         Cases to run it on; default two cases of the bundled database.
     steps : int
         Check only the first ``steps`` demands (0: all).
+    strict : bool
+        Require ``events`` and ``reset_segments`` too (:data:`CONTROLLER_METHODS`); with
+        False they are checked where present.
 
     Raises
     ------
@@ -166,7 +197,7 @@ def check_system(system: object, batch: CaseBatch | None = None, *, steps: int =
     equipped = np.ones((batch.size, 2), dtype=bool)
     controller = sys_.controller(batch, equipped)  # type: ignore[attr-defined]
     if controller is not None:
-        problems += _controller_problems(controller, sys_, batch, equipped, steps)
+        problems += _controller_problems(controller, sys_, batch, equipped, steps, strict)
     if problems:
         raise ParameterError(f"AEB system {sys_.name!r} breaks the contract: "  # type: ignore[attr-defined]
                              + "; ".join(problems))
@@ -184,7 +215,8 @@ class _Recorder:
 
     def reset_segments(self, sizes: tuple[int, ...],
                        generators: tuple[np.random.Generator, ...]) -> None:
-        self.inner.reset_segments(sizes, generators)
+        if isinstance(self.inner, Segmentable):
+            self.inner.reset_segments(sizes, generators)
 
     def demand(self, obs: PrecrashObservation) -> np.ndarray:
         d = np.asarray(self.inner.demand(obs), dtype=float)
@@ -193,12 +225,12 @@ class _Recorder:
 
 
 def _controller_problems(controller: object, system: object, batch: CaseBatch,
-                         equipped: np.ndarray, steps: int) -> list[str]:
+                         equipped: np.ndarray, steps: int, strict: bool) -> list[str]:
     from vfs.physics.precrash import SegmentedRandom
     from vfs.simulation import SimulationParams, simulate_cases
 
-    missing = [m for m in ("reset", "reset_segments", "demand", "events")
-               if not callable(getattr(controller, m, None))]
+    required = CONTROLLER_METHODS if strict else CONTROLLER_METHODS[:2]
+    missing = [m for m in required if not callable(getattr(controller, m, None))]
     if missing:
         return [f"its controller ({type(controller).__name__}) has no "
                 + ", ".join(f"{m}()" for m in missing)
@@ -210,8 +242,11 @@ def _controller_problems(controller: object, system: object, batch: CaseBatch,
     plain = _Recorder(controller)  # type: ignore[arg-type]
     simulate_cases(batch, plain, params, rng=np.random.default_rng(0))
     segmented = _Recorder(system.controller(batch, equipped))  # type: ignore[attr-defined]
-    simulate_cases(batch, segmented, params,
-                   rng=SegmentedRandom.of((n,), [np.random.default_rng(0)]))
+    if isinstance(controller, Segmentable):
+        simulate_cases(batch, segmented, params,
+                       rng=SegmentedRandom.of((n,), [np.random.default_rng(0)]))
+    else:
+        segmented.demands = plain.demands
     for d in plain.demands[:steps] if steps else plain.demands:
         if d.ndim != 2 or d.shape[1] != 2:
             problems.append(f"demand() has shape {d.shape}, expected (n, 2)")
@@ -224,7 +259,7 @@ def _controller_problems(controller: object, system: object, batch: CaseBatch,
     if not problems and not same:
         problems.append("reset_segments((n,), [rng]) does not give the demands of "
                         "reset(n, rng)")
-    events = plain.inner.events()
+    events = plain.inner.events() if isinstance(plain.inner, ReportsEvents) else {}
     if not isinstance(events, Mapping):
         problems.append(f"events() returned {type(events).__name__}, not a mapping")
     else:
@@ -244,5 +279,6 @@ def _sample_batch() -> CaseBatch:
     return CaseBatch.from_database(db, db.case_ids[:2])
 
 
-__all__ = ["ControllerDefaults", "System", "SystemController", "check_system",
-           "contract_problems", "is_system", "require_system"]
+__all__ = ["CONTROLLER_METHODS", "ControllerDefaults", "ReportsEvents", "Segmentable",
+           "System", "SystemController", "check_system", "contract_problems", "is_system",
+           "require_system"]

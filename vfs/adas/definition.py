@@ -105,7 +105,7 @@ class AEBSystem:
     aeb: Any | None
     driver: DriverParams | None
     brake: BrakeActuatorParams = dataclasses.field(default_factory=BrakeActuatorParams)
-    kind: str = DEFAULT_KIND
+    kind: str = dataclasses.field(default=DEFAULT_KIND, repr=False)  # repr as before kinds
 
     def __post_init__(self) -> None:
         if not self.name or not isinstance(self.name, str):

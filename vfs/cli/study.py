@@ -27,7 +27,9 @@ def _positive_int(text: str) -> int:
 
 
 def _default_equip(db: str) -> str:
-    """``meta["equip"]`` of the database (the Euro NCAP matrix equips the VUT: "1"), else "both"."""
+    """``meta["equip"]`` of the database (the Euro NCAP matrix equips the VUT: "1"), else
+    :attr:`Equip.BOTH`.
+    """
     from vfs.database import database_location
     from vfs.database.io import read_meta
 
@@ -35,8 +37,10 @@ def _default_equip(db: str) -> str:
         meta, _ = read_meta(database_location(db))
     except (OSError, VfsError):  # unreadable here: run_study reports it properly
         return "both"
-    equip = str(meta.get("equip", "both"))
-    return equip if equip in ("1", "2", "both") else "both"
+    from vfs.study.layout import EQUIP_RULES, Equip
+
+    equip = str(meta.get("equip", Equip.BOTH))
+    return equip if equip in EQUIP_RULES else Equip.BOTH.value
 
 
 def cmd_study(args: argparse.Namespace) -> int:
@@ -44,9 +48,10 @@ def cmd_study(args: argparse.Namespace) -> int:
     from vfs.cli.common import load_plugins, out_folder, path_label
     from vfs.study import StudySpec, run_study
     from vfs.study.spec import Equip
+    from vfs.study.systems import split_systems
 
     load_plugins(args.plugin)
-    systems = [s.strip() for s in args.systems.split(",") if s.strip()]
+    systems = [str(s) for s in split_systems(args.systems)]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
     from vfs.study.faults import (

@@ -33,7 +33,7 @@ from vfs.gym.observation import (
     THREAT_NAMES,
 )
 from vfs.physics.precrash import BrakeActuatorParams
-from vfs.simulation import SimulationParams
+from vfs.simulation import ImpactParameterSource, SimulationParams
 
 T = TypeVar("T")
 
@@ -202,9 +202,9 @@ class EnvConfig:
         if not (math.isfinite(self.near_miss_weight) and self.near_miss_weight > 0.0):
             raise ParameterError(f"near_miss_weight={self.near_miss_weight} must be finite "
                                  "and > 0")
-        if self.impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use "
-                                 "'reconstruction' or 'default'")
+        if self.impact_parameters not in set(ImpactParameterSource):
+            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use one of "
+                                 f"{', '.join(ImpactParameterSource)}")
         if isinstance(self.effects, str):
             object.__setattr__(self, "effects", (self.effects,))
 

@@ -111,10 +111,11 @@ class RewardParams:
 
 #: Sensor of the environments by default: 150 m, 1.6 rad (about 92 deg: a radar and
 #: camera fusion that also sees crossing traffic), every step, no latency.
-DEFAULT_SENSOR = SensorParams(range=150.0, field_of_view=1.6, cycle_time=0.0, latency=0.0)
+DEFAULT_SENSOR = SensorParams(field_of_view=1.6, cycle_time=0.0, latency=0.0)
 
-#: Brake actuator by default: the generic AEB's (jerk 40 m/s^3, vfs.adas.systems.THREE_STAGE).
-DEFAULT_BRAKE = BrakeActuatorParams(model="jerk", jerk=40.0, release_jerk=40.0)
+#: Brake actuator by default: the declared defaults (jerk 40 m/s^3, as
+#: vfs.adas.systems.THREE_STAGE).
+DEFAULT_BRAKE = BrakeActuatorParams()
 
 
 @dataclass(frozen=True)

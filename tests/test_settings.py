@@ -13,8 +13,7 @@ from pathlib import Path
 import pytest
 
 from vfs.errors import SettingsError
-from vfs.settings import NO_DEFAULT, Rule, cli_kwargs, declared, markdown_table, setting, \
-    validate
+from vfs.settings import NO_DEFAULT, Rule, cli_kwargs, declared, markdown_table, setting, validate
 
 PACKAGE = Path(__file__).resolve().parents[1] / "vfs"
 

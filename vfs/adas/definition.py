@@ -263,6 +263,10 @@ def readme_tables() -> str:
         parts += ["", f"### [aeb.{stage}]", "",
                   markdown_table(AEBParams, include=tuple(keys), rename=keys,
                                  default_text={f"{stage}_ttc": "absent"})]
+    for kind in CONTROLLER_KINDS.values():
+        if kind.name != DEFAULT_KIND:
+            parts += ["", f"### [aeb] with kind = \"{kind.name}\"", "", kind.doc + ".", "",
+                      markdown_table(kind.params_type)]
     parts += ["", "### [driver]", "", markdown_table(DriverParams),
               "", "### [brake]", "", markdown_table(BrakeActuatorParams)]
     return "\n".join(parts)

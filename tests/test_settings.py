@@ -180,7 +180,7 @@ def test_no_bound_or_default_of_a_setting_stands_in_two_places() -> None:
     assert not found, "bounds/defaults written again:\n" + "\n".join(found)
 
 
-#: Known copies in modules another change is moving (the diagnosis package, issue 39):
+#: Known copies in the diagnosis modules (vfs/diagnosis, outside this change):
 #: file name and the choices; remove an entry when its copy is gone.
 _ELSEWHERE = {("calibrate.py", frozenset({"primary", "all"})),
               ("diagnose.py", frozenset({"bh", "holm"}))}

@@ -37,6 +37,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
+import numpy as np
+
 from vfs.catalog import QUANTITY_UNITS, Field, Unit, read_fields
 from vfs.errors import DefinitionError, DefinitionErrors, SettingProblem, SettingsError
 
@@ -127,7 +129,9 @@ class Setting:
                 return "is not allowed"
             return None
         if self.quantity == "bool":
-            return None if isinstance(value, bool) else "is not a boolean"
+            return None if isinstance(value, bool | np.bool_) else "is not a boolean"
+        if isinstance(value, np.bool_):
+            return "is not a number"
         if isinstance(value, bool) or not isinstance(value, int | float) and not hasattr(
                 value, "__float__"):
             return "is not a number"

@@ -9,6 +9,7 @@ once.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 
@@ -140,7 +141,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     from vfs.adas import SYSTEMS
     from vfs.study import EXECUTORS
     from vfs.study.layout import DEFAULT_CHUNK_SIZE
-    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource
+    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
 
     add_input_option(p)  # reads a database
     p.add_argument("--systems", required=True, metavar="NAMES",
@@ -156,7 +157,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--equip", choices=[m.value for m in Equip], default=None,
                    help="vehicles carrying the system in the treatment runs (default the "
                    "database's meta 'equip', else both; euro-ncap-c2c: 1, the VUT)")
-    p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
+    defaults = {f.name: f.default for f in dataclasses.fields(StudySpec)}  # declared once
+    p.add_argument("--engine", choices=EXECUTORS.names(), default=defaults["engine"],
                    help="executor: serial, local processes (default), dask, or one registered "
                    "with vfs.study.register_executor or by an installed package (entry-point "
                    "group vfs.executors)")
@@ -177,7 +179,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "its own random stream, so results do not depend on it; larger batches "
                    f"share the per-step cost (default {DEFAULT_TASK_CASES}; with workers the "
                    "tasks are sized by their estimated cost)")
-    p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
+    p.add_argument("--seed", type=int, default=defaults["seed"],
+                   help=f"seed of all random draws (default {defaults['seed']})")
     p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
                    default=ImpactParameterSource.RECONSTRUCTION.value,
                    help="restitution and contact friction: the reconstruction's where present "

@@ -86,6 +86,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    '10, "privileged": true, "sensor": {"range": 100}}\' (over those a saved '
                    'policy carries)')
     add_input_option(p, help="database folder or 'default'")  # reads a database
+    from vfs.study import EXECUTORS  # no vfs.gym here: the parser builds without gymnasium
+
     p.add_argument("--split", choices=("train", "test", "all"), default="test",
                    help="cases of the environment's split (default test)")
     p.add_argument("--test-share", type=float, default=0.2,
@@ -95,7 +97,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--ego", type=int, choices=(1, 2), default=1,
                    help="participant braked by the policy (default 1)")
     out_option(p, "study folder", "evaluate-policy-<db>")
-    p.add_argument("--engine", choices=("serial", "process", "dask"), default="process",
+    p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
                    help="executor (default process; serial for policies that cannot be pickled)")
     p.add_argument("--workers", type=int, help="parallel workers")
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")

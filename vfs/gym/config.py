@@ -13,6 +13,7 @@ import math
 import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, TypeVar
 
 import numpy as np
@@ -118,6 +119,14 @@ DEFAULT_SENSOR = SensorParams(field_of_view=1.6, cycle_time=0.0, latency=0.0)
 DEFAULT_BRAKE = BrakeActuatorParams()
 
 
+class Split(StrEnum):
+    """The cases of an environment (:attr:`EnvConfig.split`)."""
+
+    TRAIN = "train"
+    TEST = "test"
+    ALL = "all"
+
+
 @dataclass(frozen=True)
 class EnvConfig:
     """Settings of the AEB environments (the keyword arguments of ``gymnasium.make``).
@@ -192,8 +201,8 @@ class EnvConfig:
     effects: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.split not in ("train", "test", "all"):
-            raise ParameterError(f"split={self.split!r}; use 'train', 'test' or 'all'")
+        if self.split not in set(Split):
+            raise ParameterError(f"split={self.split!r}; use one of {', '.join(Split)}")
         if not 0.0 < self.test_share < 1.0:
             raise ParameterError(f"test_share={self.test_share} outside (0, 1)")
         if self.ego not in (1, 2):

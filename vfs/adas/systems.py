@@ -40,8 +40,11 @@ import os
 from pathlib import Path
 
 from vfs.adas.contract import System, contract_problems, require_system
-from vfs.adas.definition import AEBSystem  # noqa: F401  (re-exported, as before)
-from vfs.adas.definition import is_definition_path, load_system
+from vfs.adas.definition import (
+    AEBSystem,  # noqa: F401  (re-exported, as before)
+    is_definition_path,
+    load_system,
+)
 from vfs.catalog import catalog_path, project_path
 from vfs.errors import ParameterError
 from vfs.registry import Registry

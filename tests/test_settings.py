@@ -141,10 +141,8 @@ def _simple_statements(tree: ast.Module) -> list[tuple[ast.AST, list[ast.AST]]]:
 
 def _names_and_numbers(node: ast.AST) -> tuple[set[str], set[float]]:
     names, numbers = set(), set()
-    for n in ast.walk(node):
-        if isinstance(n, ast.Name):
-            names.add(n.id)
-        elif isinstance(n, ast.Attribute):
+    for n in ast.walk(node):  # a bare local name (dt) is not the setting: attributes,
+        if isinstance(n, ast.Attribute):  # keywords and strings (field names) are
             names.add(n.attr)
         elif isinstance(n, ast.keyword) and n.arg:
             names.add(n.arg)

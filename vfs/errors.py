@@ -69,6 +69,73 @@ class DefinitionError(ParameterError):
         return (type(self), (self.path, self.field, self.problem, self.allowed))
 
 
+@dataclass(frozen=True)
+class SettingProblem:
+    """One declared setting (:mod:`vfs.settings`) out of bounds, or a rule between settings
+    broken.
+
+    Attributes
+    ----------
+    owner : str
+        The parameter class (``"SensorParams"``).
+    name : str
+        The setting, or the settings of a rule joined by ``", "``.
+    value : object
+        The value given (None for a rule).
+    problem : str
+        What is wrong (``"is out of range"``).
+    allowed : str
+        What is allowed (``"[0, 2] s"``, or the rule).
+    """
+
+    owner: str
+    name: str
+    value: object
+    problem: str
+    allowed: str
+
+    def __str__(self) -> str:
+        what = self.problem if self.value is None else f"{self.value!r} {self.problem}"
+        return f"{self.owner}.{self.name}: {what} (allowed: {self.allowed})"
+
+
+class SettingsError(ParameterError):
+    """Declared settings out of bounds or rules between them broken; every problem at once.
+
+    Attributes
+    ----------
+    problems : list of SettingProblem
+    """
+
+    def __init__(self, problems: list[SettingProblem] | SettingProblem) -> None:
+        if isinstance(problems, SettingProblem):
+            problems = [problems]
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+    def __reduce__(self) -> tuple[type, tuple[list[SettingProblem]]]:
+        return (type(self), (self.problems,))
+
+
+class DefinitionErrors(DefinitionError):
+    """Several problems of one definition file, reported at once (one line each).
+
+    Attributes
+    ----------
+    errors : list of DefinitionError
+        The problems; ``path``, ``field``, ``problem`` and ``allowed`` are the first one's.
+    """
+
+    def __init__(self, errors: list[DefinitionError]) -> None:
+        self.errors = list(errors)
+        first = self.errors[0]
+        super().__init__(first.path, first.field, first.problem, first.allowed)
+        self.args = ("\n".join(str(e) for e in self.errors),)
+
+    def __reduce__(self) -> tuple[type, tuple[list[DefinitionError]]]:  # type: ignore[override]
+        return (type(self), (self.errors,))
+
+
 class GeometryError(VfsError, ValueError):
     """A geometric configuration cannot be evaluated (e.g. degenerate outline)."""
 

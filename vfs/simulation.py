@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
@@ -59,6 +60,15 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
     from vfs.database import Database
+
+
+class ImpactParameterSource(StrEnum):
+    """Where restitution and contact friction come from (``--impact-parameters``;
+    :meth:`CaseBatch.from_database`).
+    """
+
+    RECONSTRUCTION = "reconstruction"
+    DEFAULT = "default"
 
 
 @dataclass(frozen=True)
@@ -177,9 +187,9 @@ class CaseBatch(NamedTuple):
             database has them (the others use :class:`ImpactParams`);
             ``"default"`` uses :class:`ImpactParams` for every case.
         """
-        if impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={impact_parameters!r}; "
-                                 "use 'reconstruction' or 'default'")
+        if impact_parameters not in set(ImpactParameterSource):
+            raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
+                                 f"{', '.join(ImpactParameterSource)}")
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories

@@ -16,10 +16,11 @@ import sys
 from pathlib import Path
 
 from vfs.cli.common import add_input_option
-from vfs.database.io import save_csv_folder, save_database
-from vfs.database.pcm import export_pcm, import_pcm
+from vfs.database.formats import DATABASE_FORMATS, formats_by_priority
+from vfs.database.io import save_database
+from vfs.database.pcm import import_pcm
 from vfs.database.schema import TABLE_NAMES
-from vfs.database.source import FORMATS, load_any, resolve_database_path
+from vfs.database.source import load_any, resolve_database_path
 from vfs.errors import DataError, ParameterError
 
 #: Exit code of a user error (unreadable input, bad value): the code of every ``vfs`` command.
@@ -151,10 +152,12 @@ def cmd_schema(args: argparse.Namespace) -> int:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    """``vfs db convert SRC DST --to {parquet,csv,pcm}``."""
+    """``vfs db convert SRC DST --to FORMAT`` (a writable :data:`DATABASE_FORMATS` entry)."""
     try:
         db = load_any(_path(args.source), validate=True)
-        writer = {"parquet": save_database, "csv": save_csv_folder, "pcm": export_pcm}[args.to]
+        writer = DATABASE_FORMATS.get(args.to).save
+        if writer is None:
+            raise ParameterError(f"--to {args.to}: this format is read only")
         out = writer(db, args.destination)
     except DataError as error:
         _print_problems(error)
@@ -282,14 +285,19 @@ def add_parsers(
     convert = commands.add_parser("convert", help="convert between database formats")
     convert.add_argument("source", type=Path, help="Parquet, CSV or PCM folder")
     convert.add_argument("destination", type=Path, help="output folder (replaced)")
-    convert.add_argument("--to", choices=FORMATS, required=True,
-                         help="output format: " + ", ".join(FORMATS))
+    writable = [f.name for f in formats_by_priority() if f.save is not None]
+    convert.add_argument("--to", choices=writable, required=True,
+                         help="output format: " + "; ".join(
+                             f"{f.name}: {f.doc}" for f in formats_by_priority()
+                             if f.save is not None))
     convert.set_defaults(func=cmd_convert)
 
     pcm = commands.add_parser("import-pcm", help="PreCrash-Matrix CSV folder -> Parquet")
     pcm.add_argument("source", type=Path, help="folder with participant_data.csv, ...")
     pcm.add_argument("destination", type=Path, help="output database folder (replaced)")
     pcm.set_defaults(func=cmd_import_pcm)
+
+    from vfs.study.layout import Equip
 
     export = commands.add_parser(
         "export-xosc", help="cases -> OpenSCENARIO (.xosc) + OpenDRIVE (.xodr) files",
@@ -309,7 +317,7 @@ def add_parsers(
     export.add_argument("--system", metavar="NAME",
                         help="AEB system: export the motion with the system instead of the "
                         "recorded one (vfs study --help lists the systems)")
-    export.add_argument("--equip", choices=("1", "2", "both"), default="both",
+    export.add_argument("--equip", choices=[m.value for m in Equip], default=Equip.BOTH.value,
                         help="vehicles carrying --system without --run (default both)")
     export.add_argument("--seed", type=int, default=0,
                         help="seed of --system without --run (default 0)")

@@ -403,6 +403,24 @@ def _finish_loading(
     return db
 
 
+def finish_loading(frames: dict[str, pd.DataFrame], meta: dict[str, object],
+                   problems: list[DataProblem], validate: bool) -> Database:
+    """The database of tables read from files in the file units (:mod:`vfs.database.schema`):
+    normalised, converted to SI and, with ``validate``, checked (every problem at once).
+
+    Raises
+    ------
+    DataError
+        ``problems`` of a table (a missing or damaged file), or the problems the checks find.
+    """
+    return _finish_loading(frames, meta, problems, validate)
+
+
+def meta_text(meta: dict[str, object]) -> str:
+    """``meta.json`` as written with a database."""
+    return _meta_for_writing(meta)
+
+
 def load_database(
     path: str | os.PathLike[str], *, where: str | None = None, validate: bool = True
 ) -> Database:

@@ -79,7 +79,7 @@ ALWAYS_BRAKE = ConstantBrake(1.0, "always-brake")
 
 
 class AEBPolicy:
-    """A generic AEB system (:class:`vfs.adas.systems.AEBSystem`) as an environment policy.
+    """A generic AEB system (:class:`vfs.adas.definition.AEBSystem`) as an environment policy.
 
     Privileged: :meth:`act` ignores the observation and runs the system's
     own sensor, threat assessment, stages and driver model on the state of

@@ -56,7 +56,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -67,6 +67,7 @@ from vfs.physics.post_impact import PostImpactInputs as PostImpactInputs  # re-e
 from vfs.physics.post_impact import WheelInputs, check_wheel_inputs
 from vfs.physics.runout_contacts import Contacts, Kick, SecondaryCollisions
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, setting, validate
 from vfs.units import G
 
 #: The pair tracker under its former name (tests reach it here).
@@ -99,6 +100,12 @@ _COMPACT_SHARE = 0.8
 
 #: Smallest working set [vehicles] worth compacting.
 _COMPACT_MIN = 64
+
+
+def _whole_multiple(interval: float, dt: float) -> bool:
+    """True when ``interval`` is a whole multiple (>= 1) of ``dt`` (to 1e-6 relative)."""
+    ratio = interval / dt
+    return not (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio)
 
 
 @dataclass(frozen=True)
@@ -158,18 +165,38 @@ class RunoutParams:
         the contact points share their normal velocity afterwards).
     """
 
-    dt: float = 0.005
+    dt: float = setting(0.005, "time", "time step (sets the accuracy only: the step is "
+                        "stable and dissipative for every dt)", lo=0.0, lo_open=True, hi=0.05)
     wheel_brake: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
-    rolling_resistance: float = 0.015
-    cornering_stiffness: float = 10.0
-    load_transfer: bool = False
-    v_stop: float = 0.05
-    max_time: float = 30.0
-    path_interval: float = 0.05
-    contact: bool = False
-    contact_restitution: float = 0.0
+    rolling_resistance: float = setting(0.015, "ratio", "rolling-resistance coefficient of a "
+                                        "rolling wheel", lo=0.0, hi=0.5)
+    cornering_stiffness: float = setting(10.0, "ratio", "cornering stiffness per unit wheel "
+                                         "load [1/rad]", lo=0.0, lo_open=True, hi=100.0)
+    load_transfer: bool = setting(False, "bool", "shift the wheel loads with the "
+                                  "accelerations of the previous steps")
+    v_stop: float = setting(0.05, "speed", "a vehicle is at rest when its CG speed and "
+                            "|yaw rate| x half diagonal are both below this",
+                            lo=0.0, lo_open=True, hi=1.0)
+    max_time: float = setting(30.0, "time", "longest simulated run-out",
+                              lo=0.0, lo_open=True, hi=3600.0)
+    path_interval: float = setting(0.05, "time", "time between the recorded path samples; "
+                                   "a whole multiple of dt", lo=0.0, lo_open=True, hi=3600.0)
+    contact: bool = setting(False, "bool", "resolve the contact of the two vehicles of a pair "
+                            "(a second impact, or moving on together) instead of passing "
+                            "through")
+    contact_restitution: float = setting(0.0, "ratio", "impulse ratio of the run-out contact "
+                                         "impulses", lo=0.0, hi=1.0)
+
+    #: Rules between the settings.
+    RULES: ClassVar[tuple[Rule, ...]] = (
+        Rule(("path_interval", "dt"), lambda p: _whole_multiple(p.path_interval, p.dt),
+             "path_interval a whole multiple of dt"),
+        Rule(("max_time", "dt"), lambda p: p.max_time >= p.dt, "max_time >= dt"),
+    )
 
     def __post_init__(self) -> None:
+        validate(self)
+
         def check(name: str, value: object, lo: float, hi: float, lo_open: bool) -> float:
             if isinstance(value, (bool, np.bool_)):
                 raise ParameterError(f"{name}={value!r} is not a number")
@@ -183,29 +210,12 @@ class RunoutParams:
                 raise ParameterError(f"{name}={v:g} outside {bracket}{lo:g}, {hi:g}]")
             return v
 
-        dt = check("dt", self.dt, 0.0, 0.05, True)
-        check("rolling_resistance", self.rolling_resistance, 0.0, 0.5, False)
-        check("cornering_stiffness", self.cornering_stiffness, 0.0, 100.0, True)
-        check("v_stop", self.v_stop, 0.0, 1.0, True)
-        check("contact_restitution", self.contact_restitution, 0.0, 1.0, False)
-        if not isinstance(self.contact, (bool, np.bool_)):
-            raise ParameterError(f"contact={self.contact!r} must be True or False")
-        max_time = check("max_time", self.max_time, 0.0, 3600.0, True)
-        interval = check("path_interval", self.path_interval, 0.0, 3600.0, True)
         brake = self.wheel_brake
         if isinstance(brake, (str, bytes)) or np.ndim(brake) != 1 or len(brake) != 4:
             raise ParameterError(
                 f"wheel_brake={brake!r} must be 4 brake factors (FL, FR, RL, RR)")
         for name, b in zip(WHEEL_NAMES, brake, strict=True):
             check(f"wheel_brake[{name}]", b, 0.0, 1.0, False)
-        if not isinstance(self.load_transfer, (bool, np.bool_)):
-            raise ParameterError(f"load_transfer={self.load_transfer!r} must be True or False")
-        ratio = interval / dt
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
-            raise ParameterError(
-                f"path_interval={interval:g} s must be a whole multiple of dt={dt:g} s")
-        if max_time < dt:
-            raise ParameterError(f"max_time={max_time:g} s is shorter than dt={dt:g} s")
 
     @property
     def steps_per_sample(self) -> int:

@@ -11,6 +11,7 @@ reading), :mod:`~vfs.study.spec` (the settings of a study, checked once) and
 :mod:`~vfs.study.run`.  See docs/study.md.
 """
 
+from vfs.adas.contract import System
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count, register_executor
 from vfs.study.layout import (
     BASELINE,
@@ -33,7 +34,7 @@ from vfs.study.manifest import (
 )
 from vfs.study.run import run_study
 from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
-from vfs.study.systems import AEBSystem, resolve_system, resolve_systems
+from vfs.study.systems import resolve_system, resolve_systems, split_systems
 from vfs.study.tasks import RunTask, assemble_chunk, normalise_runs, run_task
 
 __all__ = [
@@ -46,7 +47,7 @@ __all__ = [
     "EXECUTORS",
     "MANIFEST_FILE",
     "RUNS_FILE",
-    "AEBSystem",
+    "System",
     "Equip",
     "ExecutorOptions",
     "ImpactParameterSource",
@@ -66,6 +67,7 @@ __all__ = [
     "register_executor",
     "resolve_system",
     "resolve_systems",
+    "split_systems",
     "run_study",
     "run_task",
 ]

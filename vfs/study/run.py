@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.adas.contract import System
 from vfs.adas.describe import describe_system
 from vfs.atomic import write_json, write_table
 from vfs.database import Database
@@ -215,7 +216,7 @@ def _progress_bar(total: int, show: bool | None) -> Any:
 
 
 def run_study(db: str | os.PathLike[str] | Database | StudySpec,
-              systems: Sequence[str | Any] | str | None = None,
+              systems: Sequence[str | System] | str | None = None,
               out: str | os.PathLike[str] | None = None, **options: Any) -> StudyResult:
     """Run (or resume) an AEB effectiveness study and write its folder.
 
@@ -338,7 +339,7 @@ class _Plan:
     spec: StudySpec
     selection: StudyInput
     chunks: list[np.ndarray]
-    systems: list[Any]
+    systems: list[System]
     names: list[str]
     started: float
 
@@ -426,7 +427,7 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     if selection.database is not None:  # in memory: the tasks carry their cases
         batch_all = CaseBatch.from_database(selection.database,
                                             impact_parameters=spec.impact_parameters)
-    runners: list[Any | None] = [None, *plan.systems]
+    runners: list[System | None] = [None, *plan.systems]
     n_tasks_max = len(todo) * len(runners)
     n_workers = 1 if spec.engine == "serial" else (
         spec.workers if spec.workers else max(1, min(cpu_count(), n_tasks_max)))

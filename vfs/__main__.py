@@ -2,6 +2,11 @@
 
 import sys
 
-from vfs.cli import main
+try:
+    from vfs.cli import main
 
-sys.exit(main())
+    code = main()
+except KeyboardInterrupt:  # Ctrl-C while the command line is imported
+    print("interrupted", file=sys.stderr, flush=True)
+    code = 130
+sys.exit(code)

@@ -164,3 +164,14 @@ class MissingExtraError(VfsError, ImportError):
 
 class ClusterError(VfsError, RuntimeError):
     """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: the command stops as on Ctrl-C (a study's status ``interrupted``).
+
+    Raised by the SIGTERM handlers of :func:`vfs.cli.main` and of
+    :func:`vfs.study.faults.stop_on_signals`.
+    """
+
+    #: Exit status of the command line: 128 + SIGTERM (15), as a shell reports it.
+    exit_status = 143

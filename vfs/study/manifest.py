@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.database import Database
-from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
+from vfs.errors import DataError, DataProblem, ParameterError, SimulationError, VfsError
 from vfs.study.layout import (
     BASELINE,
     CHUNK_DIR,
@@ -136,6 +136,8 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         for tmp in [*out.glob(".*.tmp-*"), *(out / CHUNK_DIR).glob(".*.tmp-*")]:
             tmp.unlink(missing_ok=True)  # leftovers of an interrupted write
         return merged
+    if has_study and not overwrite and _nothing_to_keep(out):
+        overwrite = True  # a study stopped before its first chunk: a rerun starts it anew
     if has_study and not overwrite:
         raise ParameterError(f"{out} already holds a study; use --resume to continue it or "
                              "--overwrite to replace it")
@@ -143,6 +145,17 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
     return manifest
+
+
+def _nothing_to_keep(out: Path) -> bool:
+    """True for a study folder that ended ``failed`` or ``interrupted`` before writing a
+    chunk (e.g. refused for bad input): a rerun after the fix need not say ``--overwrite``.
+    """
+    try:
+        status = read_manifest(out).get("status")
+    except (OSError, ValueError, VfsError):
+        return False
+    return status in ("failed", "interrupted") and not any((out / CHUNK_DIR).glob("*.parquet"))
 
 
 @dataclass(frozen=True)

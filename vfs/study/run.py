@@ -312,12 +312,12 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     else:
         spec = StudySpec.of(db, systems, out, **options)
     system_objs = resolve_systems(list(spec.systems), spec.registry)
-    # with workers, the blocks are validated (and a new study's data hash computed)
-    # while the workers start on the tasks (_Validation); nothing is written before
+    # every input check runs here, before any task is started: a worker never simulates
+    # data that failed validation (a record in milliseconds would run for ever); with
+    # workers only a new study's data hash is computed while they run (_Validation)
     defer = spec.engine != "serial"
     resuming = spec.resume and (spec.out / MANIFEST_FILE).exists()
-    selection = study_input(spec.db, spec.where, validate=not defer,
-                            hash=not defer or resuming)
+    selection = study_input(spec.db, spec.where, validate=True, hash=not defer or resuming)
     ids = selection.case_ids  # never empty (study_input refuses)
     size = spec.chunk_size
     plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],

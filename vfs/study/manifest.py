@@ -113,7 +113,9 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         inputs (:data:`RESUME_KEYS`).
     """
     has_study = (out / MANIFEST_FILE).exists()
-    non_empty = out.exists() and (not out.is_dir() or any(out.iterdir()))
+    # a study killed before its manifest was in place leaves at most a temporary file
+    non_empty = out.exists() and (not out.is_dir() or any(
+        not (p.name.startswith(".") and ".tmp-" in p.name) for p in out.iterdir()))
     if out.exists() and not out.is_dir():
         raise ParameterError(f"{out} exists and is not a folder")
     if non_empty and not has_study:

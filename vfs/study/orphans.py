@@ -24,6 +24,8 @@ import sys
 import threading
 import time
 
+from vfs.errors import quiet_numpy_warnings
+
 #: ``PR_SET_PDEATHSIG`` of ``<linux/prctl.h>``.
 PR_SET_PDEATHSIG = 1
 
@@ -106,6 +108,7 @@ def exit_with_parent(study_pid: int, poll_s: float = DEFAULT_POLL_S) -> None:
         Seconds between two checks of the watchdog thread.
     """
     ignore_parent_signals(terminate=True)  # Ctrl-C is the study process's to handle
+    quiet_numpy_warnings()  # a worker's stderr is the user's terminal
     parent_pid = os.getppid()
     set_parent_death_signal()
     if not pid_alive(study_pid) or not pid_alive(parent_pid):  # died before we were armed

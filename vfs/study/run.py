@@ -411,8 +411,8 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     spec, selection, chunks = plan.spec, plan.selection, plan.chunks
     out_dir = spec.out
     ids = selection.case_ids
+    write_json(out_dir / MANIFEST_FILE, manifest)  # first: a folder with chunks/ is a study
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
-    write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = selection.cases.reset_index(drop=True)
     write_table(out_dir / CASES_FILE, cases_meta,
                 field_metadata(cases_meta.columns, table="cases"))

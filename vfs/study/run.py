@@ -358,14 +358,15 @@ def _run_locked(plan: _Plan) -> StudyResult:
 
 
 class _Validation:
-    """:func:`validate_selection` and :func:`selection_hash` in a thread of this
-    process, while the workers run.
+    """:func:`selection_hash` of a new parallel study in a thread of this process,
+    while the workers run.
 
-    The client's validation of a Parquet selection reads and checks every case,
-    its hash reads every row (together about 0.4 ms of CPU per case); run before
-    the tasks, they would keep every worker waiting.  :meth:`wait` joins the
-    thread, raises its :class:`DataError`, and puts the hash into the manifest
-    (written again); the chunk writer calls it before the first chunk file.
+    The selection is validated before any task starts (:func:`run_study`: a
+    worker never simulates data that failed a check; a record in milliseconds
+    would run for ever); only the data hash, which reads every row and decides
+    nothing about the run, is left to this thread.  :meth:`wait` joins the
+    thread, raises what it met, and puts the hash into the manifest (written
+    again); the chunk writer calls it before the first chunk file.
     """
 
     def __init__(self, selection: StudyInput, manifest: dict[str, Any], path: Path) -> None:

@@ -53,7 +53,7 @@ import pandas as pd
 from vfs.blas import single_threaded_workers
 from vfs.errors import ClusterError, ParameterError
 from vfs.registry import Registry
-from vfs.study.faults import raise_if_signalled
+from vfs.study.faults import deferred_signals, raise_if_signalled
 from vfs.study.orphans import STUDY_PID_VARIABLE, exit_with_parent
 from vfs.study.tasks import RunTask, run_task
 from vfs.version import __version__
@@ -209,13 +209,22 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
     does not wait for them at exit.
     """
     processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
+    # killed and joined before the pool is shut down: shutting it down frees the queues'
+    # semaphores, and a worker still being started would then fail to open them and
+    # print a traceback
     for process in processes:
         with contextlib.suppress(OSError, ValueError, AttributeError):
             process.kill()
     for process in processes:
         with contextlib.suppress(OSError, ValueError, AssertionError):
             process.join(timeout=10)
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _submit(pool: ProcessPoolExecutor, task: RunTask) -> Future[pd.DataFrame]:
+    # a submit may start a worker: Ctrl-C is raised after it, never half-way
+    with deferred_signals():
+        return pool.submit(run_task, task)
 
 
 def _run_processes(tasks: Sequence[RunTask], on_result: OnResult,
@@ -226,7 +235,7 @@ def _run_processes(tasks: Sequence[RunTask], on_result: OnResult,
                                initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
         with single_threaded_workers():  # "spawn" workers take this process's environment
-            run_windowed(lambda task: pool.submit(run_task, task), tasks, on_result,
+            run_windowed(lambda task: _submit(pool, task), tasks, on_result,
                          options.max_in_flight())
     except BrokenProcessPool as exc:
         stop_pool(pool)

@@ -35,9 +35,9 @@ EXIT_FAILED_CASES = 4
 EXIT_TERMINATED = Terminated.exit_status  # 128 + SIGTERM
 
 
-#: The signal received inside :func:`stop_on_signals` (0: none yet); read by
-#: :func:`raise_if_signalled`.
-_received = {"signal": 0}
+#: The signal received inside :func:`stop_on_signals` (0: none yet), read by
+#: :func:`raise_if_signalled`; and the depth of :func:`deferred_signals` blocks.
+_received = {"signal": 0, "defer": 0}
 
 
 def signal_received() -> int:
@@ -76,11 +76,13 @@ def stop_on_signals() -> Iterator[None]:
         if _received["signal"]:
             return  # handled once
         _received["signal"] = signum
+        if _received["defer"]:
+            return  # raised at the end of the deferred_signals block
         if signum == signal.SIGTERM:
             raise Terminated(f"signal {signum} (SIGTERM)")
         raise KeyboardInterrupt
 
-    _received["signal"] = 0
+    _received["signal"] = _received["defer"] = 0
     previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
@@ -88,6 +90,22 @@ def stop_on_signals() -> Iterator[None]:
         for sig, old in previous.items():
             signal.signal(sig, old)
         _received["signal"] = 0
+
+
+@contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Inside :func:`stop_on_signals`, a signal that arrives in this block is raised at its
+    end, not in the middle: e.g. while the process pool starts a worker, which would
+    otherwise be left half started (it prints a traceback when the pool's semaphores are
+    gone).
+    """
+    _received["defer"] += 1
+    try:
+        yield
+    finally:
+        _received["defer"] -= 1
+    if not _received["defer"]:
+        raise_if_signalled()
 
 
 #: The name of :func:`stop_on_signals` before it handled SIGINT too.
@@ -132,6 +150,6 @@ def failed_runs(manifest: Mapping[str, Any]) -> int:
     return int(sum(int(row.get("errors", 0)) for row in systems.values()))
 
 
-__all__ = ["EXIT_FAILED_CASES", "EXIT_TERMINATED", "Terminated", "failed_runs",
-           "raise_if_signalled", "record_fault", "signal_received", "stop_on_signals",
-           "terminate_as_interrupt"]
+__all__ = ["EXIT_FAILED_CASES", "EXIT_TERMINATED", "Terminated", "deferred_signals",
+           "failed_runs", "raise_if_signalled", "record_fault", "signal_received",
+           "stop_on_signals", "terminate_as_interrupt"]

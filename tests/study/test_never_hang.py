@@ -108,7 +108,7 @@ def test_a_study_that_failed_before_its_first_chunk_does_not_block_the_rerun(sma
                                                                             capsys):
     out = tmp_path / "study"
     argv = ["study", "--db", str(small), "--systems", "three-stage", "--engine", "serial",
-            "--where", "case_id <= 3", "--out", str(out)]
+            "--where", "case_id <= 1", "--out", str(out)]
     assert _in_process(capsys, argv).code == 0
     manifest = json.loads((out / "study.json").read_text())
     for chunk in (out / "chunks").glob("*.parquet"):
@@ -135,7 +135,7 @@ def _signal_plan() -> list[tuple[str, float]]:
 @pytest.mark.parametrize(("fault", "at_s"), _signal_plan())
 def test_a_signal_at_a_random_moment_stops_the_study_cleanly(tmp_path, fault, at_s):
     assert fault in FAULTS
-    res = fault_run(fault, at_s, tmp_path / "study", cwd=ROOT, cases=60,
+    res = fault_run(fault, at_s, tmp_path / "study", cwd=ROOT, cases=40,
                     resume=fault.startswith("SIGINT"), limit_s=240)
     assert res.outcome == "CLEAN", (res.outcome, res.run.code, res.run.stderr[-3000:],
                                     res.run.orphans, res.resumed)

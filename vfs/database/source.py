@@ -42,7 +42,8 @@ from vfs.errors import DataError, DataProblem, ParameterError
 BUNDLED_DATABASES: dict[str, str] = {
     "default": "default",
     "crash-tests": "crash-tests",  # scenarios/databases/crash-tests/README.md
-    "euro-ncap-c2c": "euro-ncap-c2c",  # built by vfs.scenarios.euro_ncap
+    "euro-ncap-c2c": "euro-ncap-c2c",  # Euro NCAP 2026; built by vfs.scenarios.euro_ncap
+    "euro-ncap-c2c-2023": "euro-ncap-c2c-2023",  # Euro NCAP 2023; likewise
 }
 
 #: Folder formats :func:`load_any` reads.

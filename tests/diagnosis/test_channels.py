@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from tests.conftest import slow_scale
-from vfs.analysis.calibrate import CalibrationData
-from vfs.analysis.identify import consistency_factor, identify, profile_interval
+from vfs.diagnosis.calibrate import CalibrationData
+from vfs.diagnosis.identify import consistency_factor, identify, profile_interval
 from vfs.effects.learned import CHANNEL_OUTPUTS, CHANNELS, law_effect_class
 from vfs.scenarios.generator import NO_NOISE, generate_database
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases

@@ -500,7 +500,7 @@ def check_record_spacing(batch: CaseBatch) -> None:
     case needs follow from its duration [s]; a time column in milliseconds (or
     dates read as seconds) makes that a thousand to a billion times longer
     and the run would not end in any useful time.  A record that passed
-    :func:`vfs.database.validate` has sample spacings of at most
+    :func:`vfs.database.validation.validate_database` has sample spacings of at most
     :data:`vfs.database.schema.MAX_SAMPLE_SPACING` [s], so its duration is at
     most that times its samples less one: the cap on the steps of each case.
 

@@ -231,3 +231,32 @@ class MissingExtraError(VfsError, ImportError):
 
 class ClusterError(VfsError, RuntimeError):
     """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: the command stops as on Ctrl-C (a study's status ``interrupted``).
+
+    Raised by the SIGTERM handlers of :func:`vfs.cli.main` and of
+    :func:`vfs.study.faults.stop_on_signals`.
+    """
+
+    #: Exit status of the command line: 128 + SIGTERM (15), as a shell reports it.
+    exit_status = 143
+
+
+#: numpy's floating-point RuntimeWarnings ("invalid value encountered in divide", "Mean of
+#: empty slice", ...): the checks meet NaN and zero on purpose, and the user sees the
+#: clear error or warning that follows, never these (:func:`quiet_numpy_warnings`).
+NUMPY_WARNING_MESSAGES = (r"(invalid value|divide by zero|overflow|underflow) encountered"
+                          r"|Mean of empty slice|Degrees of freedom <= 0|All-NaN (slice|axis)"
+                          r"|invalid value")
+
+
+def quiet_numpy_warnings() -> None:
+    """Ignore numpy's floating-point RuntimeWarnings (:data:`NUMPY_WARNING_MESSAGES`) in
+    this process: called by the command line (inside its warning context) and in the
+    study's worker processes.
+    """
+    import warnings
+
+    warnings.filterwarnings("ignore", message=NUMPY_WARNING_MESSAGES, category=RuntimeWarning)

@@ -21,7 +21,7 @@ import numpy.typing as npt
 
 from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, SimulationError
 from vfs.physics.impact import (
     CONFIG_IMPACT_FIELDS,
     CONFIG_VEHICLE_FIELDS,
@@ -519,6 +519,41 @@ def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
     return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
 
 
+def check_record_spacing(batch: CaseBatch) -> None:
+    """Refuse records whose samples lie further apart on average than a valid database allows.
+
+    The pre-crash run steps every case through its whole record, so the steps a
+    case needs follow from its duration [s]; a time column in milliseconds (or
+    dates read as seconds) makes that a thousand to a billion times longer
+    and the run would not end in any useful time.  A record that passed
+    :func:`vfs.database.validation.validate_database` has sample spacings of at most
+    :data:`vfs.database.schema.MAX_SAMPLE_SPACING` [s], so its duration is at
+    most that times its samples less one: the cap on the steps of each case.
+
+    Raises
+    ------
+    SimulationError
+        Naming the cases, the record's duration [s], its samples and the cap.
+    """
+    from vfs.database.schema import MAX_SAMPLE_SPACING
+
+    paths = batch.paths
+    n = batch.size
+    duration = paths.duration  # from the first sample [s]
+    limit = MAX_SAMPLE_SPACING * np.maximum(paths.count - 1, 0) * (1.0 + 1e-6) + 1e-9
+    bad = np.flatnonzero(~(duration <= limit))  # NaN durations too
+    if bad.size == 0:
+        return
+    row = int(bad[0])
+    ids = sorted({int(batch.case_id[i % n]) for i in bad})
+    shown = ", ".join(map(str, ids[:5])) + (f" and {len(ids) - 5} more" if len(ids) > 5 else "")
+    raise SimulationError(
+        f"case_id {shown}: the record of participant {row // n + 1} lasts {duration[row]:.4g} s "
+        f"over {int(paths.count[row])} samples, more than {MAX_SAMPLE_SPACING:g} s per sample "
+        f"({limit[row]:.4g} s); the simulation would not end in useful time: is the time column "
+        "in milliseconds or a date? (vfs db validate names the rows)")
+
+
 def precrash_stage(opened: OpenedCases, params: SimulationParams,
                    controller: BrakeController | None = None,
                    rng: np.random.Generator | SegmentedRandom | None = None,
@@ -543,6 +578,7 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
     PrecrashResult
     """
     batch = opened.batch
+    check_record_spacing(batch)
     return simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                              controller=controller, params=params.precrash, rng=rng,
                              penetration=opened.penetration, case_of=case_of,

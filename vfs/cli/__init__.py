@@ -15,7 +15,7 @@ Exit codes (every command; tests/cli/test_exit_codes.py):
 * 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
 * 4: ``vfs study`` finished but some runs failed inside the simulation
   (``vfs.study.faults.EXIT_FAILED_CASES``; ``--allow-failed`` accepts them);
-* 130: interrupted (Ctrl-C); 143: ``vfs study`` terminated by SIGTERM
+* 130: interrupted (Ctrl-C); 143: terminated by SIGTERM (``vfs study`` and ``python -m vfs``)
   (``vfs.study.faults.EXIT_TERMINATED``).
 
 README.md lists the same codes; tests/test_docs_figures.py checks that the two lists agree.
@@ -24,8 +24,11 @@ README.md lists the same codes; tests/test_docs_figures.py checks that the two l
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
 
 from vfs.cli import (
     bench,
@@ -40,7 +43,7 @@ from vfs.cli import (
     study,
     uncertainty,
 )
-from vfs.errors import VfsError
+from vfs.errors import Terminated, VfsError
 
 #: Every command group of the CLI, in the order of ``vfs --help``.
 COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
@@ -102,15 +105,37 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         # input warnings as "warning:" lines; --strict; one BLAS thread (vfs.blas)
-        with input_messages(args), single_threaded_blas():
+        with _terminate_as_interrupt(), input_messages(args), single_threaded_blas():
             return _run(args)
     except VfsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as exc:  # Ctrl-C (in vfs study also SIGTERM) before its handler
+        print("interrupted", file=sys.stderr, flush=True)
+        return int(getattr(exc, "exit_status", 130))  # Terminated: 143
     except OSError as exc:  # a full disk, a read-only folder: one line, not a traceback
         where = f" ({exc.filename})" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises :class:`vfs.errors.Terminated` here (main thread only): the command
+    ends with one line and exit 143, as on Ctrl-C (``vfs study`` handles both itself).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        raise Terminated(f"signal {signum} (SIGTERM)")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -92,6 +92,9 @@ def input_messages(args: argparse.Namespace) -> Iterator[None]:
 
     with warnings.catch_warnings():
         warnings.simplefilter("always", DataWarning)
+        from vfs.errors import quiet_numpy_warnings
+
+        quiet_numpy_warnings()  # users see the clear line, not numpy's RuntimeWarning
         shown = warnings.showwarning
 
         def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,

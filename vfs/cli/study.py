@@ -12,6 +12,7 @@ import argparse
 import dataclasses
 import sys
 import time
+from pathlib import Path
 
 from vfs.cli.common import WHERE_HELP, add_figure_options, add_input_option, out_option
 from vfs.errors import ParameterError, VfsError
@@ -60,7 +61,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         EXIT_TERMINATED,
         Terminated,
         failed_runs,
-        terminate_as_interrupt,
+        stop_on_signals,
     )
 
     out_folder(args, "study", args.db, "+".join(path_label(s) for s in systems))
@@ -70,14 +71,21 @@ def cmd_study(args: argparse.Namespace) -> int:
         seed=args.seed, where=args.where, equip=Equip(args.equip or _default_equip(args.db)),
         resume=args.resume, overwrite=args.overwrite,
         impact_parameters=args.impact_parameters, dashboard=args.dashboard)
-    try:
-        with terminate_as_interrupt():  # SIGTERM stops the study as Ctrl-C does
+    # SIGINT and SIGTERM are handled here, once (the workers ignore them): the study
+    # stops, kills its workers, writes its manifest, and this says how to resume
+    with stop_on_signals():
+        try:
             result = run_study(spec)
-    except KeyboardInterrupt as exc:
-        what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
-        print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
-              f"{args.out}; continue with the same command and --resume", file=sys.stderr)
-        return EXIT_TERMINATED if isinstance(exc, Terminated) else 130
+        except KeyboardInterrupt as exc:
+            what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+            if (Path(args.out) / "study.json").exists():
+                print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
+                      f"{args.out}; continue with the same command and --resume",
+                      file=sys.stderr, flush=True)
+            else:
+                print(f"{what} before the study started; nothing was written to {args.out}",
+                      file=sys.stderr, flush=True)
+            return EXIT_TERMINATED if isinstance(exc, Terminated) else 130
     print(result.summary())
     if result.complete:
         print(f"runs -> {result.path / 'runs.parquet'}")

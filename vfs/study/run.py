@@ -315,12 +315,12 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     else:
         spec = StudySpec.of(db, systems, out, **options)
     system_objs = resolve_systems(list(spec.systems), spec.registry)
-    # with workers, the blocks are validated (and a new study's data hash computed)
-    # while the workers start on the tasks (_Validation); nothing is written before
+    # every input check runs here, before any task is started: a worker never simulates
+    # data that failed validation (a record in milliseconds would run for ever); with
+    # workers only a new study's data hash is computed while they run (_Validation)
     defer = spec.engine != "serial"
     resuming = spec.resume and (spec.out / MANIFEST_FILE).exists()
-    selection = study_input(spec.db, spec.where, validate=not defer,
-                            hash=not defer or resuming)
+    selection = study_input(spec.db, spec.where, validate=True, hash=not defer or resuming)
     ids = selection.case_ids  # never empty (study_input refuses)
     size = spec.chunk_size
     plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
@@ -361,14 +361,15 @@ def _run_locked(plan: _Plan) -> StudyResult:
 
 
 class _Validation:
-    """:func:`validate_selection` and :func:`selection_hash` in a thread of this
-    process, while the workers run.
+    """:func:`selection_hash` of a new parallel study in a thread of this process,
+    while the workers run.
 
-    The client's validation of a Parquet selection reads and checks every case,
-    its hash reads every row (together about 0.4 ms of CPU per case); run before
-    the tasks, they would keep every worker waiting.  :meth:`wait` joins the
-    thread, raises its :class:`DataError`, and puts the hash into the manifest
-    (written again); the chunk writer calls it before the first chunk file.
+    The selection is validated before any task starts (:func:`run_study`: a
+    worker never simulates data that failed a check; a record in milliseconds
+    would run for ever); only the data hash, which reads every row and decides
+    nothing about the run, is left to this thread.  :meth:`wait` joins the
+    thread, raises what it met, and puts the hash into the manifest (written
+    again); the chunk writer calls it before the first chunk file.
     """
 
     def __init__(self, selection: StudyInput, manifest: dict[str, Any], path: Path) -> None:
@@ -414,8 +415,8 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     spec, selection, chunks = plan.spec, plan.selection, plan.chunks
     out_dir = spec.out
     ids = selection.case_ids
+    write_json(out_dir / MANIFEST_FILE, manifest)  # first: a folder with chunks/ is a study
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
-    write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = selection.cases.reset_index(drop=True)
     write_table(out_dir / CASES_FILE, cases_meta,
                 field_metadata(cases_meta.columns, table="cases"))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
@@ -20,7 +21,7 @@ import numpy.typing as npt
 
 from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, SimulationError
 from vfs.physics.impact import (
     CONFIG_IMPACT_FIELDS,
     CONFIG_VEHICLE_FIELDS,
@@ -45,6 +46,7 @@ from vfs.physics.precrash import (
 )
 from vfs.physics.runout import (
     PairRunoutResult,
+    PostImpactInputs,
     RunoutMemo,
     RunoutParams,
     RunoutResult,
@@ -58,6 +60,15 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
     from vfs.database import Database
+
+
+class ImpactParameterSource(StrEnum):
+    """Where restitution and contact friction come from (``--impact-parameters``;
+    :meth:`CaseBatch.from_database`).
+    """
+
+    RECONSTRUCTION = "reconstruction"
+    DEFAULT = "default"
 
 
 @dataclass(frozen=True)
@@ -120,6 +131,10 @@ class CaseBatch(NamedTuple):
         True where a participant is a rigid fixed object (barrier, wall, pole):
         infinite mass and yaw inertia in the impact (:data:`vfs.physics.impact.FIXED_OBJECT_MASS`),
         hence no velocity change and no run-out; None = no fixed objects.
+    post_impact : PostImpactInputs, optional
+        What the reconstruction gives of the run-out (wheel brakes, driver braking, extra
+        drag per wheel, steer angle and its onset; NaN = default); None = nothing, every
+        vehicle runs out with ``RunoutParams``' defaults.
     """
 
     case_id: np.ndarray
@@ -131,6 +146,7 @@ class CaseBatch(NamedTuple):
     contact_friction: np.ndarray
     yaw_inertia_known: np.ndarray | None = None
     fixed_object: np.ndarray | None = None
+    post_impact: PostImpactInputs | None = None
 
     @property
     def size(self) -> int:
@@ -145,7 +161,8 @@ class CaseBatch(NamedTuple):
         return CaseBatch(self.case_id[idx], self.vehicle1.take(idx), self.vehicle2.take(idx),
                          self.paths.take(both), self.road_friction[idx],
                          self.restitution[idx], self.contact_friction[idx], known,
-                         None if self.fixed_object is None else self.fixed_object[idx])
+                         None if self.fixed_object is None else self.fixed_object[idx],
+                         None if self.post_impact is None else self.post_impact.take(idx))
 
     @property
     def inertia_known(self) -> np.ndarray:
@@ -170,12 +187,13 @@ class CaseBatch(NamedTuple):
             database has them (the others use :class:`ImpactParams`);
             ``"default"`` uses :class:`ImpactParams` for every case.
         """
-        if impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={impact_parameters!r}; "
-                                 "use 'reconstruction' or 'default'")
+        if impact_parameters not in set(ImpactParameterSource):
+            raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
+                                 f"{', '.join(ImpactParameterSource)}")
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories
+        from vfs.database.post_impact import post_impact_inputs
 
         ids = np.asarray(db.case_ids if case_ids is None else case_ids)
         sub = db.subset(ids) if case_ids is not None else db
@@ -206,8 +224,9 @@ class CaseBatch(NamedTuple):
                 [ids, np.full(ids.shape[0], k)])).fillna(False).to_numpy(bool)
                 for k in (1, 2)], axis=1)
             fixed = fixed if fixed.any() else None
+        post = post_impact_inputs(rec, ids) if rec is not None and not rec.empty else None
         return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), eps, mu, known,
-                   fixed)
+                   fixed, post if post is not None and post.given else None)
 
 
 class CaseResults(NamedTuple):
@@ -401,7 +420,9 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     result : ImpactResult
         Their solution (with the contact-phase impulses and energy split).
     wheel_brake1, wheel_brake2 : ndarray (M, 4)
-        Brake factors of the wheels FL, FR, RL, RR in the run-out.
+        Brake factors of the wheels FL, FR, RL, RR in the run-out: the cases' post-impact
+        inputs (``batch.post_impact``, where it has them), else ``params.runout``, then
+        the effects' ``post_impact`` hooks.
     """
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
@@ -441,8 +462,13 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
                               vy=result.vy_post + change.dvy,
                               yaw_rate=result.yaw_rate_post + change.dw,
                               energy=np.stack([e1, e2], axis=1))
-    b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
-    b2 = b1.copy()
+    post = getattr(batch, "post_impact", None)  # a CaseBatch may give them; others have none
+    if post is None:
+        b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
+        b2 = b1.copy()
+    else:
+        brake = post.take(hit).wheel_brake(params.runout.wheel_brake)
+        b1, b2 = brake[:, 0].copy(), brake[:, 1].copy()
     for hook in hooks(effects, "post_impact"):
         b1, b2 = hook(ctx, config, result, b1, b2)
     return config, result, b1, b2
@@ -493,6 +519,41 @@ def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
     return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
 
 
+def check_record_spacing(batch: CaseBatch) -> None:
+    """Refuse records whose samples lie further apart on average than a valid database allows.
+
+    The pre-crash run steps every case through its whole record, so the steps a
+    case needs follow from its duration [s]; a time column in milliseconds (or
+    dates read as seconds) makes that a thousand to a billion times longer
+    and the run would not end in any useful time.  A record that passed
+    :func:`vfs.database.validation.validate_database` has sample spacings of at most
+    :data:`vfs.database.schema.MAX_SAMPLE_SPACING` [s], so its duration is at
+    most that times its samples less one: the cap on the steps of each case.
+
+    Raises
+    ------
+    SimulationError
+        Naming the cases, the record's duration [s], its samples and the cap.
+    """
+    from vfs.database.schema import MAX_SAMPLE_SPACING
+
+    paths = batch.paths
+    n = batch.size
+    duration = paths.duration  # from the first sample [s]
+    limit = MAX_SAMPLE_SPACING * np.maximum(paths.count - 1, 0) * (1.0 + 1e-6) + 1e-9
+    bad = np.flatnonzero(~(duration <= limit))  # NaN durations too
+    if bad.size == 0:
+        return
+    row = int(bad[0])
+    ids = sorted({int(batch.case_id[i % n]) for i in bad})
+    shown = ", ".join(map(str, ids[:5])) + (f" and {len(ids) - 5} more" if len(ids) > 5 else "")
+    raise SimulationError(
+        f"case_id {shown}: the record of participant {row // n + 1} lasts {duration[row]:.4g} s "
+        f"over {int(paths.count[row])} samples, more than {MAX_SAMPLE_SPACING:g} s per sample "
+        f"({limit[row]:.4g} s); the simulation would not end in useful time: is the time column "
+        "in milliseconds or a date? (vfs db validate names the rows)")
+
+
 def precrash_stage(opened: OpenedCases, params: SimulationParams,
                    controller: BrakeController | None = None,
                    rng: np.random.Generator | SegmentedRandom | None = None,
@@ -517,6 +578,7 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
     PrecrashResult
     """
     batch = opened.batch
+    check_record_spacing(batch)
     return simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                              controller=controller, params=params.precrash, rng=rng,
                              penetration=opened.penetration, case_of=case_of,
@@ -598,7 +660,9 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                      _with_inertia(batch.vehicle2.take(hit), config.izz[:, 1]),
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
                      secondary_collisions=params.secondary_collisions,
-                     paths=params.runout_paths, memo=runout_memo)
+                     paths=params.runout_paths, memo=runout_memo,
+                     post_impact=None if batch.post_impact is None
+                     else batch.post_impact.take(hit))
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
@@ -618,7 +682,8 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
                  result: ImpactResult, road_friction: np.ndarray, params: RunoutParams,
                  wheel_brake1: np.ndarray, wheel_brake2: np.ndarray,
                  secondary_collisions: bool = True, paths: bool = True,
-                 memo: RunoutMemo | None = None) -> PairRunoutResult:
+                 memo: RunoutMemo | None = None,
+                 post_impact: PostImpactInputs | None = None) -> PairRunoutResult:
     """Run-out to rest of M collisions from the poses at impact and the post-impact velocities.
 
     Parameters
@@ -638,12 +703,16 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         Flag pairs that touch again after separating
         (:func:`vfs.physics.runout.run_out_pair`); False skips that check (the
         rest poses are the same: secondary collisions are detected, not solved),
-        and the result reports none.
+        and the result reports none.  With ``params.contact`` (contacts solved) the pair
+        always runs together; False then only leaves the flags out (and the memo unused).
     paths : bool
         Record the path samples and kinetic energies (default); False (only without
         the secondary-collision check) leaves them empty (:func:`vfs.physics.runout.run_out`).
     memo : RunoutMemo, optional
         Rest results of vehicles run before (only without paths).
+    post_impact : PostImpactInputs, optional
+        The M collisions' extra drag per wheel, steer angles and onsets (their brakes are
+        ``wheel_brake1``, ``wheel_brake2``); None = none.
 
     Returns
     -------
@@ -653,20 +722,47 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     post1, post2 = (RunoutState(st.x[:, j], st.y[:, j], st.yaw[:, j], result.vx_post[:, j],
                                 result.vy_post[:, j], result.yaw_rate_post[:, j])
                     for j in (0, 1))
+    if params.contact and not secondary_collisions:
+        # the vehicles of a pair interact: no memo of single vehicles; the flags left out
+        pair = runout_stage(vehicle1, vehicle2, impact_state, result, road_friction, params,
+                            wheel_brake1, wheel_brake2, post_impact=post_impact)
+        m = pair.rest_x.shape[0]
+        pair = pair._replace(secondary_collision=np.zeros(m, dtype=bool),
+                             secondary_collision_time=np.full(m, np.nan))
+        if paths:
+            return pair
+        k = pair.path.shape[2]
+        return pair._replace(path=pair.path[:, :, :0], path_t=pair.path_t[:0],
+                             kinetic_energy=pair.kinetic_energy[:, :, :0]) if k else pair
     if secondary_collisions:
         if memo is not None or not paths:
             raise ParameterError("a run-out memo or paths=False needs "
                                  "secondary_collisions=False (the check follows the paths)")
+        if post_impact is None:
+            return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
+                                wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
+        drag, steer, onset = (post_impact.wheel_drag(), post_impact.steer(),
+                              post_impact.onset())
         return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
-                            wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
+                            wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2,
+                            wheel_drag1=drag[:, 0], wheel_drag2=drag[:, 1],
+                            steer1=steer[:, 0], steer2=steer[:, 1],
+                            steer_onset1=onset[:, 0], steer_onset2=onset[:, 1])
     m = post1.x.shape[0]
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(vehicle1, vehicle2,
                                                                    strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(post1, post2, strict=True)))
     mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
+    extra = {}
+    if post_impact is not None:
+        drag, steer, onset = (post_impact.wheel_drag(), post_impact.steer(),
+                              post_impact.onset())
+        extra = {"wheel_drag": np.concatenate([drag[:, 0], drag[:, 1]]),
+                 "steer": np.concatenate([steer[:, 0], steer[:, 1]]),
+                 "steer_onset": np.concatenate([onset[:, 0], onset[:, 1]])}
     res = run_out(both, state, np.concatenate([mu, mu]), params,
                   wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]), paths=paths,
-                  memo=memo)
+                  memo=memo, **extra)
     return PairRunoutResult.from_batch(res, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 

@@ -1,7 +1,8 @@
 """Post-crash run-out: vehicles sliding and rolling from the separation to rest.
 
 After the impact each vehicle moves as a planar rigid body with three degrees of freedom (CG
-position x, y and yaw) on four wheels, steering angle 0, until the tyre forces have
+position x, y and yaw) on four wheels, front wheels straight or steered by a given angle
+from a given onset, until the tyre forces have
 dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash movement"): whether a
 vehicle was "rolling or sliding ... has a huge influence on the amount of energy
 dissipated", which is why a time-forward vehicle model replaces an assumed mean
@@ -21,14 +22,20 @@ section 5):
   to their static loads; clipped at >= 0;
 * **locked wheel** (brake factor b = 1, eq. R1): the tyre slides,
   F = -mu N u / |u| with u the contact-point velocity;
-* **rolling wheel** (b < 1): longitudinal F_x = -(b mu + f_r) N sgn(u_x)
-  (braking plus rolling resistance, eq. R2), lateral F_y = -C N alpha with
+* **rolling wheel** (b < 1): longitudinal F_x = -(b mu + f_r + f_d) N sgn(u_x)
+  (braking plus rolling resistance plus the extra drag f_d of a damaged wheel or an
+  engine in gear, default 0, eq. R2), lateral F_y = -C N alpha with
   alpha = atan2(u_y, max(|u_x|, v_alpha)) (linear tyre, eq. R3), the vector
-  scaled down to mu N where it exceeds the friction circle (eq. R4).
+  scaled down to mu N where it exceeds the friction circle (eq. R4);
+* **steered front wheels** (steer angle delta, both wheels alike): the contact-point
+  velocity is taken in the wheel frame, turned by delta, and the force turned back
+  (eq. R5: K = R(delta) D R(delta)^T in place of D).  At low speed a car on steered
+  rolling wheels follows the kinematic circle of radius L / tan(delta).
 
 **Integration.**  Every force law above has the form F = -D u with a diagonal,
-non-negative "secant damping" D(u) per wheel.  For the generalized body-frame
-velocity q = (u, v, r) the tyre forces are -A q with A = sum_i J_i^T D_i J_i,
+non-negative "secant damping" D(u) per wheel (in the wheel frame; R D R^T, still
+symmetric positive semi-definite, in the body frame of a steered wheel).  For the
+generalized body-frame velocity q = (u, v, r) the tyre forces are -A q with A = sum_i J_i^T D_i J_i,
 symmetric positive semi-definite.  One step (:func:`_advance`) freezes A at a
 predicted mid-step velocity and advances the frozen linear system
 M dq/dt = -A q with R(-dt M^-1 A), R the stability function of Alexander's
@@ -49,16 +56,22 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
 from vfs.physics import compiled_runout
-from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
+from vfs.physics.post_impact import PostImpactInputs as PostImpactInputs  # re-exported
+from vfs.physics.post_impact import WheelInputs, check_wheel_inputs
+from vfs.physics.runout_contacts import Contacts, Kick, SecondaryCollisions
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, setting, validate
 from vfs.units import G
+
+#: The pair tracker under its former name (tests reach it here).
+_SecondaryCollisions = SecondaryCollisions
 
 #: Wheel order of every per-wheel array (columns of ``wheel_brake``).
 WHEEL_NAMES = ("FL", "FR", "RL", "RR")
@@ -87,6 +100,12 @@ _COMPACT_SHARE = 0.8
 
 #: Smallest working set [vehicles] worth compacting.
 _COMPACT_MIN = 64
+
+
+def _whole_multiple(interval: float, dt: float) -> bool:
+    """True when ``interval`` is a whole multiple (>= 1) of ``dt`` (to 1e-6 relative)."""
+    ratio = interval / dt
+    return not (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio)
 
 
 @dataclass(frozen=True)
@@ -131,18 +150,53 @@ class RunoutParams:
     path_interval : float
         Time between the recorded path samples [s]; a whole multiple of dt.
         Default 0.05 s.
+    contact : bool
+        Resolve the contact of the two vehicles of a pair (:func:`run_out_pair`): where
+        their outlines overlap and the contact points approach each other, an impulse of
+        the impact model (:func:`vfs.physics.impact.solve_impact`, POI and contact plane
+        of the overlap, restitution ``contact_restitution``, inter-vehicle friction
+        ``ImpactParams().contact_friction``) stops the approach, every step it recurs:
+        a second impact after separating, or the two moving together, hooked, until
+        they separate.  Default False: vehicles pass through each other (secondary
+        collisions are detected, not solved), as the published comparisons of vfs were
+        made.
+    contact_restitution : float
+        Impulse ratio of those contact impulses [-], in [0, 1]; default 0 (plastic:
+        the contact points share their normal velocity afterwards).
     """
 
-    dt: float = 0.005
+    dt: float = setting(0.005, "time", "time step (sets the accuracy only: the step is "
+                        "stable and dissipative for every dt)", lo=0.0, lo_open=True, hi=0.05)
     wheel_brake: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
-    rolling_resistance: float = 0.015
-    cornering_stiffness: float = 10.0
-    load_transfer: bool = False
-    v_stop: float = 0.05
-    max_time: float = 30.0
-    path_interval: float = 0.05
+    rolling_resistance: float = setting(0.015, "ratio", "rolling-resistance coefficient of a "
+                                        "rolling wheel", lo=0.0, hi=0.5)
+    cornering_stiffness: float = setting(10.0, "ratio", "cornering stiffness per unit wheel "
+                                         "load [1/rad]", lo=0.0, lo_open=True, hi=100.0)
+    load_transfer: bool = setting(False, "bool", "shift the wheel loads with the "
+                                  "accelerations of the previous steps")
+    v_stop: float = setting(0.05, "speed", "a vehicle is at rest when its CG speed and "
+                            "|yaw rate| x half diagonal are both below this",
+                            lo=0.0, lo_open=True, hi=1.0)
+    max_time: float = setting(30.0, "time", "longest simulated run-out",
+                              lo=0.0, lo_open=True, hi=3600.0)
+    path_interval: float = setting(0.05, "time", "time between the recorded path samples; "
+                                   "a whole multiple of dt", lo=0.0, lo_open=True, hi=3600.0)
+    contact: bool = setting(False, "bool", "resolve the contact of the two vehicles of a pair "
+                            "(a second impact, or moving on together) instead of passing "
+                            "through")
+    contact_restitution: float = setting(0.0, "ratio", "impulse ratio of the run-out contact "
+                                         "impulses", lo=0.0, hi=1.0)
+
+    #: Rules between the settings.
+    RULES: ClassVar[tuple[Rule, ...]] = (
+        Rule(("path_interval", "dt"), lambda p: _whole_multiple(p.path_interval, p.dt),
+             "path_interval a whole multiple of dt"),
+        Rule(("max_time", "dt"), lambda p: p.max_time >= p.dt, "max_time >= dt"),
+    )
 
     def __post_init__(self) -> None:
+        validate(self)
+
         def check(name: str, value: object, lo: float, hi: float, lo_open: bool) -> float:
             if isinstance(value, (bool, np.bool_)):
                 raise ParameterError(f"{name}={value!r} is not a number")
@@ -156,26 +210,12 @@ class RunoutParams:
                 raise ParameterError(f"{name}={v:g} outside {bracket}{lo:g}, {hi:g}]")
             return v
 
-        dt = check("dt", self.dt, 0.0, 0.05, True)
-        check("rolling_resistance", self.rolling_resistance, 0.0, 0.5, False)
-        check("cornering_stiffness", self.cornering_stiffness, 0.0, 100.0, True)
-        check("v_stop", self.v_stop, 0.0, 1.0, True)
-        max_time = check("max_time", self.max_time, 0.0, 3600.0, True)
-        interval = check("path_interval", self.path_interval, 0.0, 3600.0, True)
         brake = self.wheel_brake
         if isinstance(brake, (str, bytes)) or np.ndim(brake) != 1 or len(brake) != 4:
             raise ParameterError(
                 f"wheel_brake={brake!r} must be 4 brake factors (FL, FR, RL, RR)")
         for name, b in zip(WHEEL_NAMES, brake, strict=True):
             check(f"wheel_brake[{name}]", b, 0.0, 1.0, False)
-        if not isinstance(self.load_transfer, (bool, np.bool_)):
-            raise ParameterError(f"load_transfer={self.load_transfer!r} must be True or False")
-        ratio = interval / dt
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
-            raise ParameterError(
-                f"path_interval={interval:g} s must be a whole multiple of dt={dt:g} s")
-        if max_time < dt:
-            raise ParameterError(f"max_time={max_time:g} s is shorter than dt={dt:g} s")
 
     @property
     def steps_per_sample(self) -> int:
@@ -187,6 +227,7 @@ class RunoutParams:
         """Largest number of time steps: max_time rounded up to whole path intervals."""
         samples = math.ceil(self.max_time / self.path_interval - 1e-9)
         return samples * self.steps_per_sample
+
 
 
 class RunoutState(NamedTuple):
@@ -448,6 +489,8 @@ class _Working(NamedTuple):
     brake_load: np.ndarray  # (4, n) (b mu + f_r) N [N] at static load
     stiff_load: np.ndarray  # (4, n) C N [N/rad] at static load
     limit_load: np.ndarray  # (4, n) mu N [N] at static load
+    steer: np.ndarray  # front-wheel steer angle [rad] once it has set in
+    onset: np.ndarray  # time the steer angle sets in [s]
     scratch: np.ndarray  # (6, 4, n) work buffers of _secant_damping
     # state
     x: np.ndarray  # [m]
@@ -468,12 +511,13 @@ class _Working(NamedTuple):
 
 
 def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
-             brake: np.ndarray, params: RunoutParams) -> _Working:
+             brake: np.ndarray, params: RunoutParams, wheels: WheelInputs) -> _Working:
     n = state.x.shape[0]
     wb = vehicles.wheelbase
     lf, lr = vehicles.cg_to_front_axle, vehicles.cg_to_rear_axle
     static = static_wheel_loads(vehicles).T.copy()
-    coef = (brake * mu[:, None] + params.rolling_resistance).T.copy()
+    # eq. R2 with the extra drag of a damaged wheel (a drag of 0 adds exactly nothing)
+    coef = (brake * mu[:, None] + params.rolling_resistance + wheels.drag).T.copy()
     zeros = np.zeros(n)
     return _Working(
         rows=np.arange(n), mass=vehicles.mass.copy(), inertia=vehicles.yaw_inertia.copy(),
@@ -484,7 +528,7 @@ def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
         radius=vehicles.corner_radius, mu=mu.copy(), brake_coef=coef,
         locked=(brake >= 1.0).T.copy(), static_load=static, brake_load=coef * static,
         stiff_load=params.cornering_stiffness * static, limit_load=mu * static,
-        scratch=np.empty((6, 4, n)),
+        steer=wheels.steer.copy(), onset=wheels.onset.copy(), scratch=np.empty((6, 4, n)),
         x=state.x.copy(), y=state.y.copy(), yaw=state.yaw.copy(),
         vx=state.vx.copy(), vy=state.vy.copy(), r=state.yaw_rate.copy(),
         vx_prev=state.vx.copy(), vy_prev=state.vy.copy(), r_prev=state.yaw_rate.copy(),
@@ -517,25 +561,41 @@ def _wheel_limits(w: _Working, params: RunoutParams) -> tuple[np.ndarray, ...]:
 
 def _secant_damping(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
                     v: np.ndarray, r: np.ndarray, any_locked: bool,
-                    any_rolling: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Longitudinal and lateral secant damping D = |F| / |u| (4, n) [N s/m] of each wheel.
+                    any_rolling: bool,
+                    steer: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudinal and lateral secant damping D = |F| / |u| (4, n) [N s/m] of each wheel,
+    in the wheel's own frame.
 
     (u, v, r) is the body-frame velocity at which the tyre forces are
     evaluated.  With steering angle 0 the wheels of a side share the
     longitudinal contact-point velocity u -+ r track/2 and the wheels of an
-    axle the lateral one, v + r L1 or v - r L2.  Only magnitudes enter: every
-    force opposes its velocity component.  The results live in
-    ``w.scratch``; they are valid until the next call.
+    axle the lateral one, v + r L1 or v - r L2.  ``steer`` = (cos delta, sin delta)
+    of the front wheels' steer angle delta: their contact-point velocity (u_x, u_y) in
+    the body frame is turned into the wheel frame, (c u_x + s u_y, -s u_x + c u_y).
+    Only magnitudes enter: every force opposes its velocity component.  The results live
+    in ``w.scratch``; they are valid until the next call.
     """
     brake_load, stiff_load, limit_load = limits
     a_long, a_lat, d_long, d_lat, t1, t2 = w.scratch
     rh = r * w.half_track
-    np.abs(u - rh, out=a_long[0])
-    np.abs(u + rh, out=a_long[1])
-    a_long[2], a_long[3] = a_long[0], a_long[1]
-    np.abs(v + r * w.lf, out=a_lat[0])
-    np.abs(v - r * w.lr, out=a_lat[2])
-    a_lat[1], a_lat[3] = a_lat[0], a_lat[2]
+    if steer is None:
+        np.abs(u - rh, out=a_long[0])
+        np.abs(u + rh, out=a_long[1])
+        a_long[2], a_long[3] = a_long[0], a_long[1]
+        np.abs(v + r * w.lf, out=a_lat[0])
+        np.abs(v - r * w.lr, out=a_lat[2])
+        a_lat[1], a_lat[3] = a_lat[0], a_lat[2]
+    else:
+        c, s = steer
+        vf = v + r * w.lf
+        for k, ux in ((0, u - rh), (1, u + rh)):
+            np.abs(c * ux + s * vf, out=a_long[k])
+            np.abs(c * vf - s * ux, out=a_lat[k])
+        np.abs(u - rh, out=a_long[2])
+        np.abs(u + rh, out=a_long[3])
+        np.abs(v - r * w.lr, out=a_lat[2])
+        a_lat[3] = a_lat[2]
     if any_rolling:
         # eq. R2: |F_x| = (b mu + f_r) N |u_x| / max(|u_x|, v_eps)
         np.maximum(a_long, SLIP_SPEED_REGULARISATION, out=t1)
@@ -573,10 +633,13 @@ def _secant_damping(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
 
 
 class _Damping(NamedTuple):
-    """Entries of the damping matrix A = sum_i J_i^T D_i J_i (3 x 3, symmetric).
+    """Entries of the damping matrix A = sum_i J_i^T K_i J_i (3 x 3, symmetric).
 
     For q = (u, v, r) a wheel at (a, c) slips with u - r c (longitudinal) and
-    v + r a (lateral), so J_i = [[1, 0, -c], [0, 1, a]] and A_uv = 0.
+    v + r a (lateral), so J_i = [[1, 0, -c], [0, 1, a]].  K_i = R D_i R^T is the
+    wheel's damping D_i = diag(d_long, d_lat) turned by its steer angle (R the rotation
+    by delta); with every steer angle 0, K_i = D_i and A_uv = 0 (``uv`` None).
+    K_i symmetric positive semi-definite keeps A so: the step only dissipates.
     """
 
     uu: np.ndarray  # [N s/m]
@@ -584,6 +647,7 @@ class _Damping(NamedTuple):
     ur: np.ndarray  # [N s]
     vr: np.ndarray  # [N s]
     rr: np.ndarray  # [N m s]
+    uv: np.ndarray | None = None  # [N s/m], None = 0 (no steered wheel)
 
 
 def _damping_matrix(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
@@ -606,6 +670,34 @@ def _damping_matrix(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
         vr=lf * lat_front - lr * lat_rear,
         rr=ht * ht * sum_long + lf * lf * lat_front + lr * lr * lat_rear,
     )
+
+
+def _damping_matrix_steered(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
+                            v: np.ndarray, r: np.ndarray, any_locked: bool,
+                            any_rolling: bool, c: np.ndarray, s: np.ndarray) -> _Damping:
+    """Damping matrix at body-frame velocity (u, v, r) with the front wheels steered by
+    delta (c = cos delta, s = sin delta): K = R diag(d_long, d_lat) R^T on the front wheels.
+    """
+    ht, lf, lr = w.half_track, w.lf, w.lr
+    d_long, d_lat = _secant_damping(w, limits, u, v, r, any_locked, any_rolling, (c, s))
+    uu = d_long[2] + d_long[3]
+    vv = d_lat[2] + d_lat[3]
+    uv = np.zeros_like(uu)
+    ur = -ht * (d_long[2] - d_long[3])
+    vr = -lr * vv
+    rr = ht * ht * uu + lr * lr * vv
+    cc, ss, cs = c * c, s * s, c * s
+    for k, y in ((0, ht), (1, -ht)):  # FL at +track/2, FR at -track/2
+        kxx = d_long[k] * cc + d_lat[k] * ss
+        kyy = d_long[k] * ss + d_lat[k] * cc
+        kxy = (d_long[k] - d_lat[k]) * cs
+        uu = uu + kxx
+        vv = vv + kyy
+        uv = uv + kxy
+        ur = ur - y * kxx + lf * kxy
+        vr = vr - y * kxy + lf * kyy
+        rr = rr + y * y * kxx - 2.0 * lf * y * kxy + lf * lf * kyy
+    return _Damping(uu=uu, vv=vv, ur=ur, vr=vr, rr=rr, uv=uv)
 
 
 class _Solver(NamedTuple):
@@ -635,7 +727,47 @@ class _Solver(NamedTuple):
         return (mu - self.ku * r_new) / self.p, (mv - self.kv * r_new) / self.q, r_new
 
 
-def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
+class _FullSolver(NamedTuple):
+    """M + k A with A_uv != 0 (steered wheels): the symmetric 3 x 3 system solved by its
+    cofactors, x = adj(P) b / det(P), P = M + k A symmetric positive definite.
+    """
+
+    mass: np.ndarray
+    inertia: np.ndarray
+    c11: np.ndarray
+    c12: np.ndarray
+    c13: np.ndarray
+    c22: np.ndarray
+    c23: np.ndarray
+    c33: np.ndarray
+    det: np.ndarray
+
+    @classmethod
+    def factor(cls, mass: np.ndarray, inertia: np.ndarray, a: _Damping,
+               k: float) -> _FullSolver:
+        uv = np.zeros_like(a.uu) if a.uv is None else a.uv
+        p, q, t = mass + k * a.uu, mass + k * a.vv, inertia + k * a.rr
+        w, ku, kv = k * uv, k * a.ur, k * a.vr
+        c11 = q * t - kv * kv
+        c12 = ku * kv - w * t
+        c13 = w * kv - q * ku
+        c22 = p * t - ku * ku
+        c23 = w * ku - p * kv
+        c33 = p * q - w * w
+        det = p * c11 + w * c12 + ku * c13
+        return cls(mass, inertia, c11, c12, c13, c22, c23, c33, det)
+
+    def solve(self, u: np.ndarray, v: np.ndarray,
+              r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Q' = (M + k A)^-1 M q."""
+        bu, bv, br = self.mass * u, self.mass * v, self.inertia * r
+        return ((self.c11 * bu + self.c12 * bv + self.c13 * br) / self.det,
+                (self.c12 * bu + self.c22 * bv + self.c23 * br) / self.det,
+                (self.c13 * bu + self.c23 * bv + self.c33 * br) / self.det)
+
+
+def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
+             steered: bool = False) -> None:
     """Advance the working set by one time step, in place.
 
     1. Predict the mid-step velocity, q_m = (3 q_n - q_{n-1}) / 2 (q_n on the
@@ -649,6 +781,9 @@ def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
 
     Freezing A at the mid-step and the frame at the mid-step heading keeps
     the step second order; the predictor costs no extra force evaluation.
+    ``steered``: some vehicle of the working set has a steer angle; the front wheels
+    are turned (A_uv != 0) by the steer angle times the share of the step [t, t + dt]
+    (t [s]) after the onset (0 before, 1 after it).
     """
     dt = params.dt
     limits = _wheel_limits(w, params)
@@ -664,15 +799,32 @@ def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
     c, s = np.cos(heading), np.sin(heading)
     u0 = c * w.vx + s * w.vy  # body-frame velocity at the start of the step
     v0 = c * w.vy - s * w.vx
-    a = _damping_matrix(w, limits, c * vx_m + s * vy_m, c * vy_m - s * vx_m, r_m,
-                        any_locked, any_rolling)
+    um, vm = c * vx_m + s * vy_m, c * vy_m - s * vx_m
+    k = (1.0 - 2.0 * _GAMMA) * dt
+    a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
     solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
     u1, v1, r1 = solver.solve(u0, v0, w.r)
     u2, v2, r2 = solver.solve(u1, v1, r1)
-    k = (1.0 - 2.0 * _GAMMA) * dt
     u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
     v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
     r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    if steered:
+        # the share of the step after the onset, so that the onset falls between steps
+        # without a first-order error: the turned share of the step's impulse
+        delta = w.steer * np.clip((t + dt - w.onset) / dt, 0.0, 1.0)
+        a = _damping_matrix_steered(w, limits, um, vm, r_m, any_locked, any_rolling,
+                                    np.cos(delta), np.sin(delta))
+        full = _FullSolver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+        u1, v1, r1 = full.solve(u0, v0, w.r)
+        u2, v2, r2 = full.solve(u1, v1, r1)
+        uv = a.uv if a.uv is not None else 0.0
+        # only the steered vehicles take the cofactor solution: a vehicle's run-out never
+        # depends on the others of its batch, to the last bit (the memo relies on it)
+        turned = w.steer != 0.0
+        u_new = np.where(turned, u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass, u_new)
+        v_new = np.where(turned, v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass, v_new)
+        r_new = np.where(turned, r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia,
+                         r_new)
     vx_new = c * u_new - s * v_new
     vy_new = s * u_new + c * v_new
     if params.load_transfer:
@@ -717,24 +869,28 @@ def _compact(w: _Working) -> _Working:
 
 
 #: Called after every step with the time [s], the state of all N vehicles
-#: (read-only views) and the mask of the vehicles that moved during the step.
-StepCallback = Callable[[float, RunoutState, np.ndarray], None]
+#: (read-only views) and the mask of the vehicles that moved during the step; it may
+#: return new velocities of some vehicles (:class:`Kick`), which then move on from them
+#: (a vehicle at rest starts again).
+StepCallback = Callable[[float, RunoutState, np.ndarray], "Kick | None"]
 
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
-              params: RunoutParams, on_step: StepCallback | None = None,
-              record: bool = True) -> RunoutResult:
+              params: RunoutParams, wheels: WheelInputs, on_step: StepCallback | None = None,
+              record: bool = True, compact: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
     Without ``on_step`` the vehicles never interact; on request
     (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
     :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
     reference it is tested against.  ``record``: False leaves the path samples and kinetic
-    energies empty (:func:`run_out`).
+    energies empty (:func:`run_out`).  The compiled kernel has no steered wheels: a batch
+    with a steer angle runs here.
     """
     n = state.x.shape[0]
-    w = _prepare(vehicles, state, mu, brake, params)
-    if on_step is None and n and compiled_runout.runout_enabled():
+    w = _prepare(vehicles, state, mu, brake, params, wheels)
+    steered = wheels.steered
+    if on_step is None and n and not steered and compiled_runout.runout_enabled():
         return _unrecorded(_simulate_compiled(w, params), record)
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
@@ -774,7 +930,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     if params.load_transfer:
         # the accelerations "of the previous steps" at t = 0: those of a trial step
         trial = _Working(*(a.copy() for a in w))
-        _advance(trial, params, True)
+        _advance(trial, params, True, 0.0, steered)
         for a in (w.acc_x, w.acc_x_prev):
             a[:] = trial.acc_x
         for a in (w.acc_y, w.acc_y_prev):
@@ -784,16 +940,28 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     step = 0
     while step < params.max_steps and moving.any():
         size = w.rows.shape[0]
-        if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
+        if (compact and size > _COMPACT_MIN
+                and np.count_nonzero(w.moving) < _COMPACT_SHARE * size):
             w = _compact(w)
         moved = moving.copy() if on_step is not None else moving
-        _advance(w, params, step == 0)
+        _advance(w, params, step == 0, step * params.dt, steered)
         step += 1
         t = step * params.dt
         stop(t)
         if on_step is not None:
             publish()
-            on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            kick = on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            if kick is not None and kick.rows.size:
+                # compaction is off with kicks: the working rows are the batch rows
+                k = kick.rows
+                for a, b, value in ((w.vx, w.vx_prev, kick.vx), (w.vy, w.vy_prev, kick.vy),
+                                    (w.r, w.r_prev, kick.yaw_rate)):
+                    a[k] = value
+                    b[k] = value  # no predictor across the jump
+                w.moving[k] = True
+                moving[k] = True
+                time_to_rest[k] = np.nan
+                vx[k], vy[k], r[k] = kick.vx, kick.vy, kick.yaw_rate
         if step % per_sample == 0:
             sample()
     if step % per_sample != 0:
@@ -839,7 +1007,9 @@ def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
 def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.ArrayLike,
             params: RunoutParams | None = None,
             wheel_brake: npt.ArrayLike | None = None, paths: bool = True,
-            memo: RunoutMemo | None = None) -> RunoutResult:
+            memo: RunoutMemo | None = None, wheel_drag: npt.ArrayLike | None = None,
+            steer: npt.ArrayLike | None = None,
+            steer_onset: npt.ArrayLike | None = None) -> RunoutResult:
     """Simulate the post-crash run-out of N vehicles to rest.
 
     Parameters
@@ -862,6 +1032,16 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     memo : RunoutMemo, optional
         Rest results of vehicles run before (with ``paths`` False): a vehicle whose
         inputs equal those of one in the memo, bit for bit, gets its results.
+    wheel_drag : array_like (4,) or (N, 4), optional
+        Extra rolling drag per wheel (FL, FR, RL, RR) [-] in [0, 1], added to the
+        rolling resistance of a rolling wheel (a damaged wheel, the engine in gear).
+        Default 0.
+    steer : array_like () or (N,), optional
+        Steer angle delta of both front wheels [rad], positive to the left, |delta| <= 60
+        deg.  Default 0.
+    steer_onset : array_like () or (N,), optional
+        Time from the start of the run-out at which ``steer`` sets in [s] (straight
+        wheels before).  Default 0.
 
     Returns
     -------
@@ -886,17 +1066,18 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     vehicles = _check_vehicles(vehicles, n, "vehicles")
     mu = _check_friction(road_friction, n)
     brake = _check_brake(wheel_brake, params, n)
+    wheels = check_wheel_inputs(wheel_drag, steer, steer_onset, n)
     if memo is not None and paths:
         raise ParameterError("a RunoutMemo keeps rest poses only: call run_out with paths=False")
-    table = row_table(*vehicles, *state, mu, brake)
+    table = row_table(*vehicles, *state, mu, brake, *wheels)
     first, inverse = distinct_rows(table) if n > 1 else (np.arange(n), np.arange(n))
     # the vehicles never interact here: each distinct one runs once (a batch of model
     # variants repeats most vehicles), and the copies get its result, bit for bit
     if memo is None:
         if first.size == n:
-            return _simulate(vehicles, state, mu, brake, params, record=paths)
+            return _simulate(vehicles, state, mu, brake, params, wheels, record=paths)
         res = _simulate(vehicles.take(first), RunoutState(*(a[first] for a in state)),
-                        mu[first], brake[first], params, record=paths)
+                        mu[first], brake[first], params, wheels.take(first), record=paths)
         return RunoutResult(*(a if name == "path_t" else a[inverse]
                               for name, a in zip(RunoutResult._fields, res, strict=True)))
     keys = [table[i].tobytes() for i in first]
@@ -905,7 +1086,7 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     if todo.size:
         rows = first[todo]
         res = _simulate(vehicles.take(rows), RunoutState(*(a[rows] for a in state)), mu[rows],
-                        brake[rows], params, record=False)
+                        brake[rows], params, wheels.take(rows), record=False)
         rest[todo] = np.stack([np.asarray(getattr(res, f), float) for f in REST_FIELDS], axis=1)
         memo.store([keys[i] for i in todo], rest[todo])
     out = rest[inverse]
@@ -991,131 +1172,16 @@ def distinct_rows(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first[order], rank[np.asarray(inverse).ravel()]
 
 
-#: A corner of one outline this deep [m] inside the other proves an overlap area
-#: above AREA_TOLERANCE: the overlap then contains a quarter disc of this
-#: radius around the corner, pi (1e-4)^2 / 4 = 7.9e-9 m^2 > 1e-9 m^2.
-_CORNER_DEPTH = 1e-4
-
-
-class _SecondaryCollisions:
-    """Tracks separation and renewed overlap of the pairs (k, k + N) of a 2N batch.
-
-    A pair is tested in three phases: the distance of the CGs against the sum
-    of the corner radii (:func:`vfs.physics.vehicle.corner_radius`); for the near pairs the
-    separating-axis test of the two rectangles (disjoint or touching -> no
-    overlap) and the depth of the deepest corner inside the other outline
-    (deeper than :data:`_CORNER_DEPTH` -> overlap); only the remaining pairs go
-    to :func:`vfs.physics.geometry.overlap`, whose area decides against AREA_TOLERANCE.
-    """
-
-    def __init__(self, vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray,
-                 yaw: np.ndarray) -> None:
-        n = x.shape[0] // 2
-        radius = vehicles.corner_radius
-        self.vehicles = vehicles
-        self.n = n
-        self.radius_sum = radius[:n] + radius[n:]
-        self.half_length = 0.5 * vehicles.length
-        self.half_width = 0.5 * vehicles.width
-        self.centre_offset = vehicles.cg_to_front - self.half_length  # CG -> outline centre
-        self.separated = ~self._overlapping(np.arange(n), x, y, yaw)[0]
-        self.secondary = np.zeros(n, bool)
-        self.time = np.full(n, np.nan)
-        self.next_check = np.zeros(n)  # earliest time a pair can touch [s]
-        self.gyration2 = vehicles.yaw_inertia / vehicles.mass  # I / m [m^2]
-        # outline point speed bound per unit CG speed bound: 1 + R / sqrt(I / m)
-        self.reach = 1.0 + radius / np.sqrt(self.gyration2)
-
-    def _overlapping(self, pairs: np.ndarray, x: np.ndarray, y: np.ndarray,
-                     yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Overlap area > AREA_TOLERANCE for the given pair indices.
-
-        Also returns the depth [m] of the deepest corner where it proved the
-        overlap (0 elsewhere).
-        """
-        result = np.zeros(pairs.shape[0], bool)
-        proof = np.zeros(pairs.shape[0])
-        i, j = pairs, pairs + self.n
-        dx = x[j] - x[i]
-        dy = y[j] - y[i]
-        near = np.flatnonzero(dx * dx + dy * dy < self.radius_sum[pairs] ** 2)
-        if near.size == 0:
-            return result, proof
-        i, j = i[near], j[near]
-        c1, s1, c2, s2 = np.cos(yaw[i]), np.sin(yaw[i]), np.cos(yaw[j]), np.sin(yaw[j])
-        l1, w1 = self.half_length[i], self.half_width[i]
-        l2, w2 = self.half_length[j], self.half_width[j]
-        off1, off2 = self.centre_offset[i], self.centre_offset[j]
-        # outline centre of 2 relative to that of 1, in frame 1 and in frame 2
-        gx = dx[near] + off2 * c2 - off1 * c1
-        gy = dy[near] + off2 * s2 - off1 * s1
-        x12, y12 = c1 * gx + s1 * gy, c1 * gy - s1 * gx
-        x21, y21 = -(c2 * gx + s2 * gy), -(c2 * gy - s2 * gx)
-        cos_rel = c1 * c2 + s1 * s2  # heading of 2 relative to 1
-        sin_rel = c1 * s2 - s1 * c2
-        ac, as_ = np.abs(cos_rel), np.abs(sin_rel)
-        # separating axes: the edge normals of both rectangles
-        sat = (np.abs(x12) < l1 + l2 * ac + w2 * as_) & (np.abs(y12) < w1 + l2 * as_ + w2 * ac)
-        sat &= (np.abs(x21) < l2 + l1 * ac + w1 * as_) & (np.abs(y21) < w2 + l1 * as_ + w1 * ac)
-        depth = np.full(near.size, -np.inf)
-        for sl in (1.0, -1.0):
-            for sw in (1.0, -1.0):
-                # corner of 2 in frame 1 (rotate by +rel) and corner of 1 in frame 2 (by -rel)
-                px = x12 + sl * l2 * cos_rel - sw * w2 * sin_rel
-                py = y12 + sl * l2 * sin_rel + sw * w2 * cos_rel
-                depth = np.maximum(depth, np.minimum(l1 - np.abs(px), w1 - np.abs(py)))
-                px = x21 + sl * l1 * cos_rel + sw * w1 * sin_rel
-                py = y21 - sl * l1 * sin_rel + sw * w1 * cos_rel
-                depth = np.maximum(depth, np.minimum(l2 - np.abs(px), w2 - np.abs(py)))
-        deep = sat & (depth > _CORNER_DEPTH)
-        result[near[deep]] = True
-        proof[near[deep]] = depth[deep]
-        unsure = np.flatnonzero(sat & ~deep)
-        if unsure.size:
-            a, b = i[unsure], j[unsure]
-            v = self.vehicles
-            o1 = vehicle_outline(v.take(a), x[a], y[a], yaw[a])
-            o2 = vehicle_outline(v.take(b), x[b], y[b], yaw[b])
-            result[near[unsure]] = overlap(o1, o2).area > AREA_TOLERANCE
-        return result, proof
-
-    def __call__(self, t: float, state: RunoutState, moved: np.ndarray) -> None:
-        n = self.n
-        check = np.flatnonzero(~self.secondary & (moved[:n] | moved[n:]) & (self.next_check <= t))
-        if check.size == 0:
-            return
-        x, y, yaw = state.x, state.y, state.yaw
-        over, depth = self._overlapping(check, x, y, yaw)
-        # Skip pairs whose state cannot change for a while.  Kinetic energy E never
-        # grows, so |v| <= sqrt(2 E / m) = vmax and |r| <= vmax / sqrt(I / m) for good:
-        # corner circles a gap apart cannot touch before gap / (vmax1 + vmax2), and a
-        # corner at depth d inside the other outline cannot get out (to the proof depth)
-        # before (d - _CORNER_DEPTH) / (vmax1 (1 + R1/g1) + vmax2 (1 + R2/g2)).
-        i, j = check, check + n
-        gap = np.hypot(x[j] - x[i], y[j] - y[i]) - self.radius_sum[check]
-        both = np.concatenate([i, j])
-        vx, vy, r = state.vx[both], state.vy[both], state.yaw_rate[both]
-        vmax = np.sqrt(vx * vx + vy * vy + self.gyration2[both] * r * r)
-        closing = vmax[: i.size] + vmax[i.size:]
-        point = vmax * self.reach[both]
-        escape = point[: i.size] + point[i.size:]
-        was_separated = self.separated[check]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            wait = np.where(gap > 0.0, gap / closing, 0.0)
-            wait = np.where(~was_separated & (depth > _CORNER_DEPTH),
-                            (depth - _CORNER_DEPTH) / escape, wait)
-        self.next_check[check] = t + wait
-        hit = check[was_separated & over]
-        self.secondary[hit] = True
-        self.time[hit] = t
-        self.separated[check[~was_separated & ~over]] = True
-
-
 def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: RunoutState,
                  state2: RunoutState, road_friction: npt.ArrayLike,
                  params: RunoutParams | None = None,
                  wheel_brake1: npt.ArrayLike | None = None,
-                 wheel_brake2: npt.ArrayLike | None = None) -> PairRunoutResult:
+                 wheel_brake2: npt.ArrayLike | None = None,
+                 wheel_drag1: npt.ArrayLike | None = None,
+                 wheel_drag2: npt.ArrayLike | None = None,
+                 steer1: npt.ArrayLike | None = None, steer2: npt.ArrayLike | None = None,
+                 steer_onset1: npt.ArrayLike | None = None,
+                 steer_onset2: npt.ArrayLike | None = None) -> PairRunoutResult:
     """Run out both vehicles of N collisions together and flag secondary collisions.
 
     The 2N vehicles are simulated as one batch.  After the impact the outlines
@@ -1123,8 +1189,10 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     <= :data:`vfs.physics.geometry.AREA_TOLERANCE` the pair counts as separated, and a
     later overlap is a secondary collision (checked after every step: a circle
     broad phase, a separating-axis test, then :func:`vfs.physics.geometry.overlap`).
-    Secondary collisions are detected, not solved: the vehicles pass through
-    each other.
+    Secondary collisions are detected; they are solved only with
+    ``params.contact`` (impulses of the impact model wherever the overlapping outlines
+    approach each other: a second impact, or moving together until they separate),
+    otherwise the vehicles pass through each other.
 
     Parameters
     ----------
@@ -1137,6 +1205,9 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     params : RunoutParams, optional
     wheel_brake1, wheel_brake2 : array_like (4,) or (N, 4), optional
         Brake factors per wheel; default ``params.wheel_brake``.
+    wheel_drag1, wheel_drag2, steer1, steer2, steer_onset1, steer_onset2 : array_like, optional
+        Extra rolling drag per wheel [-], front-wheel steer angle [rad] and its onset [s]
+        of vehicles 1 and 2, as in :func:`run_out`; default 0.
 
     Returns
     -------
@@ -1154,9 +1225,18 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     mu = _check_friction(road_friction, n)
     b1 = _check_brake(wheel_brake1, params, n, "wheel_brake1")
     b2 = _check_brake(wheel_brake2, params, n, "wheel_brake2")
+    w1 = check_wheel_inputs(wheel_drag1, steer1, steer_onset1, n, "1")
+    w2 = check_wheel_inputs(wheel_drag2, steer2, steer_onset2, n, "2")
+    wheels = WheelInputs(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
-    tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
+    if params.contact:
+        contacts = Contacts(both, state.x, state.y, state.yaw, params.contact_restitution)
+        res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]),
+                        params, wheels, on_step=contacts, compact=False)
+        return PairRunoutResult.from_batch(res, contacts.flags.secondary,
+                                           contacts.flags.time)
+    tracker = SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
-                    on_step=tracker)
+                    wheels, on_step=tracker)
     return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

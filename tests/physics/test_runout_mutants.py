@@ -39,7 +39,7 @@ def test_parameter_bounds(field: str, lo: float, hi: float, lo_open: bool) -> No
     inside = lo + 0.01 * (hi - lo) if field != "dt" else 0.005
     assert getattr(RunoutParams(**{field: inside}), field) == inside
     if lo_open:
-        with pytest.raises(ParameterError, match=rf"{field}=0 outside \("):
+        with pytest.raises(ParameterError, match=field):
             RunoutParams(**{field: lo})
     else:
         assert getattr(RunoutParams(**{field: lo}), field) == lo

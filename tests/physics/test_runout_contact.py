@@ -83,7 +83,7 @@ def test_kinetic_energy_never_rises_with_contacts(seed):
 def test_contact_parameters_are_checked():
     with pytest.raises(ParameterError, match="contact_restitution"):
         RunoutParams(contact=True, contact_restitution=1.5)
-    with pytest.raises(ParameterError, match="contact="):
+    with pytest.raises(ParameterError, match="contact"):
         RunoutParams(contact="yes")
 
 

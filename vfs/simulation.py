@@ -45,6 +45,7 @@ from vfs.physics.precrash import (
 )
 from vfs.physics.runout import (
     PairRunoutResult,
+    PostImpactInputs,
     RunoutMemo,
     RunoutParams,
     RunoutResult,
@@ -120,6 +121,10 @@ class CaseBatch(NamedTuple):
         True where a participant is a rigid fixed object (barrier, wall, pole):
         infinite mass and yaw inertia in the impact (:data:`vfs.physics.impact.FIXED_OBJECT_MASS`),
         hence no velocity change and no run-out; None = no fixed objects.
+    post_impact : PostImpactInputs, optional
+        What the reconstruction gives of the run-out (wheel brakes, driver braking, extra
+        drag per wheel, steer angle and its onset; NaN = default); None = nothing, every
+        vehicle runs out with ``RunoutParams``' defaults.
     """
 
     case_id: np.ndarray
@@ -131,6 +136,7 @@ class CaseBatch(NamedTuple):
     contact_friction: np.ndarray
     yaw_inertia_known: np.ndarray | None = None
     fixed_object: np.ndarray | None = None
+    post_impact: PostImpactInputs | None = None
 
     @property
     def size(self) -> int:
@@ -145,7 +151,8 @@ class CaseBatch(NamedTuple):
         return CaseBatch(self.case_id[idx], self.vehicle1.take(idx), self.vehicle2.take(idx),
                          self.paths.take(both), self.road_friction[idx],
                          self.restitution[idx], self.contact_friction[idx], known,
-                         None if self.fixed_object is None else self.fixed_object[idx])
+                         None if self.fixed_object is None else self.fixed_object[idx],
+                         None if self.post_impact is None else self.post_impact.take(idx))
 
     @property
     def inertia_known(self) -> np.ndarray:
@@ -176,6 +183,7 @@ class CaseBatch(NamedTuple):
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories
+        from vfs.database.post_impact import post_impact_inputs
 
         ids = np.asarray(db.case_ids if case_ids is None else case_ids)
         sub = db.subset(ids) if case_ids is not None else db
@@ -206,8 +214,9 @@ class CaseBatch(NamedTuple):
                 [ids, np.full(ids.shape[0], k)])).fillna(False).to_numpy(bool)
                 for k in (1, 2)], axis=1)
             fixed = fixed if fixed.any() else None
+        post = post_impact_inputs(rec, ids) if rec is not None and not rec.empty else None
         return cls(ids, v1, v2, paths, cases["road_friction"].to_numpy(float), eps, mu, known,
-                   fixed)
+                   fixed, post if post is not None and post.given else None)
 
 
 class CaseResults(NamedTuple):
@@ -401,7 +410,9 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
     result : ImpactResult
         Their solution (with the contact-phase impulses and energy split).
     wheel_brake1, wheel_brake2 : ndarray (M, 4)
-        Brake factors of the wheels FL, FR, RL, RR in the run-out.
+        Brake factors of the wheels FL, FR, RL, RR in the run-out: the cases' post-impact
+        inputs (``batch.post_impact``, where it has them), else ``params.runout``, then
+        the effects' ``post_impact`` hooks.
     """
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
@@ -441,8 +452,13 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
                               vy=result.vy_post + change.dvy,
                               yaw_rate=result.yaw_rate_post + change.dw,
                               energy=np.stack([e1, e2], axis=1))
-    b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
-    b2 = b1.copy()
+    post = getattr(batch, "post_impact", None)  # a CaseBatch may give them; others have none
+    if post is None:
+        b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
+        b2 = b1.copy()
+    else:
+        brake = post.take(hit).wheel_brake(params.runout.wheel_brake)
+        b1, b2 = brake[:, 0].copy(), brake[:, 1].copy()
     for hook in hooks(effects, "post_impact"):
         b1, b2 = hook(ctx, config, result, b1, b2)
     return config, result, b1, b2
@@ -598,7 +614,9 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                      _with_inertia(batch.vehicle2.take(hit), config.izz[:, 1]),
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
                      secondary_collisions=params.secondary_collisions,
-                     paths=params.runout_paths, memo=runout_memo)
+                     paths=params.runout_paths, memo=runout_memo,
+                     post_impact=None if batch.post_impact is None
+                     else batch.post_impact.take(hit))
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)
@@ -618,7 +636,8 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
                  result: ImpactResult, road_friction: np.ndarray, params: RunoutParams,
                  wheel_brake1: np.ndarray, wheel_brake2: np.ndarray,
                  secondary_collisions: bool = True, paths: bool = True,
-                 memo: RunoutMemo | None = None) -> PairRunoutResult:
+                 memo: RunoutMemo | None = None,
+                 post_impact: PostImpactInputs | None = None) -> PairRunoutResult:
     """Run-out to rest of M collisions from the poses at impact and the post-impact velocities.
 
     Parameters
@@ -644,6 +663,9 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         the secondary-collision check) leaves them empty (:func:`vfs.physics.runout.run_out`).
     memo : RunoutMemo, optional
         Rest results of vehicles run before (only without paths).
+    post_impact : PostImpactInputs, optional
+        The M collisions' extra drag per wheel, steer angles and onsets (their brakes are
+        ``wheel_brake1``, ``wheel_brake2``); None = none.
 
     Returns
     -------
@@ -657,16 +679,31 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         if memo is not None or not paths:
             raise ParameterError("a run-out memo or paths=False needs "
                                  "secondary_collisions=False (the check follows the paths)")
+        if post_impact is None:
+            return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
+                                wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
+        drag, steer, onset = (post_impact.wheel_drag(), post_impact.steer(),
+                              post_impact.onset())
         return run_out_pair(vehicle1, vehicle2, post1, post2, road_friction, params,
-                            wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2)
+                            wheel_brake1=wheel_brake1, wheel_brake2=wheel_brake2,
+                            wheel_drag1=drag[:, 0], wheel_drag2=drag[:, 1],
+                            steer1=steer[:, 0], steer2=steer[:, 1],
+                            steer_onset1=onset[:, 0], steer_onset2=onset[:, 1])
     m = post1.x.shape[0]
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(vehicle1, vehicle2,
                                                                    strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(post1, post2, strict=True)))
     mu = np.broadcast_to(np.asarray(road_friction, dtype=float), (m,))
+    extra = {}
+    if post_impact is not None:
+        drag, steer, onset = (post_impact.wheel_drag(), post_impact.steer(),
+                              post_impact.onset())
+        extra = {"wheel_drag": np.concatenate([drag[:, 0], drag[:, 1]]),
+                 "steer": np.concatenate([steer[:, 0], steer[:, 1]]),
+                 "steer_onset": np.concatenate([onset[:, 0], onset[:, 1]])}
     res = run_out(both, state, np.concatenate([mu, mu]), params,
                   wheel_brake=np.concatenate([wheel_brake1, wheel_brake2]), paths=paths,
-                  memo=memo)
+                  memo=memo, **extra)
     return PairRunoutResult.from_batch(res, np.zeros(m, dtype=bool), np.full(m, np.nan))
 
 

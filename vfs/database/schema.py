@@ -29,6 +29,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from vfs.errors import ParameterError
+from vfs.physics.runout import MAX_STEER, MAX_STEER_ONSET, MAX_WHEEL_DRAG, WHEEL_NAMES
 from vfs.physics.vehicle import PARAMETER_RANGES
 
 #: The schema version written to and expected in ``meta.json``.
@@ -419,6 +420,57 @@ for _i in (1, 2):
         _rec(f"rest_yaw{_i}", "rad", f"yaw angle of participant {_i} at rest"),
     ]
 
+#: The wheels of the per-wheel post-impact columns, in the order of
+#: :data:`vfs.physics.runout.WHEEL_NAMES` (FL, FR, RL, RR), as column suffixes.
+POST_IMPACT_WHEELS: tuple[str, ...] = tuple(w.lower() for w in WHEEL_NAMES)
+
+
+def _post_impact_columns() -> list[ColumnSpec]:
+    """The optional post-impact inputs of the run-out, per vehicle (``{i}`` = 1, 2).
+
+    Absent columns and NaN values take the defaults of the run-out
+    (:class:`vfs.physics.runout.RunoutParams`, :class:`vfs.physics.runout.PostImpactInputs`).
+    """
+    cols: list[ColumnSpec] = []
+    for i in (1, 2):
+        cols += [
+            ColumnSpec(f"post_brake_{w}{i}", "float", "-",
+                       f"brake factor of the {w.upper()} wheel of participant {i} after the "
+                       "impact: 1 = locked (sliding), b < 1 = rolling, braked with b mu N; "
+                       f"NaN or absent = post_driver_brake{i}", required=False,
+                       nullable=True, lo=0.0, hi=1.0)
+            for w in POST_IMPACT_WHEELS]
+        cols.append(ColumnSpec(
+            f"post_driver_brake{i}", "float", "-",
+            f"driver braking of participant {i} after the crash, as the brake factor of "
+            "every wheel without its own post_brake value (0 = no braking, 1 = locked "
+            "wheels); NaN or absent = the run-out default (RunoutParams.wheel_brake, 0.8)",
+            required=False, nullable=True, lo=0.0, hi=1.0))
+        cols += [
+            ColumnSpec(f"post_drag_{w}{i}", "float", "-",
+                       f"extra rolling drag of the {w.upper()} wheel of participant {i} "
+                       "after the impact, as a coefficient of its wheel load (a wheel "
+                       "rubbing on the deformed body, the engine in gear), added to the "
+                       "rolling resistance; NaN or absent = 0", required=False,
+                       nullable=True, lo=0.0, hi=MAX_WHEEL_DRAG)
+            for w in POST_IMPACT_WHEELS]
+        cols += [
+            ColumnSpec(f"post_steer{i}", "float", "rad",
+                       f"steer angle of both front wheels of participant {i} after the "
+                       "impact, positive = to the left; NaN or absent = 0 (straight)",
+                       required=False, nullable=True, lo=-MAX_STEER,
+                       hi=MAX_STEER, file_unit="deg"),
+            ColumnSpec(f"post_steer_onset{i}", "float", "s",
+                       f"time after the separation at which post_steer{i} sets in (before: "
+                       "straight); NaN or absent = 0", required=False, nullable=True,
+                       lo=0.0, hi=MAX_STEER_ONSET),
+        ]
+    return cols
+
+
+#: The optional post-impact input columns of the reconstruction (:func:`_post_impact_columns`).
+POST_IMPACT_COLUMNS: tuple[ColumnSpec, ...] = tuple(_post_impact_columns())
+
 #: Values of the reconstruction's ``outcome_source`` column.
 OUTCOME_RECONSTRUCTION, OUTCOME_MEASUREMENT = "reconstruction", "measurement"
 #: Reconstruction columns a measurement row may leave NaN ("not measured"): the
@@ -461,6 +513,7 @@ RECONSTRUCTION = TableSpec(
                    "model default)", required=False,
                    allowed=(OUTCOME_RECONSTRUCTION, OUTCOME_MEASUREMENT),
                    default=OUTCOME_RECONSTRUCTION),
+        *POST_IMPACT_COLUMNS,
     ),
 )
 

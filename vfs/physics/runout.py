@@ -1,7 +1,8 @@
 """Post-crash run-out: vehicles sliding and rolling from the separation to rest.
 
 After the impact each vehicle moves as a planar rigid body with three degrees of freedom (CG
-position x, y and yaw) on four wheels, steering angle 0, until the tyre forces have
+position x, y and yaw) on four wheels, front wheels straight or steered by a given angle
+from a given onset, until the tyre forces have
 dissipated its kinetic energy.  The Reconstruction chapter ("Postcrash movement"): whether a
 vehicle was "rolling or sliding ... has a huge influence on the amount of energy
 dissipated", which is why a time-forward vehicle model replaces an assumed mean
@@ -21,14 +22,20 @@ section 5):
   to their static loads; clipped at >= 0;
 * **locked wheel** (brake factor b = 1, eq. R1): the tyre slides,
   F = -mu N u / |u| with u the contact-point velocity;
-* **rolling wheel** (b < 1): longitudinal F_x = -(b mu + f_r) N sgn(u_x)
-  (braking plus rolling resistance, eq. R2), lateral F_y = -C N alpha with
+* **rolling wheel** (b < 1): longitudinal F_x = -(b mu + f_r + f_d) N sgn(u_x)
+  (braking plus rolling resistance plus the extra drag f_d of a damaged wheel or an
+  engine in gear, default 0, eq. R2), lateral F_y = -C N alpha with
   alpha = atan2(u_y, max(|u_x|, v_alpha)) (linear tyre, eq. R3), the vector
-  scaled down to mu N where it exceeds the friction circle (eq. R4).
+  scaled down to mu N where it exceeds the friction circle (eq. R4);
+* **steered front wheels** (steer angle delta, both wheels alike): the contact-point
+  velocity is taken in the wheel frame, turned by delta, and the force turned back
+  (eq. R5: K = R(delta) D R(delta)^T in place of D).  At low speed a car on steered
+  rolling wheels follows the kinematic circle of radius L / tan(delta).
 
 **Integration.**  Every force law above has the form F = -D u with a diagonal,
-non-negative "secant damping" D(u) per wheel.  For the generalized body-frame
-velocity q = (u, v, r) the tyre forces are -A q with A = sum_i J_i^T D_i J_i,
+non-negative "secant damping" D(u) per wheel (in the wheel frame; R D R^T, still
+symmetric positive semi-definite, in the body frame of a steered wheel).  For the
+generalized body-frame velocity q = (u, v, r) the tyre forces are -A q with A = sum_i J_i^T D_i J_i,
 symmetric positive semi-definite.  One step (:func:`_advance`) freezes A at a
 predicted mid-step velocity and advances the frozen linear system
 M dq/dt = -A q with R(-dt M^-1 A), R the stability function of Alexander's
@@ -187,6 +194,121 @@ class RunoutParams:
         """Largest number of time steps: max_time rounded up to whole path intervals."""
         samples = math.ceil(self.max_time / self.path_interval - 1e-9)
         return samples * self.steps_per_sample
+
+
+@dataclass(frozen=True, eq=False)
+class PostImpactInputs:
+    """What a reconstruction knows about the run-out of N cases, per vehicle; NaN = not given.
+
+    The inputs of the reconstruction columns ``post_*`` (``docs/data-format.md``), in SI
+    units, vehicle 1 at index 0 of axis 1.  :meth:`wheel_brake`, :meth:`wheel_drag`,
+    :meth:`steer` and :meth:`steer_onset` resolve NaN to the documented defaults, so a
+    case without any of them runs exactly as before (bit for bit).
+
+    Attributes
+    ----------
+    brake : ndarray (N, 2, 4)
+        Brake factor per wheel (FL, FR, RL, RR) after the impact [-], in [0, 1]:
+        1 locked, b < 1 rolling and braked with b mu N.  NaN: ``driver_brake``.
+    driver_brake : ndarray (N, 2)
+        Driver braking after the crash [-], the brake factor of every wheel without its
+        own value.  NaN: the run-out default ``RunoutParams.wheel_brake``.
+    drag : ndarray (N, 2, 4)
+        Extra rolling drag per wheel [-], a coefficient of the wheel load added to the
+        rolling resistance (a damaged wheel rubbing on the body, the engine in gear).
+        NaN: 0.
+    steer_angle : ndarray (N, 2)
+        Steer angle of both front wheels after the impact [rad], positive to the left.
+        NaN: 0.
+    steer_onset : ndarray (N, 2)
+        Time after the separation at which the steer angle sets in [s] (straight wheels
+        before).  NaN: 0.
+    """
+
+    brake: np.ndarray
+    driver_brake: np.ndarray
+    drag: np.ndarray
+    steer_angle: np.ndarray
+    steer_onset: np.ndarray
+
+    def __post_init__(self) -> None:
+        shapes = {"brake": 3, "driver_brake": 2, "drag": 3, "steer_angle": 2,
+                  "steer_onset": 2}
+        n = np.shape(self.brake)[0] if np.ndim(self.brake) else -1
+        for name, ndim in shapes.items():
+            a = np.array(getattr(self, name), dtype=float)
+            want = (n, 2, 4) if ndim == 3 else (n, 2)
+            if a.shape != want:
+                raise ParameterError(f"PostImpactInputs.{name} has shape {a.shape}, "
+                                     f"expected {want}")
+            lo, hi = _POST_IMPACT_RANGES[name]
+            bad = ~np.isnan(a) & ~((a >= lo) & (a <= hi))
+            if bad.any():
+                at = tuple(int(i[0]) for i in np.nonzero(bad))
+                raise ParameterError(f"PostImpactInputs.{name}{list(at)}={a[at]!r} outside "
+                                     f"[{lo:g}, {hi:g}]")
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+
+    @property
+    def size(self) -> int:
+        """Number of cases N."""
+        return int(self.brake.shape[0])
+
+    @classmethod
+    def unknown(cls, n: int) -> PostImpactInputs:
+        """N cases of which nothing is known (every value NaN: the defaults)."""
+        return cls(np.full((n, 2, 4), np.nan), np.full((n, 2), np.nan),
+                   np.full((n, 2, 4), np.nan), np.full((n, 2), np.nan),
+                   np.full((n, 2), np.nan))
+
+    def take(self, index: npt.ArrayLike) -> PostImpactInputs:
+        """Select cases by index (or mask)."""
+        idx = np.arange(self.size)[index]
+        return PostImpactInputs(self.brake[idx], self.driver_brake[idx], self.drag[idx],
+                                self.steer_angle[idx], self.steer_onset[idx])
+
+    @property
+    def given(self) -> bool:
+        """True if any value is given (not NaN)."""
+        return any(not np.isnan(a).all() for a in (self.brake, self.driver_brake, self.drag,
+                                                    self.steer_angle, self.steer_onset))
+
+    def wheel_brake(self, default: npt.ArrayLike) -> np.ndarray:
+        """Brake factors (N, 2, 4) [-]: a wheel's own value, else the driver braking, else
+        ``default`` (4,) (``RunoutParams.wheel_brake``).
+        """
+        base = np.broadcast_to(np.asarray(default, float), (self.size, 2, 4))
+        driver = np.where(np.isnan(self.driver_brake)[..., None], base,
+                          self.driver_brake[..., None])
+        return np.where(np.isnan(self.brake), driver, self.brake)
+
+    def wheel_drag(self) -> np.ndarray:
+        """Extra rolling drag (N, 2, 4) [-], NaN -> 0."""
+        return np.where(np.isnan(self.drag), 0.0, self.drag)
+
+    def steer(self) -> np.ndarray:
+        """Front-wheel steer angles (N, 2) [rad], NaN -> 0."""
+        return np.where(np.isnan(self.steer_angle), 0.0, self.steer_angle)
+
+    def onset(self) -> np.ndarray:
+        """Steering onsets (N, 2) [s], NaN -> 0."""
+        return np.where(np.isnan(self.steer_onset), 0.0, self.steer_onset)
+
+
+#: Largest front-wheel steer angle of the run-out [rad] (60 deg: beyond the steering lock of a
+#: passenger car, room for a wheel turned by the damage).
+MAX_STEER = math.radians(60.0)
+#: Latest onset of the steering [s] after the separation.
+MAX_STEER_ONSET = 30.0
+#: Largest extra rolling drag of a wheel [-] (a jammed wheel slides: brake factor 1).
+MAX_WHEEL_DRAG = 1.0
+#: Allowed ranges of the :class:`PostImpactInputs` fields (SI), the same as the database
+#: columns' (:mod:`vfs.database.schema` reads the bounds from here).
+_POST_IMPACT_RANGES: dict[str, tuple[float, float]] = {
+    "brake": (0.0, 1.0), "driver_brake": (0.0, 1.0), "drag": (0.0, MAX_WHEEL_DRAG),
+    "steer_angle": (-MAX_STEER, MAX_STEER), "steer_onset": (0.0, MAX_STEER_ONSET),
+}
 
 
 class RunoutState(NamedTuple):
@@ -418,6 +540,44 @@ def _check_brake(wheel_brake: npt.ArrayLike | None, params: RunoutParams, n: int
     return b
 
 
+class _Wheels(NamedTuple):
+    """Per-vehicle wheel inputs of the run-out beyond the brake factors, checked."""
+
+    drag: np.ndarray  # (n, 4) extra rolling drag [-]
+    steer: np.ndarray  # (n,) front-wheel steer angle [rad]
+    onset: np.ndarray  # (n,) time the steer angle sets in [s]
+
+    def take(self, rows: np.ndarray) -> _Wheels:
+        return _Wheels(self.drag[rows], self.steer[rows], self.onset[rows])
+
+    @property
+    def steered(self) -> bool:
+        """True if some vehicle steers."""
+        return bool(np.any(self.steer != 0.0))
+
+
+def _check_wheels(wheel_drag: npt.ArrayLike | None, steer: npt.ArrayLike | None,
+                  steer_onset: npt.ArrayLike | None, n: int, suffix: str = "") -> _Wheels:
+    """Extra drag (4,) or (n, 4), steer angle and onset () or (n,), defaults 0, checked."""
+    out = []
+    for name, raw, shapes, (lo, hi) in (
+            ("wheel_drag", wheel_drag, ((4,), (n, 4)), _POST_IMPACT_RANGES["drag"]),
+            ("steer", steer, ((), (n,)), _POST_IMPACT_RANGES["steer_angle"]),
+            ("steer_onset", steer_onset, ((), (n,)), _POST_IMPACT_RANGES["steer_onset"])):
+        label = name + suffix
+        a = np.asarray(0.0 if raw is None else raw, float)
+        if a.shape not in shapes and raw is not None:
+            raise ParameterError(f"{label} has shape {a.shape}, expected one of "
+                                 f"{', '.join(str(x) for x in shapes)}")
+        a = np.broadcast_to(a, shapes[1]).copy()
+        ok = np.isfinite(a) & (a >= lo) & (a <= hi)
+        if not ok.all():
+            at = tuple(int(i[0]) for i in np.nonzero(~ok))
+            raise ParameterError(f"{label}{list(at)}={a[at]!r} outside [{lo:g}, {hi:g}]")
+        out.append(a)
+    return _Wheels(*out)
+
+
 # ----------------------------------------------------------------------------
 # The integrator
 # ----------------------------------------------------------------------------
@@ -448,6 +608,8 @@ class _Working(NamedTuple):
     brake_load: np.ndarray  # (4, n) (b mu + f_r) N [N] at static load
     stiff_load: np.ndarray  # (4, n) C N [N/rad] at static load
     limit_load: np.ndarray  # (4, n) mu N [N] at static load
+    steer: np.ndarray  # front-wheel steer angle [rad] once it has set in
+    onset: np.ndarray  # time the steer angle sets in [s]
     scratch: np.ndarray  # (6, 4, n) work buffers of _secant_damping
     # state
     x: np.ndarray  # [m]
@@ -468,12 +630,13 @@ class _Working(NamedTuple):
 
 
 def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
-             brake: np.ndarray, params: RunoutParams) -> _Working:
+             brake: np.ndarray, params: RunoutParams, wheels: _Wheels) -> _Working:
     n = state.x.shape[0]
     wb = vehicles.wheelbase
     lf, lr = vehicles.cg_to_front_axle, vehicles.cg_to_rear_axle
     static = static_wheel_loads(vehicles).T.copy()
-    coef = (brake * mu[:, None] + params.rolling_resistance).T.copy()
+    # eq. R2 with the extra drag of a damaged wheel (a drag of 0 adds exactly nothing)
+    coef = (brake * mu[:, None] + params.rolling_resistance + wheels.drag).T.copy()
     zeros = np.zeros(n)
     return _Working(
         rows=np.arange(n), mass=vehicles.mass.copy(), inertia=vehicles.yaw_inertia.copy(),
@@ -484,7 +647,7 @@ def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
         radius=vehicles.corner_radius, mu=mu.copy(), brake_coef=coef,
         locked=(brake >= 1.0).T.copy(), static_load=static, brake_load=coef * static,
         stiff_load=params.cornering_stiffness * static, limit_load=mu * static,
-        scratch=np.empty((6, 4, n)),
+        steer=wheels.steer.copy(), onset=wheels.onset.copy(), scratch=np.empty((6, 4, n)),
         x=state.x.copy(), y=state.y.copy(), yaw=state.yaw.copy(),
         vx=state.vx.copy(), vy=state.vy.copy(), r=state.yaw_rate.copy(),
         vx_prev=state.vx.copy(), vy_prev=state.vy.copy(), r_prev=state.yaw_rate.copy(),
@@ -517,25 +680,41 @@ def _wheel_limits(w: _Working, params: RunoutParams) -> tuple[np.ndarray, ...]:
 
 def _secant_damping(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
                     v: np.ndarray, r: np.ndarray, any_locked: bool,
-                    any_rolling: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Longitudinal and lateral secant damping D = |F| / |u| (4, n) [N s/m] of each wheel.
+                    any_rolling: bool,
+                    steer: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Longitudinal and lateral secant damping D = |F| / |u| (4, n) [N s/m] of each wheel,
+    in the wheel's own frame.
 
     (u, v, r) is the body-frame velocity at which the tyre forces are
     evaluated.  With steering angle 0 the wheels of a side share the
     longitudinal contact-point velocity u -+ r track/2 and the wheels of an
-    axle the lateral one, v + r L1 or v - r L2.  Only magnitudes enter: every
-    force opposes its velocity component.  The results live in
-    ``w.scratch``; they are valid until the next call.
+    axle the lateral one, v + r L1 or v - r L2.  ``steer`` = (cos delta, sin delta)
+    of the front wheels' steer angle delta: their contact-point velocity (u_x, u_y) in
+    the body frame is turned into the wheel frame, (c u_x + s u_y, -s u_x + c u_y).
+    Only magnitudes enter: every force opposes its velocity component.  The results live
+    in ``w.scratch``; they are valid until the next call.
     """
     brake_load, stiff_load, limit_load = limits
     a_long, a_lat, d_long, d_lat, t1, t2 = w.scratch
     rh = r * w.half_track
-    np.abs(u - rh, out=a_long[0])
-    np.abs(u + rh, out=a_long[1])
-    a_long[2], a_long[3] = a_long[0], a_long[1]
-    np.abs(v + r * w.lf, out=a_lat[0])
-    np.abs(v - r * w.lr, out=a_lat[2])
-    a_lat[1], a_lat[3] = a_lat[0], a_lat[2]
+    if steer is None:
+        np.abs(u - rh, out=a_long[0])
+        np.abs(u + rh, out=a_long[1])
+        a_long[2], a_long[3] = a_long[0], a_long[1]
+        np.abs(v + r * w.lf, out=a_lat[0])
+        np.abs(v - r * w.lr, out=a_lat[2])
+        a_lat[1], a_lat[3] = a_lat[0], a_lat[2]
+    else:
+        c, s = steer
+        vf = v + r * w.lf
+        for k, ux in ((0, u - rh), (1, u + rh)):
+            np.abs(c * ux + s * vf, out=a_long[k])
+            np.abs(c * vf - s * ux, out=a_lat[k])
+        np.abs(u - rh, out=a_long[2])
+        np.abs(u + rh, out=a_long[3])
+        np.abs(v - r * w.lr, out=a_lat[2])
+        a_lat[3] = a_lat[2]
     if any_rolling:
         # eq. R2: |F_x| = (b mu + f_r) N |u_x| / max(|u_x|, v_eps)
         np.maximum(a_long, SLIP_SPEED_REGULARISATION, out=t1)
@@ -573,10 +752,13 @@ def _secant_damping(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
 
 
 class _Damping(NamedTuple):
-    """Entries of the damping matrix A = sum_i J_i^T D_i J_i (3 x 3, symmetric).
+    """Entries of the damping matrix A = sum_i J_i^T K_i J_i (3 x 3, symmetric).
 
     For q = (u, v, r) a wheel at (a, c) slips with u - r c (longitudinal) and
-    v + r a (lateral), so J_i = [[1, 0, -c], [0, 1, a]] and A_uv = 0.
+    v + r a (lateral), so J_i = [[1, 0, -c], [0, 1, a]].  K_i = R D_i R^T is the
+    wheel's damping D_i = diag(d_long, d_lat) turned by its steer angle (R the rotation
+    by delta); with every steer angle 0, K_i = D_i and A_uv = 0 (``uv`` None).
+    K_i symmetric positive semi-definite keeps A so: the step only dissipates.
     """
 
     uu: np.ndarray  # [N s/m]
@@ -584,6 +766,7 @@ class _Damping(NamedTuple):
     ur: np.ndarray  # [N s]
     vr: np.ndarray  # [N s]
     rr: np.ndarray  # [N m s]
+    uv: np.ndarray | None = None  # [N s/m], None = 0 (no steered wheel)
 
 
 def _damping_matrix(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
@@ -606,6 +789,34 @@ def _damping_matrix(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
         vr=lf * lat_front - lr * lat_rear,
         rr=ht * ht * sum_long + lf * lf * lat_front + lr * lr * lat_rear,
     )
+
+
+def _damping_matrix_steered(w: _Working, limits: tuple[np.ndarray, ...], u: np.ndarray,
+                            v: np.ndarray, r: np.ndarray, any_locked: bool,
+                            any_rolling: bool, c: np.ndarray, s: np.ndarray) -> _Damping:
+    """Damping matrix at body-frame velocity (u, v, r) with the front wheels steered by
+    delta (c = cos delta, s = sin delta): K = R diag(d_long, d_lat) R^T on the front wheels.
+    """
+    ht, lf, lr = w.half_track, w.lf, w.lr
+    d_long, d_lat = _secant_damping(w, limits, u, v, r, any_locked, any_rolling, (c, s))
+    uu = d_long[2] + d_long[3]
+    vv = d_lat[2] + d_lat[3]
+    uv = np.zeros_like(uu)
+    ur = -ht * (d_long[2] - d_long[3])
+    vr = -lr * vv
+    rr = ht * ht * uu + lr * lr * vv
+    cc, ss, cs = c * c, s * s, c * s
+    for k, y in ((0, ht), (1, -ht)):  # FL at +track/2, FR at -track/2
+        kxx = d_long[k] * cc + d_lat[k] * ss
+        kyy = d_long[k] * ss + d_lat[k] * cc
+        kxy = (d_long[k] - d_lat[k]) * cs
+        uu = uu + kxx
+        vv = vv + kyy
+        uv = uv + kxy
+        ur = ur - y * kxx + lf * kxy
+        vr = vr - y * kxy + lf * kyy
+        rr = rr + y * y * kxx - 2.0 * lf * y * kxy + lf * lf * kyy
+    return _Damping(uu=uu, vv=vv, ur=ur, vr=vr, rr=rr, uv=uv)
 
 
 class _Solver(NamedTuple):
@@ -635,7 +846,47 @@ class _Solver(NamedTuple):
         return (mu - self.ku * r_new) / self.p, (mv - self.kv * r_new) / self.q, r_new
 
 
-def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
+class _FullSolver(NamedTuple):
+    """M + k A with A_uv != 0 (steered wheels): the symmetric 3 x 3 system solved by its
+    cofactors, x = adj(P) b / det(P), P = M + k A symmetric positive definite.
+    """
+
+    mass: np.ndarray
+    inertia: np.ndarray
+    c11: np.ndarray
+    c12: np.ndarray
+    c13: np.ndarray
+    c22: np.ndarray
+    c23: np.ndarray
+    c33: np.ndarray
+    det: np.ndarray
+
+    @classmethod
+    def factor(cls, mass: np.ndarray, inertia: np.ndarray, a: _Damping,
+               k: float) -> _FullSolver:
+        uv = np.zeros_like(a.uu) if a.uv is None else a.uv
+        p, q, t = mass + k * a.uu, mass + k * a.vv, inertia + k * a.rr
+        w, ku, kv = k * uv, k * a.ur, k * a.vr
+        c11 = q * t - kv * kv
+        c12 = ku * kv - w * t
+        c13 = w * kv - q * ku
+        c22 = p * t - ku * ku
+        c23 = w * ku - p * kv
+        c33 = p * q - w * w
+        det = p * c11 + w * c12 + ku * c13
+        return cls(mass, inertia, c11, c12, c13, c22, c23, c33, det)
+
+    def solve(self, u: np.ndarray, v: np.ndarray,
+              r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Q' = (M + k A)^-1 M q."""
+        bu, bv, br = self.mass * u, self.mass * v, self.inertia * r
+        return ((self.c11 * bu + self.c12 * bv + self.c13 * br) / self.det,
+                (self.c12 * bu + self.c22 * bv + self.c23 * br) / self.det,
+                (self.c13 * bu + self.c23 * bv + self.c33 * br) / self.det)
+
+
+def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
+             steered: bool = False) -> None:
     """Advance the working set by one time step, in place.
 
     1. Predict the mid-step velocity, q_m = (3 q_n - q_{n-1}) / 2 (q_n on the
@@ -649,6 +900,9 @@ def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
 
     Freezing A at the mid-step and the frame at the mid-step heading keeps
     the step second order; the predictor costs no extra force evaluation.
+    ``steered``: some vehicle of the working set has a steer angle; the front wheels
+    are turned (A_uv != 0) by the steer angle times the share of the step [t, t + dt]
+    (t [s]) after the onset (0 before, 1 after it).
     """
     dt = params.dt
     limits = _wheel_limits(w, params)
@@ -664,15 +918,29 @@ def _advance(w: _Working, params: RunoutParams, first: bool) -> None:
     c, s = np.cos(heading), np.sin(heading)
     u0 = c * w.vx + s * w.vy  # body-frame velocity at the start of the step
     v0 = c * w.vy - s * w.vx
-    a = _damping_matrix(w, limits, c * vx_m + s * vy_m, c * vy_m - s * vx_m, r_m,
-                        any_locked, any_rolling)
-    solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
-    u1, v1, r1 = solver.solve(u0, v0, w.r)
-    u2, v2, r2 = solver.solve(u1, v1, r1)
+    um, vm = c * vx_m + s * vy_m, c * vy_m - s * vx_m
     k = (1.0 - 2.0 * _GAMMA) * dt
-    u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
-    v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
-    r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    if not steered:
+        a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
+        solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+        u1, v1, r1 = solver.solve(u0, v0, w.r)
+        u2, v2, r2 = solver.solve(u1, v1, r1)
+        u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
+        v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
+        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    else:
+        # the share of the step after the onset, so that the onset falls between steps
+        # without a first-order error: the turned share of the step's impulse
+        delta = w.steer * np.clip((t + dt - w.onset) / dt, 0.0, 1.0)
+        a = _damping_matrix_steered(w, limits, um, vm, r_m, any_locked, any_rolling,
+                                    np.cos(delta), np.sin(delta))
+        full = _FullSolver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+        u1, v1, r1 = full.solve(u0, v0, w.r)
+        u2, v2, r2 = full.solve(u1, v1, r1)
+        uv = a.uv if a.uv is not None else 0.0
+        u_new = u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass
+        v_new = v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass
+        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
     vx_new = c * u_new - s * v_new
     vy_new = s * u_new + c * v_new
     if params.load_transfer:
@@ -722,7 +990,7 @@ StepCallback = Callable[[float, RunoutState, np.ndarray], None]
 
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
-              params: RunoutParams, on_step: StepCallback | None = None,
+              params: RunoutParams, wheels: _Wheels, on_step: StepCallback | None = None,
               record: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
@@ -730,11 +998,13 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
     :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
     reference it is tested against.  ``record``: False leaves the path samples and kinetic
-    energies empty (:func:`run_out`).
+    energies empty (:func:`run_out`).  The compiled kernel has no steered wheels: a batch
+    with a steer angle runs here.
     """
     n = state.x.shape[0]
-    w = _prepare(vehicles, state, mu, brake, params)
-    if on_step is None and n and compiled_runout.runout_enabled():
+    w = _prepare(vehicles, state, mu, brake, params, wheels)
+    steered = wheels.steered
+    if on_step is None and n and not steered and compiled_runout.runout_enabled():
         return _unrecorded(_simulate_compiled(w, params), record)
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
@@ -774,7 +1044,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     if params.load_transfer:
         # the accelerations "of the previous steps" at t = 0: those of a trial step
         trial = _Working(*(a.copy() for a in w))
-        _advance(trial, params, True)
+        _advance(trial, params, True, 0.0, steered)
         for a in (w.acc_x, w.acc_x_prev):
             a[:] = trial.acc_x
         for a in (w.acc_y, w.acc_y_prev):
@@ -787,7 +1057,7 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
             w = _compact(w)
         moved = moving.copy() if on_step is not None else moving
-        _advance(w, params, step == 0)
+        _advance(w, params, step == 0, step * params.dt, steered)
         step += 1
         t = step * params.dt
         stop(t)
@@ -839,7 +1109,9 @@ def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
 def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.ArrayLike,
             params: RunoutParams | None = None,
             wheel_brake: npt.ArrayLike | None = None, paths: bool = True,
-            memo: RunoutMemo | None = None) -> RunoutResult:
+            memo: RunoutMemo | None = None, wheel_drag: npt.ArrayLike | None = None,
+            steer: npt.ArrayLike | None = None,
+            steer_onset: npt.ArrayLike | None = None) -> RunoutResult:
     """Simulate the post-crash run-out of N vehicles to rest.
 
     Parameters
@@ -862,6 +1134,16 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     memo : RunoutMemo, optional
         Rest results of vehicles run before (with ``paths`` False): a vehicle whose
         inputs equal those of one in the memo, bit for bit, gets its results.
+    wheel_drag : array_like (4,) or (N, 4), optional
+        Extra rolling drag per wheel (FL, FR, RL, RR) [-] in [0, 1], added to the
+        rolling resistance of a rolling wheel (a damaged wheel, the engine in gear).
+        Default 0.
+    steer : array_like () or (N,), optional
+        Steer angle delta of both front wheels [rad], positive to the left, |delta| <= 60
+        deg.  Default 0.
+    steer_onset : array_like () or (N,), optional
+        Time from the start of the run-out at which ``steer`` sets in [s] (straight
+        wheels before).  Default 0.
 
     Returns
     -------
@@ -886,17 +1168,18 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     vehicles = _check_vehicles(vehicles, n, "vehicles")
     mu = _check_friction(road_friction, n)
     brake = _check_brake(wheel_brake, params, n)
+    wheels = _check_wheels(wheel_drag, steer, steer_onset, n)
     if memo is not None and paths:
         raise ParameterError("a RunoutMemo keeps rest poses only: call run_out with paths=False")
-    table = row_table(*vehicles, *state, mu, brake)
+    table = row_table(*vehicles, *state, mu, brake, *wheels)
     first, inverse = distinct_rows(table) if n > 1 else (np.arange(n), np.arange(n))
     # the vehicles never interact here: each distinct one runs once (a batch of model
     # variants repeats most vehicles), and the copies get its result, bit for bit
     if memo is None:
         if first.size == n:
-            return _simulate(vehicles, state, mu, brake, params, record=paths)
+            return _simulate(vehicles, state, mu, brake, params, wheels, record=paths)
         res = _simulate(vehicles.take(first), RunoutState(*(a[first] for a in state)),
-                        mu[first], brake[first], params, record=paths)
+                        mu[first], brake[first], params, wheels.take(first), record=paths)
         return RunoutResult(*(a if name == "path_t" else a[inverse]
                               for name, a in zip(RunoutResult._fields, res, strict=True)))
     keys = [table[i].tobytes() for i in first]
@@ -905,7 +1188,7 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     if todo.size:
         rows = first[todo]
         res = _simulate(vehicles.take(rows), RunoutState(*(a[rows] for a in state)), mu[rows],
-                        brake[rows], params, record=False)
+                        brake[rows], params, wheels.take(rows), record=False)
         rest[todo] = np.stack([np.asarray(getattr(res, f), float) for f in REST_FIELDS], axis=1)
         memo.store([keys[i] for i in todo], rest[todo])
     out = rest[inverse]
@@ -1115,7 +1398,12 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
                  state2: RunoutState, road_friction: npt.ArrayLike,
                  params: RunoutParams | None = None,
                  wheel_brake1: npt.ArrayLike | None = None,
-                 wheel_brake2: npt.ArrayLike | None = None) -> PairRunoutResult:
+                 wheel_brake2: npt.ArrayLike | None = None,
+                 wheel_drag1: npt.ArrayLike | None = None,
+                 wheel_drag2: npt.ArrayLike | None = None,
+                 steer1: npt.ArrayLike | None = None, steer2: npt.ArrayLike | None = None,
+                 steer_onset1: npt.ArrayLike | None = None,
+                 steer_onset2: npt.ArrayLike | None = None) -> PairRunoutResult:
     """Run out both vehicles of N collisions together and flag secondary collisions.
 
     The 2N vehicles are simulated as one batch.  After the impact the outlines
@@ -1137,6 +1425,9 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     params : RunoutParams, optional
     wheel_brake1, wheel_brake2 : array_like (4,) or (N, 4), optional
         Brake factors per wheel; default ``params.wheel_brake``.
+    wheel_drag1, wheel_drag2, steer1, steer2, steer_onset1, steer_onset2 : array_like, optional
+        Extra rolling drag per wheel [-], front-wheel steer angle [rad] and its onset [s]
+        of vehicles 1 and 2, as in :func:`run_out`; default 0.
 
     Returns
     -------
@@ -1154,9 +1445,12 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     mu = _check_friction(road_friction, n)
     b1 = _check_brake(wheel_brake1, params, n, "wheel_brake1")
     b2 = _check_brake(wheel_brake2, params, n, "wheel_brake2")
+    w1 = _check_wheels(wheel_drag1, steer1, steer_onset1, n, "1")
+    w2 = _check_wheels(wheel_drag2, steer2, steer_onset2, n, "2")
+    wheels = _Wheels(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
     tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
-                    on_step=tracker)
+                    wheels, on_step=tracker)
     return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

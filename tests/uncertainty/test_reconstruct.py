@@ -238,9 +238,10 @@ def test_cli_writes_feasible_set_and_report(clean, tmp_path, capsys):
 def test_inverse_mode_recovers_the_wheel_brake_factors_of_the_run_out():
     """Closed loop (issue 36, item 4): clean generated cases whose run-outs braked each car
     at its own factor (vehicle 1: 0.1 + 0.02 s/m v, vehicle 2: 0.95 - 0.02 s/m v with the
-    closing speed v, i.e. about 0.2-0.8 and 0.85-0.25), reconstructed from the rest positions and headings with a prior over the whole
-    range (free rolling 0 to locked 1): the feasible band of each car's factor covers the
-    truth, and it is informative (narrower than the prior)."""
+    closing speed v, i.e. about 0.2-0.8 and 0.85-0.25), reconstructed from the rest
+    positions and headings with a prior over the whole range (free rolling 0 to locked 1):
+    the feasible band of each car's factor covers the truth, and it is informative (narrower
+    than the prior)."""
     from vfs.effects.learned import law_effect_class
 
     def law(channel, a, b):

@@ -1,7 +1,7 @@
 """Each built-in effect hidden alone: the library effect's reduction against the learned laws'.
 
 Generates a 300-case database (seed 21, default noise) per built-in effect, runs
-``vfs.analysis.diagnose.diagnose`` with every library candidate and every channel
+``vfs.diagnosis.diagnose.diagnose`` with every library candidate and every channel
 identified (``laws="all"``), and prints one JSON line per effect: the hidden effect's rank
 and CV reduction, every learned law with its status (claimed / not confirmed / not
 significant) and outcome CV reduction, the verdict and the CPU time [s].  The table of
@@ -18,7 +18,7 @@ import json
 import sys
 import time
 
-from vfs.analysis.diagnose import diagnose
+from vfs.diagnosis.diagnose import diagnose
 from vfs.effects.library import BUILTIN_EFFECTS
 from vfs.scenarios.generator import generate_database
 

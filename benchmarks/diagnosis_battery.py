@@ -5,11 +5,11 @@ them, or a null database with nothing hidden) a database is generated with
 the law(s) hidden (``generate_database(..., hidden=[effect])``, default noise,
 its own seed), and
 
-1. ``vfs.analysis.diagnose.diagnose`` runs blind on it (every library effect,
+1. ``vfs.diagnosis.diagnose.diagnose`` runs blind on it (every library effect,
    every channel identified and learned), timed;
 2. the truth's own cross-validated reduction: the hidden effect(s) refitted
    per fold (their strength) on the same folds
-   (:func:`vfs.analysis.calibrate.cross_validate`);
+   (:func:`vfs.diagnosis.calibrate.cross_validate`);
 3. the claimed answer's reduction the same way: the claimed library effects
    and laws, refitted per fold together;
 4. the judgement, by code: the first sentence of the verdict is *right* when
@@ -121,7 +121,7 @@ def entries(part: str = "main") -> list[dict[str, Any]]:
 
 def diagnose_options(quick: bool) -> dict[str, Any]:
     """Keyword arguments of the blind diagnosis (those its signature accepts)."""
-    from vfs.analysis.diagnose import diagnose
+    from vfs.diagnosis.diagnose import diagnose
 
     opts: dict[str, Any] = {"laws": "all", "worst": 0}
     if quick:
@@ -130,7 +130,7 @@ def diagnose_options(quick: bool) -> dict[str, Any]:
     try:  # the settings of the spec (diagnose(db, spec=None, **settings))
         import dataclasses
 
-        from vfs.analysis.diagnose_spec import DiagnoseSpec
+        from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 
         accepted |= {f.name for f in dataclasses.fields(DiagnoseSpec)}
     except ImportError:
@@ -192,7 +192,7 @@ def leading_claim(claims: Sequence[Mapping[str, Any]], sentence: str) -> int | N
 
 def _cv_reduction(sim: Any, effects: Sequence[Any], folds: Sequence[np.ndarray],
                   base: np.ndarray) -> float:
-    from vfs.analysis.calibrate import FitSpace, cross_validate, rmse_reduction
+    from vfs.diagnosis.calibrate import FitSpace, cross_validate, rmse_reduction
 
     if not effects:
         return 0.0
@@ -218,8 +218,8 @@ def claimed_effects(claims: Iterable[Mapping[str, Any]]) -> list[Any]:
 
 def run_entry(entry: Mapping[str, Any], cases: int, quick: bool) -> dict[str, Any]:
     """Generate, diagnose and judge one battery entry; a JSON-ready record."""
-    from vfs.analysis.calibrate import CalibrationData, VariantSimulator, kfold_indices
-    from vfs.analysis.diagnose import diagnose, summary_dict
+    from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator, kfold_indices
+    from vfs.diagnosis.diagnose import diagnose, summary_dict
     from vfs.errors import ParameterError
     from vfs.scenarios.generator import generate_database
 

@@ -32,8 +32,8 @@ import math
 import time
 from pathlib import Path
 
-from vfs.analysis import identify as ident
-from vfs.analysis.calibrate import CalibrationData
+from vfs.diagnosis import identify as ident
+from vfs.diagnosis.calibrate import CalibrationData
 from vfs.effects.learned import law_effect_class
 from vfs.scenarios.generator import generate_database
 

@@ -38,7 +38,7 @@ def _modules_after_import(statement: str) -> set[str]:
 def test_core_imports_are_light(statement: str) -> None:
     loaded = _modules_after_import(statement)
     heavy = {"pandas", "matplotlib", "duckdb", "pyarrow", "dask", "scipy.stats", "vfs.cli",
-             "vfs.report", "vfs.analysis", "vfs.scenarios"}
+             "vfs.report", "vfs.analysis", "vfs.diagnosis", "vfs.scenarios"}
     assert not heavy & loaded, f"{statement} imports {sorted(heavy & loaded)}"
 
 

@@ -54,8 +54,8 @@ def broken_references(source: str) -> list[str]:
 
 
 def test_the_check_catches_a_reference_to_a_missing_name() -> None:
-    source = '"""See :func:`vfs.analysis.diagnose.write_report` and :class:`vfs.no_such`."""\n'
-    assert broken_references(source) == ["vfs.analysis.diagnose.write_report", "vfs.no_such"]
+    source = '"""See :func:`vfs.diagnosis.diagnose.write_report` and :class:`vfs.no_such`."""\n'
+    assert broken_references(source) == ["vfs.diagnosis.diagnose.write_report", "vfs.no_such"]
     good = '"""See :func:`vfs.report.diagnose.write_diagnosis_report`."""\n'
     assert broken_references(good) == []
 

@@ -1,4 +1,4 @@
-"""The one model selection of the diagnosis (vfs.analysis.selection) on synthetic reductions.
+"""The one model selection of the diagnosis (vfs.diagnosis.selection) on synthetic reductions.
 
 A :class:`TableEvaluator` model: error components with known squared errors; each candidate
 explains a share of some components, a model the largest share any of its candidates has.
@@ -7,8 +7,8 @@ The reductions follow from that exactly, so each expected claim is derived, not 
 
 from __future__ import annotations
 
-from vfs.analysis.claims import Reduction
-from vfs.analysis.selection import TableEvaluator, select
+from vfs.diagnosis.claims import Reduction
+from vfs.diagnosis.selection import TableEvaluator, select
 
 
 def test_proxy_claimed_first_is_dropped_after_the_true_ones_join():

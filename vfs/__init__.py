@@ -53,12 +53,15 @@ _LAZY: dict[str, str] = {
     "results_table": "vfs.simulation",
     # systems and studies
     "get_system": "vfs.adas",
+    "StudySpec": "vfs.study",
     "run_study": "vfs.study",
     "load_study": "vfs.study",
     # analysis
     "effectiveness": "vfs.analysis.effectiveness",
     "compare_database": "vfs.analysis.compare",
-    "diagnose": "vfs.analysis.diagnose",
+    # diagnosis
+    "DiagnoseSpec": "vfs.diagnosis.diagnose_spec",
+    "diagnose": "vfs.diagnosis.diagnose",
     # outcomes
     "OUTCOMES": "vfs.outcomes",
 }
@@ -80,14 +83,15 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from vfs.adas import get_system
     from vfs.analysis.compare import compare_database
-    from vfs.analysis.diagnose import diagnose
     from vfs.analysis.effectiveness import effectiveness
     from vfs.database import Database, open_database
+    from vfs.diagnosis.diagnose import diagnose
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
     from vfs.outcomes import OUTCOMES
     from vfs.physics.impact import ImpactConfig, ImpactParams, solve_impact
     from vfs.physics.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_arrays
     from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
-    from vfs.study import load_study, run_study
+    from vfs.study import StudySpec, load_study, run_study
 
 
 def _register_gym_envs() -> None:
@@ -104,12 +108,14 @@ __all__ = [
     "ClusterError",
     "DataError",
     "Database",
+    "DiagnoseSpec",
     "GeometryError",
     "ImpactConfig",
     "ImpactParams",
     "ParameterError",
     "SimulationError",
     "SimulationParams",
+    "StudySpec",
     "TargetExistsError",
     "VehicleArrays",
     "VehicleParams",

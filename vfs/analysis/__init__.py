@@ -1,3 +1,4 @@
 """Analysis of simulated cases: statistics, injury risk, effectiveness, comparison with
-reconstructions, calibration, diagnosis of missing effects and the error ledger.
+reconstructions and the Euro NCAP scoring (the diagnosis of missing effects is
+:mod:`vfs.diagnosis`).
 """

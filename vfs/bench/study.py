@@ -8,7 +8,7 @@ as a user does, on a generated database written to a temporary folder:
   case loading, chunk files, ``runs.parquet`` and the manifest included),
   then the same study resumed after its last half of chunk files was
   deleted (the resume path: manifest check, chunks on disk kept);
-* ``diagnose``: :func:`vfs.analysis.diagnose.diagnose` on the generated
+* ``diagnose``: :func:`vfs.diagnosis.diagnose.diagnose` on the generated
   cases (in this process; the one call sits in :func:`run_diagnose`).
 
 Figures are case-runs per second (a case run = one case simulated with one
@@ -122,11 +122,11 @@ def _cases_in(out: Path, n_chunks: int, n_redo: int, n_cases: int) -> int:
 
 
 def run_diagnose(db: Any, quick: bool) -> Any:
-    """The diagnosis the benchmark times (:func:`vfs.analysis.diagnose.diagnose`).
+    """The diagnosis the benchmark times (:func:`vfs.diagnosis.diagnose.diagnose`).
 
     ``quick`` uses the settings of ``vfs diagnose --quick`` and no law search.
     """
-    from vfs.analysis.diagnose import diagnose
+    from vfs.diagnosis.diagnose import diagnose
 
     if quick:
         return diagnose(db, folds=3, grid_points=5, zoom_rounds=2, n_boot=500, laws=None)

@@ -118,7 +118,7 @@ def say(msg: str) -> None:
 
 
 def _register_laws(path: Path) -> list[str]:
-    from vfs.analysis.learn import read_laws
+    from vfs.diagnosis.learn import read_laws
     from vfs.effects import register_effect, registered_effects
     from vfs.effects.learned import law_effect_class
 

@@ -1,4 +1,4 @@
-"""``vfs diagnose``, ``vfs calibrate`` and ``vfs ledger`` (see :mod:`vfs.analysis.diagnose`,
+"""``vfs diagnose``, ``vfs calibrate`` and ``vfs ledger`` (see :mod:`vfs.diagnosis.diagnose`,
 :mod:`vfs.report.diagnose`).
 """
 
@@ -9,7 +9,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from vfs.analysis.diagnose_spec import Correction, Parameters
 from vfs.cli.common import (
     add_figure_options,
     add_input_option,
@@ -17,12 +16,13 @@ from vfs.cli.common import (
     out_folder,
     out_option,
 )
+from vfs.diagnosis.diagnose_spec import Correction, Parameters
 from vfs.errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from vfs.analysis.diagnose import Diagnosis
-    from vfs.analysis.diagnose_spec import DiagnoseSpec
     from vfs.database import Database
+    from vfs.diagnosis.diagnose import Diagnosis
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 
 #: Settings of ``--quick`` (small grids, 3 folds, fewer bootstrap samples).
 QUICK = {"folds": 3, "grid": 5, "zoom": 2, "n_boot": 500}
@@ -45,8 +45,8 @@ def _settings(args: argparse.Namespace) -> dict[str, int]:
 
 
 def diagnose_spec(args: argparse.Namespace, database: str = "") -> DiagnoseSpec:
-    """The :class:`vfs.analysis.diagnose_spec.DiagnoseSpec` of the flags of ``vfs diagnose``."""
-    from vfs.analysis.diagnose_spec import MAX_STEPS, DiagnoseSpec
+    """The :class:`vfs.diagnosis.diagnose_spec.DiagnoseSpec` of the flags of ``vfs diagnose``."""
+    from vfs.diagnosis.diagnose_spec import MAX_STEPS, DiagnoseSpec
 
     s = _settings(args)
     steps = args.max_steps if args.max_steps is not None else (
@@ -104,8 +104,8 @@ def format_selection(diag: Diagnosis) -> str:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run the diagnosis, write the reports and append the ledger."""
-    from vfs.analysis.diagnose import diagnose
-    from vfs.analysis.ledger import append_records, make_record
+    from vfs.diagnosis.diagnose import diagnose
+    from vfs.diagnosis.ledger import append_records, make_record
     from vfs.report.diagnose import write_diagnosis_report
 
     load_plugins(args.plugin)
@@ -138,9 +138,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Fit the chosen effects jointly, write the model configuration, append the ledger."""
-    from vfs.analysis.calibrate import CalibrationData, calibrate, write_model_config
-    from vfs.analysis.diagnose import resolve_candidates
-    from vfs.analysis.ledger import append_records, make_record
+    from vfs.diagnosis.calibrate import CalibrationData, calibrate, write_model_config
+    from vfs.diagnosis.diagnose import resolve_candidates
+    from vfs.diagnosis.ledger import append_records, make_record
     from vfs.effects import parse_effect
 
     load_plugins(args.plugin)
@@ -191,7 +191,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def cmd_ledger(args: argparse.Namespace) -> int:
     """Show the ledger table, the error chain and write the waterfall figure."""
-    from vfs.analysis.ledger import (
+    from vfs.diagnosis.ledger import (
         chain_table,
         format_chain,
         ledger_chain,
@@ -280,7 +280,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "one selection with the library effects")
     p.add_argument("--max-steps", dest="max_steps", type=int, default=None,
                    help="most claims of the selection (default "
-                   "vfs.analysis.diagnose_spec.MAX_STEPS)")
+                   "vfs.diagnosis.diagnose_spec.MAX_STEPS)")
     p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
                    help=argparse.SUPPRESS)
     p.add_argument("--quiet", action="store_true",

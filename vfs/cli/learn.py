@@ -1,5 +1,5 @@
-"""``vfs identify`` and ``vfs learn`` (see :mod:`vfs.analysis.identify`,
-:mod:`vfs.analysis.learn`).
+"""``vfs identify`` and ``vfs learn`` (see :mod:`vfs.diagnosis.identify`,
+:mod:`vfs.diagnosis.learn`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from vfs.errors import ParameterError
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify the channels per case and write identified.parquet/.csv."""
-    from vfs.analysis.calibrate import CalibrationData
-    from vfs.analysis.identify import identification_features, identify, write_identification
     from vfs.database import open_database, resolve_database_path
+    from vfs.diagnosis.calibrate import CalibrationData
+    from vfs.diagnosis.identify import identification_features, identify, write_identification
 
     out_folder(args, "identify", args.db)
     db = open_database(args.db)
@@ -54,8 +54,8 @@ def _read_identified(folder: str) -> object:
 
 def cmd_learn(args: argparse.Namespace) -> int:
     """Learn the laws of the identified channels; write law.json and/or a plugin."""
-    from vfs.analysis.learn import LEARN_SCOPE, laws_document, learn, plugin_source, read_laws
     from vfs.atomic import write_json, write_text
+    from vfs.diagnosis.learn import LEARN_SCOPE, laws_document, learn, plugin_source, read_laws
 
     laws = None
     if args.identified:

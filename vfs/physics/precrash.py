@@ -268,7 +268,7 @@ def simulate_precrash(
         first contact, so a row started at any step before its contact reaches the
         same contact and impact, bit for bit; its closest approach before contact is
         then only that after its start.  The model-variant searches
-        (:class:`vfs.analysis.variants.VariantSimulator`) start variants that change
+        (:class:`vfs.diagnosis.variants.VariantSimulator`) start variants that change
         only the penetration time a few steps before the contact of the base run.
 
     Returns

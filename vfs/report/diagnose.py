@@ -1,8 +1,8 @@
 """Report of ``vfs diagnose``: tables, JSON summary, Markdown / HTML and figures.
 
-:func:`write_diagnosis_report` writes what :func:`vfs.analysis.diagnose.diagnose`
+:func:`write_diagnosis_report` writes what :func:`vfs.diagnosis.diagnose.diagnose`
 found into a folder: the ranked candidates and the residual tables (CSV), the
-JSON summary (:func:`vfs.analysis.diagnose.summary_dict`), ``report.md`` and
+JSON summary (:func:`vfs.diagnosis.diagnose.summary_dict`), ``report.md`` and
 ``report.html`` (:mod:`vfs.report.render`) and the figures (ranking, reduction
 per output, residuals by impact type, top views of the worst cases), every
 file atomically.  matplotlib is imported lazily (:mod:`vfs.report.figures`).
@@ -18,10 +18,10 @@ import numpy as np
 import pandas as pd
 
 from vfs.accident_types import accident_type_label
-from vfs.analysis.claims import LawFinding
-from vfs.analysis.diagnose import Diagnosis, claim_label, summary_dict
-from vfs.analysis.selection import step_label
 from vfs.atomic import write_json, write_table
+from vfs.diagnosis.claims import LawFinding
+from vfs.diagnosis.diagnose import Diagnosis, claim_label, summary_dict
+from vfs.diagnosis.selection import step_label
 from vfs.report.figures import (
     new_figure,
     plot_case_topview,
@@ -211,7 +211,7 @@ def _plot_steps(steps: pd.DataFrame, path: Path) -> Path:
 
 def _plot_law(diag: Diagnosis, finding: LawFinding, path: Path) -> Path:
     """Identified values of a channel over the law's feature, the law and the spline band."""
-    from vfs.analysis.learn import law_rows
+    from vfs.diagnosis.learn import law_rows
     from vfs.effects.learned import evaluate_law
 
     law = finding.learned.law

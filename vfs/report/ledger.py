@@ -1,4 +1,4 @@
-"""The waterfall figure of the error ledger (:mod:`vfs.analysis.ledger`)."""
+"""The waterfall figure of the error ledger (:mod:`vfs.diagnosis.ledger`)."""
 
 from __future__ import annotations
 

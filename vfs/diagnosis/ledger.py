@@ -48,7 +48,7 @@ def ledger_path(folder: str | Path) -> Path:
 
 def make_record(cv: Any, data: Any, kind: str, source: str, folds: int, seed: int,
                 database: str = "", note: str = "") -> dict[str, Any]:
-    """A ledger record of a cross-validated model (:class:`vfs.analysis.calibrate.CVResult`)."""
+    """A ledger record of a cross-validated model (:class:`vfs.diagnosis.calibrate.CVResult`)."""
     rmse = cv.rmse().tolist()
     return {
         "date": datetime.now(UTC).isoformat(timespec="seconds"),

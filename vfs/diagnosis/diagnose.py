@@ -14,17 +14,17 @@ database (never with a ground-truth file):
 2. **Which effect is missing.**  Every candidate effect (registered effects
    by default) has its parameters fitted on the training folds and is scored
    on the held-out fold (k-fold cross-validation by case, seeded;
-   :func:`vfs.analysis.calibrate.cross_validate`); the reduction of the CV RMSE of the
+   :func:`vfs.diagnosis.calibrate.cross_validate`); the reduction of the CV RMSE of the
    standardised residuals, overall, over the effect's own outputs and per
    output, gets a bootstrap CI over cases (simultaneous over all candidates, Bonferroni).
    With ``parameters="primary"`` the parameters that are not fitted sit at their neutral
    values or at their nominal strengths, whichever fits each fold's training cases better
-   (:meth:`vfs.analysis.calibrate.FitSpace.alternatives`).
+   (:meth:`vfs.diagnosis.calibrate.FitSpace.alternatives`).
 3. **Beyond the library** (``laws``).  Each channel is identified per case
-   (:mod:`vfs.analysis.identify`) and its law learned (:mod:`vfs.analysis.learn`); every
+   (:mod:`vfs.diagnosis.identify`) and its law learned (:mod:`vfs.diagnosis.learn`); every
    law with structure is cross-validated as an effect in outcome space.
 4. **One selection** over the library effects and the learned laws
-   (:func:`vfs.analysis.selection.select` with :class:`vfs.analysis.claims.ModelEvaluator`):
+   (:func:`vfs.diagnosis.selection.select` with :class:`vfs.diagnosis.claims.ModelEvaluator`):
    forward stepwise on top of the claims (laws learned again from their channels
    re-identified with the claims applied), each claim under :func:`helps` on top and
    refitted together, with backward checks after each addition; the rejected candidates
@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import (
+from vfs.diagnosis.calibrate import (
     CalibrationData,
     CVResult,
     FitSpace,
@@ -63,25 +63,25 @@ from vfs.analysis.calibrate import (
     reduction_ci,
     rmse_reduction,
 )
-from vfs.analysis.claims import (
+from vfs.diagnosis.claims import (
     LawFinding,
     ModelEvaluator,
     Reduction,
     first_laws,
     law_key,
 )
-from vfs.analysis.claims import (
+from vfs.diagnosis.claims import (
     format_reduction as fr,
 )
-from vfs.analysis.diagnose_spec import (
+from vfs.diagnosis.diagnose_spec import (
     MIN_CASES,
     MIN_FOLD_CASES,
     Correction,
     DiagnoseSpec,
     Parameters,
 )
-from vfs.analysis.features import case_features
-from vfs.analysis.selection import Selection, select, step_label
+from vfs.diagnosis.features import case_features
+from vfs.diagnosis.selection import Selection, select, step_label
 from vfs.effects import get_effect, registered_effects
 from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
@@ -282,7 +282,7 @@ class CandidateResult:
         For a candidate that helped on top: the claims refitted together with it against
         the claims alone.
     significant : bool
-        Claimed by the selection (:func:`vfs.analysis.selection.select`); always False
+        Claimed by the selection (:func:`vfs.diagnosis.selection.select`); always False
         when the sample is too small (:attr:`Diagnosis.reliable`).
     status : str
         "claimed" or the reason it is not ("mimics X", "not significant", ...).
@@ -474,7 +474,7 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
     db : Database
         Analysed blind: only its tables (never a ground-truth file).
     spec : DiagnoseSpec, optional
-        What to do (:class:`vfs.analysis.diagnose_spec.DiagnoseSpec`); or its fields as
+        What to do (:class:`vfs.diagnosis.diagnose_spec.DiagnoseSpec`); or its fields as
         keyword arguments (``settings``; with a spec they replace its fields).
     params : SimulationParams, optional
         Base model (default: the default model).
@@ -483,8 +483,8 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
 
     Steps: where the model fails (:func:`_where_it_fails`), every library candidate alone
     (:func:`_library_alone`), every channel identified and its law learned
-    (:func:`vfs.analysis.claims.first_laws`), then **one selection** over both
-    (:func:`vfs.analysis.selection.select`: forward stepwise on top of the claims, with
+    (:func:`vfs.diagnosis.claims.first_laws`), then **one selection** over both
+    (:func:`vfs.diagnosis.selection.select`: forward stepwise on top of the claims, with
     refits and backward checks), and the verdict from the final claims.
     """
     if spec is None:
@@ -578,7 +578,7 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
 def _group_ci(spec: DiagnoseSpec, n_groups: int
               ) -> Callable[[np.ndarray, np.ndarray, int], Reduction]:
     """The per-output reduction CI of the rule "no output worse than the default model"
-    (:meth:`vfs.analysis.claims.ModelEvaluator.worse`): Bonferroni over the output groups,
+    (:meth:`vfs.diagnosis.claims.ModelEvaluator.worse`): Bonferroni over the output groups,
     its own seeded generator (the other CIs draw as before).
     """
     rng = np.random.default_rng([spec.seed, 7])

@@ -1,5 +1,5 @@
 """Identification per case, law discovery and learned laws as effects
-(vfs.analysis.identify, vfs.analysis.learn, vfs.effects.learned).
+(vfs.diagnosis.identify, vfs.diagnosis.learn, vfs.effects.learned).
 
 The hidden laws below are written here, in forms that are NOT in the effect
 library; the slow tests hide each in a generated database and check that the
@@ -18,14 +18,14 @@ import pandas as pd
 import pytest
 
 from tests.conftest import slow_scale
-from vfs.analysis.calibrate import CalibrationData, VariantSimulator, kfold_indices
-from vfs.analysis.identify import identification_features, identify
-from vfs.analysis.learn import (
+from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator, kfold_indices
+from vfs.diagnosis.identify import identification_features, identify
+from vfs.diagnosis.learn import (
     cross_validate_law,
     learn_channel,
     plugin_source,
 )
-from vfs.analysis.robust_fit import fit_form, robust_spline, running_median
+from vfs.diagnosis.robust_fit import fit_form, robust_spline, running_median
 from vfs.effects import Effect, EffectParameter
 from vfs.effects.learned import (
     FORMS,
@@ -330,7 +330,7 @@ def test_hidden_law_is_learned(key):
 
 @pytest.mark.slow
 def test_diagnose_names_channel_and_feature():
-    from vfs.analysis.diagnose import diagnose
+    from vfs.diagnosis.diagnose import diagnose
 
     hidden_cls, channel, feature, _ = LAWS["step_restitution"]
     db, _ = generate_database("default", n_cases=_n_cases(), seed=21, hidden=(hidden_cls(),))
@@ -345,7 +345,7 @@ def test_diagnose_names_channel_and_feature():
 
 
 def test_identification_table_has_units_and_flags(tmp_path):
-    from vfs.analysis.identify import write_identification
+    from vfs.diagnosis.identify import write_identification
 
     db, _ = generate_database("default", n_cases=30, seed=3, hidden=())
     data = CalibrationData.from_database(db)
@@ -405,7 +405,7 @@ def test_gcv_smoothing_finds_the_global_minimum_within_the_dof_cap():
     splines of at most n / 4 degrees of freedom: no lam of a dense log grid (criterion and
     trace from the hat matrix of scipy's spline, an independent computation) does better,
     over sizes, weightings and noise levels."""
-    from vfs.analysis.robust_fit import gcv_smoothing
+    from vfs.diagnosis.robust_fit import gcv_smoothing
 
     rng = np.random.default_rng(7)
     for _ in range(4):
@@ -427,7 +427,7 @@ def test_gcv_smoothing_does_not_depend_on_the_unit_of_the_feature():
     """The same data with the feature in rad and in degrees give the same spline (lam
     scales with the cube of the feature's unit; a search over a range fixed in the
     feature's unit found another local minimum in each unit)."""
-    from vfs.analysis.robust_fit import smoothing_spline
+    from vfs.diagnosis.robust_fit import smoothing_spline
 
     rng = np.random.default_rng(11)
     x = np.sort(np.concatenate([[0.0, 0.0], rng.uniform(0.4, math.pi, 150)]))
@@ -445,7 +445,7 @@ def test_spline_pooling_keeps_an_isolated_end_cluster():
     x = 0 with value 0 and 200 cases on 1.3 <= x <= 3.1 on the line 0.3 - 0.1 x (whose
     continuation to x = 0 is 0.3).  The spline must pass near 0 at x = 0 (within the
     line's value at the gap's far end, 0.17, of it), not continue the line to 0.3."""
-    from vfs.analysis.robust_fit import pool_groups, smoothing_spline
+    from vfs.diagnosis.robust_fit import pool_groups, smoothing_spline
 
     rng = np.random.default_rng(5)
     x = np.concatenate([[0.0, 0.0], np.sort(rng.uniform(1.3, 3.1, 200))])
@@ -463,7 +463,7 @@ def test_law_rows_keep_cases_identified_at_a_physical_bound():
     a case pressed against the bound with chi^2 = 800 (it makes up for something else), nor
     at a bound of the scan only (the contact-plane turn's +-0.5 rad), nor a case whose
     interval spans the whole range."""
-    from vfs.analysis.learn import law_rows
+    from vfs.diagnosis.learn import law_rows
 
     def rows(channel, value, low, high, ident, chi2):
         return pd.DataFrame({"case_id": np.arange(len(value)), "channel": channel,
@@ -484,7 +484,7 @@ def test_law_rows_keep_cases_identified_at_a_physical_bound():
 def test_gcv_smoothing_follows_the_noise():
     """More noise, more smoothing: lam grows with the noise of a line's values (a straight
     line is in the spline's null space, so a noiseless line gets the smallest lam)."""
-    from vfs.analysis.robust_fit import gcv_smoothing
+    from vfs.diagnosis.robust_fit import gcv_smoothing
 
     rng = np.random.default_rng(3)
     x = np.linspace(0.0, 10.0, 60)

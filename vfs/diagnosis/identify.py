@@ -8,12 +8,12 @@ value that best reproduces the case's reconstruction:
 
 1. a grid of ``grid_points`` candidate values over the channel's range
    (geometric for ratios) is simulated on **all** cases, one stacked
-   simulation for the grids of all channels (:class:`vfs.analysis.variants.VariantSimulator`;
+   simulation for the grids of all channels (:class:`vfs.diagnosis.variants.VariantSimulator`;
    the refinement steps below likewise run all channels together, one simulation per
    step: a stacked run-out lasts as long as its slowest vehicle);
 2. the objective of a case is chi^2 = sum over the compared residual
    columns of (residual / scale)^2, the scale of each output being the RMS
-   of its recorded ``_sd`` columns (:class:`vfs.analysis.calibrate.CalibrationData`);
+   of its recorded ``_sd`` columns (:class:`vfs.diagnosis.calibrate.CalibrationData`);
 3. optionally (``zoom_starts``), a zoom per case into the lowest local
    minima of its grid profile: values spread over the grid cells around
    each, then around the best of them (two stacked simulations, each case
@@ -52,9 +52,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import CalibrationData, VariantSimulator
-from vfs.analysis.features import case_features
 from vfs.atomic import write_text
+from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator
+from vfs.diagnosis.features import case_features
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
 from vfs.errors import ParameterError
@@ -639,7 +639,7 @@ def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
 
 def identification_features(data: CalibrationData) -> pd.DataFrame:
     """Numeric case features of the laws (:data:`vfs.effects.learned.LAW_FEATURES`, SI)
-    from the reconstruction: those of :func:`vfs.analysis.features.case_features` and
+    from the reconstruction: those of :func:`vfs.diagnosis.features.case_features` and
     the normal closing speed of the POIs at the recorded contact plane (velocities at
     impact with the yaw rates).
     """

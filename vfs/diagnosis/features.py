@@ -1,8 +1,8 @@
 """Case features of the diagnosis and the law discovery (SI units).
 
 :func:`case_features` is the one computation of the features of each case
-from the reconstruction (used by :mod:`vfs.analysis.diagnose` and
-:mod:`vfs.analysis.identify`).
+from the reconstruction (used by :mod:`vfs.diagnosis.diagnose` and
+:mod:`vfs.diagnosis.identify`).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import CalibrationData
+from vfs.diagnosis.calibrate import CalibrationData
 from vfs.physics.geometry import swept_overlap, vehicle_outline
 
 

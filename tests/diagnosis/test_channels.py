@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from tests.conftest import slow_scale
-from vfs.analysis.calibrate import CalibrationData
-from vfs.analysis.identify import consistency_factor, identify, profile_interval
+from vfs.diagnosis.calibrate import CalibrationData
+from vfs.diagnosis.identify import consistency_factor, identify, profile_interval
 from vfs.effects.learned import CHANNEL_OUTPUTS, CHANNELS, law_effect_class
 from vfs.scenarios.generator import NO_NOISE, generate_database
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
@@ -288,7 +288,7 @@ def test_per_case_wheel_states_are_recovered_with_intervals(channel, a, b):
     # intervals are one-sided, see docs/diagnosis.md); the per-case identification's
     # intervals hold each case's own truth about as often as they claim (68.3 %), and the
     # estimates follow the truth
-    from vfs.analysis.identify import identification_features
+    from vfs.diagnosis.identify import identification_features
 
     hidden = law_effect_class({"name": f"truth_{channel}", "channel": channel,
                                "feature": "closing_speed", "form": "linear",

@@ -5,7 +5,7 @@ cases, the cases are stacked ``g`` times and one effect
 (:class:`StackedVariants`) dispatches every hook to the variant a row belongs
 to (row // n): a grid of parameter values then costs one
 :func:`vfs.simulation.simulate_cases` call instead of ``g``.
-:class:`VariantSimulator` does this for a calibration (:mod:`vfs.analysis.calibrate`),
+:class:`VariantSimulator` does this for a calibration (:mod:`vfs.diagnosis.calibrate`),
 with a cache by parameter vector; it hands out outcome arrays, never tables.
 """
 
@@ -240,7 +240,7 @@ class VariantSimulator:
     Parameters
     ----------
     data : VariantData
-        The cases (:class:`vfs.analysis.calibrate.CalibrationData`).
+        The cases (:class:`vfs.diagnosis.calibrate.CalibrationData`).
     params : SimulationParams, optional
         Base parameters (their effects are prepended to every variant).
     max_cases : int

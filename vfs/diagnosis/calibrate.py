@@ -11,7 +11,7 @@ The building blocks of ``vfs diagnose`` and ``vfs calibrate``:
   standard deviation of the recorded values) so that outputs of different
   units are never mixed: every error is an RMSE of *standardised* residuals.
 * **Many model variants in one simulation**
-  (:class:`vfs.analysis.variants.VariantSimulator`): the cases are stacked
+  (:class:`vfs.diagnosis.variants.VariantSimulator`): the cases are stacked
   once per variant and one effect dispatches every hook to the variant a row
   belongs to, so that a grid of parameter values costs one vectorised
   :func:`vfs.simulation.simulate_cases` call; residuals are cached by
@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
-from vfs.analysis.variants import Model, VariantSimulator, stacked_effect
+from vfs.diagnosis.variants import Model, VariantSimulator, stacked_effect
 from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, OutputGroup, difference, from_reconstruction, from_results

@@ -1,12 +1,12 @@
 """Law discovery: regress identified channels on case features (``vfs learn``).
 
-Input: the per-case identification of :mod:`vfs.analysis.identify` joined
+Input: the per-case identification of :mod:`vfs.diagnosis.identify` joined
 with the case features (closing speed, normal closing speed, overlap,
 impact angle, mass ratio, impact speeds, road friction; SI units).  For
 each channel, only the identifiable cases are used (and those identified at a
 bound of the channel that is a limit of the physics, e.g. locked wheels,
 :func:`law_rows`), weighted by 1 / sigma^2 with sigma the half width of the
-identification interval (chi^2 <= min + k^2, :func:`vfs.analysis.identify.identify`;
+identification interval (chi^2 <= min + k^2, :func:`vfs.diagnosis.identify.identify`;
 floored at a tenth of the spread of the values, so that
 no case dominates).
 
@@ -17,7 +17,7 @@ grid, or are chaotic in it, a case can prefer a value far from the law
 often with a narrow interval, i.e. a large weight).  Least squares let
 these few cases pull the law (a 2-3 ms bias at small overlaps, enough to
 lose a third of the outcome-error reduction), so every fit is an
-M-estimate (:mod:`vfs.analysis.robust_fit`): iteratively reweighted least squares with
+M-estimate (:mod:`vfs.diagnosis.robust_fit`): iteratively reweighted least squares with
 Huber's, then Tukey's biweight weights of the standardised residuals sqrt(w) (y - f(x))
 (scale: their normal-consistent MAD), which gives the misidentified cases no weight.
 
@@ -54,7 +54,7 @@ law missing on one channel leaks into the identification of others, which
 then show structure too.  There is no outcome cross-validation here;
 ``vfs diagnose --laws`` decides which laws are claimed (outcome CV, the
 further laws stepwise on channels re-identified with the claimed laws
-applied; :func:`vfs.analysis.diagnose.diagnose`).
+applied; :func:`vfs.diagnosis.diagnose.diagnose`).
 """
 
 from __future__ import annotations
@@ -67,8 +67,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import kfold_indices, reduction_ci
-from vfs.analysis.robust_fit import (
+from vfs.diagnosis.calibrate import kfold_indices, reduction_ci
+from vfs.diagnosis.robust_fit import (
     fit_form,
     fit_spline,
     predict_spline,
@@ -249,11 +249,11 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
         Held-out rows (positions in ``sim.data``).
     polish : bool
         Then refit the law's first coefficient (closed forms) on the training
-        cases' *outcomes* (:func:`vfs.analysis.calibrate.fit_folds`, bounds
+        cases' *outcomes* (:func:`vfs.diagnosis.calibrate.fit_folds`, bounds
         +-30 % of its value or a tenth of the channel's range), for outcomes
         more sensitive to the channel than its identification is precise
         (off by default: with the robust fits of the identified values the
-        laws of tests/analysis/test_learn.py reach the true law's reduction without it).
+        laws of tests/diagnosis/test_learn.py reach the true law's reduction without it).
     grid_points, zoom_rounds : int
         Search of the polish.
 
@@ -269,7 +269,7 @@ def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
     for k, h in enumerate(held):
         lk = _fold_law(data, table, law, h, k)
         if polish and lk["form"] != "table":
-            from vfs.analysis.calibrate import FitSpace, fit_folds
+            from vfs.diagnosis.calibrate import FitSpace, fit_folds
 
             a0 = float(lk["coefficients"][0])
             ch = CHANNELS[lk["channel"]]
@@ -319,7 +319,7 @@ def cross_validate_laws(sim: Any, laws: Sequence[tuple[pd.DataFrame, Mapping[str
     As :func:`cross_validate_law`, each law refitted per fold to the
     training cases' identified values of its own identification table (the
     laws of a stepwise model come from identifications conditional on each
-    other, :func:`vfs.analysis.diagnose.diagnose`); all laws of a fold are
+    other, :func:`vfs.diagnosis.diagnose.diagnose`); all laws of a fold are
     applied together.
 
     Parameters
@@ -360,7 +360,7 @@ def learn_channel(table: pd.DataFrame, channel: str,
     Parameters
     ----------
     table : pandas.DataFrame
-        :func:`vfs.analysis.identify.identify` rows joined with the case
+        :func:`vfs.diagnosis.identify.identify` rows joined with the case
         features (``identified.parquet``).
     channel : str
     features : iterable of str

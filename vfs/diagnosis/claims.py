@@ -1,12 +1,12 @@
 """Claims of the diagnosis: the significance rules and the evaluator of its one selection.
 
-:func:`helps` is the one significance rule of :func:`vfs.analysis.diagnose.diagnose`
+:func:`helps` is the one significance rule of :func:`vfs.diagnosis.diagnose.diagnose`
 (its table, JSON and text): the simultaneous bootstrap CI of a CV RMSE reduction
 (:class:`Reduction`) lies above 0 and the estimate reaches ``min_reduction``.
 :func:`stepwise_helps` is the rule of a further claim (on top of the claims, and with them
 refitted together).  :func:`first_laws` identifies every channel per case, learns its law
 and cross-validates it as an effect in outcome space; :class:`ModelEvaluator` gives
-:func:`vfs.analysis.selection.select` the cross-validated reductions of library effects and
+:func:`vfs.diagnosis.selection.select` the cross-validated reductions of library effects and
 learned laws alone, on top of claims (laws re-learned from their channels re-identified
 with the claims applied) and in joint models (docs/diagnosis.md, "One selection").
 """
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import (
+from vfs.diagnosis.calibrate import (
     CVResult,
     FitSpace,
     VariantSimulator,
@@ -70,7 +70,7 @@ class LawFinding:
     Attributes
     ----------
     channel : str
-    learned : vfs.analysis.learn.ChannelLaw
+    learned : vfs.diagnosis.learn.ChannelLaw
         The law over the identified values (formula, CV against the null).
     outcome : Reduction
         Cross-validated overall RMSE reduction of the outcomes against the
@@ -206,14 +206,14 @@ def outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
     better on the outcomes with the paired bootstrap CI (over cases, seeded) of its RMSE
     reduction against the table above 0 (then ``r.law`` becomes the formula).
 
-    The table won on the identified values (:func:`vfs.analysis.learn.learn_channel`, by
+    The table won on the identified values (:func:`vfs.diagnosis.learn.learn_channel`, by
     cross-validation, a closed form preferred within 2 %); a point comparison of the
     held-out outcome errors, whose case errors are heavy-tailed, overruled it by chance: in
     ``tyre_friction_speed+cp_sin_angle`` a step of the contact-plane turn replaced its
     sin(2 angle) table (38.0 % against 37.1 % of the default model's error; the step
     against the table 1.4 % [-36, 25] %).
     """
-    from vfs.analysis.learn import cross_validate_law
+    from vfs.diagnosis.learn import cross_validate_law
 
     _, err = cross_validate_law(sim, table, r.law, held)
     alt = closed_alternative(r)
@@ -231,7 +231,7 @@ def outcome_law(sim: VariantSimulator, table: pd.DataFrame, r: Any,
 
 def refit_all(table: pd.DataFrame, law: Mapping[str, Any]) -> dict[str, Any]:
     """The law's form and feature refitted to all identifiable cases of ``table``."""
-    from vfs.analysis.learn import law_rows, refit_law
+    from vfs.diagnosis.learn import law_rows, refit_law
 
     t, y, w = law_rows(table, law["channel"])
     out = refit_law(law, t[law["feature"]].to_numpy(float), y, w)
@@ -258,12 +258,12 @@ def _named(law: Mapping[str, Any]) -> dict[str, Any]:
 
 
 class ModelEvaluator:
-    """The :class:`vfs.analysis.selection.Evaluator` of the diagnosis: cross-validated outcome
+    """The :class:`vfs.diagnosis.selection.Evaluator` of the diagnosis: cross-validated outcome
     errors of library effects and learned laws, alone, on top of claims and jointly.
 
-    Library effects are fitted per fold (:func:`vfs.analysis.calibrate.cross_validate_many`;
+    Library effects are fitted per fold (:func:`vfs.diagnosis.calibrate.cross_validate_many`;
     alone and on top: "the effect, or no effect"); learned laws are refitted per fold to the
-    training cases' identified values (:func:`vfs.analysis.learn.fold_law_effects`).  On top of
+    training cases' identified values (:func:`vfs.diagnosis.learn.fold_law_effects`).  On top of
     claims, the claims (fitted on all cases) form the base model of a simulator, effects are
     fitted on it and the laws' channels are **re-identified** with it and their laws learned
     again (a law missing on one channel leaks into the identification of the others).  A joint
@@ -352,8 +352,8 @@ class ModelEvaluator:
             self._joint[key] = (cv.errors, tuple(cv.fitted_model()))
             self._residuals[key] = cv.residuals
             return self._joint[key]
-        from vfs.analysis.calibrate import fit_steps, run_fits
-        from vfs.analysis.learn import fold_law_effects
+        from vfs.diagnosis.calibrate import fit_steps, run_fits
+        from vfs.diagnosis.learn import fold_law_effects
 
         sim, data = self.sim, self.sim.data
         laws = [(self.laws[m].table, self.laws[m].learned.law) for m in model
@@ -408,7 +408,7 @@ class ModelEvaluator:
 
     def rmse(self, model: tuple[str, ...]) -> float:
         """Cross-validated overall RMSE (standardised) of the joint model."""
-        from vfs.analysis.calibrate import overall_mse
+        from vfs.diagnosis.calibrate import overall_mse
 
         return math.sqrt(overall_mse(self.joint(model)[0]))
 
@@ -422,7 +422,7 @@ class ModelEvaluator:
         if not claimed:
             return {n: self.alone_reductions[n] if n in self.alone_reductions
                     else self.ci(self.alone[n], self.base.errors) for n in names}
-        from vfs.analysis.calibrate import cross_validate_many
+        from vfs.diagnosis.calibrate import cross_validate_many
 
         t0 = time.perf_counter()
         sim_c = self._on(claimed)
@@ -582,8 +582,8 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
     Returns the identification table, (ChannelLaw, held-out errors) of each law with
     structure, and the identify and learn functions the selection uses again.
     """
-    from vfs.analysis.identify import identification_features, identify, parse_channels
-    from vfs.analysis.learn import learn
+    from vfs.diagnosis.identify import identification_features, identify, parse_channels
+    from vfs.diagnosis.learn import learn
 
     data = sim.data
     feats = identification_features(data)

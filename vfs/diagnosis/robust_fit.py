@@ -1,4 +1,4 @@
-"""Robust fits of one channel against one feature, the regressions of :mod:`vfs.analysis.learn`.
+"""Robust fits of one channel against one feature, the regressions of :mod:`vfs.diagnosis.learn`.
 
 * Closed forms (:data:`vfs.effects.learned.FORMS`): the linear coefficients by weighted
   least squares (normal equations), the nonlinear one by a grid and nested grids around

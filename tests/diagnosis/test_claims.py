@@ -1,4 +1,4 @@
-"""The diagnosis' claims (vfs.analysis.diagnose): one significance rule, stepwise
+"""The diagnosis' claims (vfs.diagnosis.diagnose): one significance rule, stepwise
 additions that survive a refit, small samples, neutral secondary parameters.
 """
 
@@ -7,15 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vfs.analysis.calibrate import (
+from vfs.diagnosis.calibrate import (
     CalibrationData,
     FitSpace,
     VariantSimulator,
     cross_validate_many,
     kfold_indices,
 )
-from vfs.analysis.claims import Reduction, helps
-from vfs.analysis.diagnose import MIN_CASES, DiagnoseSpec, diagnose
+from vfs.diagnosis.claims import Reduction, helps
+from vfs.diagnosis.diagnose import MIN_CASES, DiagnoseSpec, diagnose
 from vfs.effects import get_effect
 from vfs.errors import DataError, ParameterError
 from vfs.scenarios.generator import generate_database

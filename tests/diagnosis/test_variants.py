@@ -1,13 +1,13 @@
-"""Model variants of a calibration (vfs.analysis.variants): the shared pre-crash run."""
+"""Model variants of a calibration (vfs.diagnosis.variants): the shared pre-crash run."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from vfs.analysis import variants
-from vfs.analysis.calibrate import CalibrationData
-from vfs.analysis.variants import VariantSimulator, leaves_precrash
+from vfs.diagnosis import variants
+from vfs.diagnosis.calibrate import CalibrationData
+from vfs.diagnosis.variants import VariantSimulator, leaves_precrash
 from vfs.effects.library import PenetrationDepth, RestitutionSpeed, WheelLock, YawInertia
 from vfs.scenarios.generator import generate_database
 

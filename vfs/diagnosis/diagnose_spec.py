@@ -2,7 +2,7 @@
 
 ``vfs diagnose`` builds a :class:`DiagnoseSpec` from its flags (the choices are the
 :class:`enum.StrEnum` members below, the ranges :data:`RANGES`); the Python API
-:func:`vfs.analysis.diagnose.diagnose` takes one or the same keyword arguments.
+:func:`vfs.diagnosis.diagnose.diagnose` takes one or the same keyword arguments.
 """
 
 from __future__ import annotations
@@ -69,9 +69,9 @@ def _names(value: str | Iterable[str] | None) -> tuple[str, ...] | None:
 
 def _channels(value: str | Iterable[str] | None) -> tuple[str, ...]:
     """Channels to learn: None / "" / "none" none; "all" the channels
-    :func:`vfs.analysis.identify.parse_channels` identifies by default.
+    :func:`vfs.diagnosis.identify.parse_channels` identifies by default.
     """
-    from vfs.analysis.identify import parse_channels
+    from vfs.diagnosis.identify import parse_channels
 
     if value is None or (isinstance(value, str) and value.strip() in ("", "none")):
         return ()
@@ -157,7 +157,7 @@ class DiagnoseSpec:
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> DiagnoseSpec:
-        """A spec from the keyword arguments of :func:`vfs.analysis.diagnose.diagnose`
+        """A spec from the keyword arguments of :func:`vfs.diagnosis.diagnose.diagnose`
         (``law_rounds`` of earlier versions: most claims after the first).
         """
         if "law_rounds" in kwargs:

@@ -1,11 +1,11 @@
-"""Stepwise, conditional law claims of ``vfs diagnose --laws`` (vfs.analysis.diagnose).
+"""Stepwise, conditional law claims of ``vfs diagnose --laws`` (vfs.diagnosis.diagnose).
 
 Each channel is identified with the others at the model's values, so a law missing on one
 channel leaks into the identification of others; the diagnosis claims the best law, then
 re-identifies the other channels with the claimed laws applied and claims a further law
 only when it helps on top of the claims and with them refitted together (one selection
-with the library effects, vfs.analysis.selection).
-The hidden laws are those of tests/analysis/test_learn.py (not in the effect library).
+with the library effects, vfs.diagnosis.selection).
+The hidden laws are those of tests/diagnosis/test_learn.py (not in the effect library).
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.analysis.test_learn import LAWS
+from tests.diagnosis.test_learn import LAWS
 from tests.conftest import slow_scale
-from vfs.analysis.claims import LawFinding, Reduction, helps, stepwise_helps
-from vfs.analysis.diagnose import diagnose, summary_dict
+from vfs.diagnosis.claims import LawFinding, Reduction, helps, stepwise_helps
+from vfs.diagnosis.diagnose import diagnose, summary_dict
 from vfs.scenarios.generator import generate_database
 
 #: Channels learned in the slow tests: the two of the pair and two that showed structure
@@ -54,8 +54,8 @@ def test_outcomes_overrule_a_table_only_with_a_paired_ci_above_zero(monkeypatch)
     by 4 % keep the table; the same errors with the formula 30 % lower everywhere do not."""
     import pandas as pd
 
-    import vfs.analysis.learn as learn_mod
-    from vfs.analysis.claims import outcome_law
+    import vfs.diagnosis.learn as learn_mod
+    from vfs.diagnosis.claims import outcome_law
 
     rng = np.random.default_rng(2)
     table_err = rng.pareto(1.5, (240, 3)) + 0.1  # heavy-tailed per-case errors

@@ -1,4 +1,4 @@
-"""Model diagnosis, calibration and the error ledger (vfs.analysis.diagnose, .calibrate,
+"""Model diagnosis, calibration and the error ledger (vfs.diagnosis.diagnose, .calibrate,
 .ledger).
 
 Fast tests use small databases and ``--quick`` settings; the exhaustive
@@ -22,7 +22,8 @@ import pandas as pd
 import pytest
 
 from tests.conftest import slow_scale
-from vfs.analysis.calibrate import (
+from vfs.cli import main as dcli
+from vfs.diagnosis.calibrate import (
     CalibrationData,
     FitSpace,
     VariantSimulator,
@@ -32,9 +33,8 @@ from vfs.analysis.calibrate import (
     read_model_config,
     write_model_config,
 )
-from vfs.analysis.diagnose import diagnose, residual_associations, summary_dict
-from vfs.analysis.ledger import ledger_chain, read_ledger
-from vfs.cli import main as dcli
+from vfs.diagnosis.diagnose import diagnose, residual_associations, summary_dict
+from vfs.diagnosis.ledger import ledger_chain, read_ledger
 from vfs.effects import (
     BUILTIN_EFFECTS,
     Effect,
@@ -388,7 +388,7 @@ def _reduce(argv: list[str], cases: int) -> list[str]:
         out += ["--worst", "1"]
         if slow_scale() < 1.0:
             # reduced form: the law-learning part of diagnose has its own tests
-            # (tests/analysis/test_learn.py); the tutorial's chain is what is checked here
+            # (tests/diagnosis/test_learn.py); the tutorial's chain is what is checked here
             out += ["--laws", "none"]
     if out[0] == "compare" and slow_scale() < 1.0:
         out.append("--no-case-pages")

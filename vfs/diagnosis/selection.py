@@ -1,14 +1,14 @@
 """One model selection over library effects and learned laws (forward stepwise, backward checks).
 
-:func:`select` is the selection of :func:`vfs.analysis.diagnose.diagnose`; it knows the
+:func:`select` is the selection of :func:`vfs.diagnosis.diagnose.diagnose`; it knows the
 candidates only by name and asks an :class:`Evaluator` for cross-validated reductions, so the
-same logic runs on simulated outcomes (:class:`vfs.analysis.claims.ModelEvaluator`) and on
+same logic runs on simulated outcomes (:class:`vfs.diagnosis.claims.ModelEvaluator`) and on
 synthetic reductions (the tests).  Each step:
 
 1. every candidate not claimed (and never dropped) is cross-validated **on top of the claims**
    (the claims fitted on all cases, the candidate fitted per fold; a learned law is learned
    again from its channel re-identified with the claims applied);
-2. the one with the largest reduction is claimed if :func:`vfs.analysis.claims.stepwise_helps`
+2. the one with the largest reduction is claimed if :func:`vfs.diagnosis.claims.stepwise_helps`
    holds: its reduction on top lies above 0 with its CI and reaches ``min_reduction``, and the
    model with the claims **refitted together with it** lowers the error against the claims
    alone; if it fails the refit, the next best is tried;
@@ -42,7 +42,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from vfs.analysis.claims import Reduction, helps
+from vfs.diagnosis.claims import Reduction, helps
 
 
 class Evaluator(Protocol):
@@ -200,7 +200,7 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
         The candidates.
     ev : Evaluator
     min_reduction : float
-        Smallest reduction that counts (:func:`vfs.analysis.claims.helps`).
+        Smallest reduction that counts (:func:`vfs.diagnosis.claims.helps`).
     max_steps : int
         Most claims added.
     reliable : bool

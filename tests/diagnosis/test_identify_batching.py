@@ -1,5 +1,5 @@
 """The identification of several channels runs their grids and refinement steps together
-(one stacked simulation per step, :func:`vfs.analysis.identify.identify`): each case's
+(one stacked simulation per step, :func:`vfs.diagnosis.identify.identify`): each case's
 result must not depend on which other channels share its simulations.
 """
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from vfs.analysis.calibrate import CalibrationData, VariantSimulator
-from vfs.analysis.identify import identify
+from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator
+from vfs.diagnosis.identify import identify
 from vfs.scenarios.generator import generate_database
 
 CHANNELS = ["restitution", "penetration_time", "runout_brake1", "yaw_inertia_factor"]

@@ -1,0 +1,1 @@
+"""Tests of vfs.analysis (one file per module: tests/analysis/test_<module>.py)."""

@@ -24,12 +24,17 @@ import dataclasses
 import numpy as np
 
 from vfs.adas import register_system
+from vfs.adas.contract import ControllerDefaults
 from vfs.adas.systems import python_system
 from vfs.physics.precrash import BrakeActuatorParams, PrecrashObservation, PrecrashParams
 
 
-class GapTimeController:
+class GapTimeController(ControllerDefaults):
     """Full braking once the gap time falls to a threshold; held to standstill.
+
+    :class:`vfs.adas.contract.ControllerDefaults` gives it ``events()`` (none) and
+    ``reset_segments`` (it draws nothing), so it keeps the whole contract
+    (``vfs.adas.check_system(SYSTEM)`` passes).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Train a PPO brake policy on the train split of the bundled database; evaluate on the test split.
 
-The recipe of docs/gym.md, "Training" (stable-baselines3, ``pip install "vfs[rl]"``):
+The recipe of docs/gym.md, "Training" (stable-baselines3, ``pip install -e ".[rl]"`` in a clone):
 
 - the native batched environment through the SB3 adapter (:class:`vfs.gym.sb3.AEBVecEnv`,
   many sub-environments in one process), action repeat 10 (one decision every 0.1 s),

@@ -9,7 +9,7 @@ Prints a JSON summary: export and validation time, schema errors, road modes per
 type, fit errors, the round trip's largest position / heading / speed differences, and the
 re-simulation of the imported database against the original.  With ``--aeb N`` it also runs a
 study of the first N cases with ``three-stage`` and exports every treated motion
-(study replay checks).  Needs the extra: pip install "vfs[xosc]".
+(study replay checks).  Needs the extra: pip install -e ".[xosc]".
 """
 
 from __future__ import annotations

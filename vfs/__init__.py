@@ -56,6 +56,7 @@ _LAZY: dict[str, str] = {
     "StudySpec": "vfs.study",
     "run_study": "vfs.study",
     "load_study": "vfs.study",
+    "read_runs": "vfs.study",
     # analysis
     "effectiveness": "vfs.analysis.effectiveness",
     "compare_database": "vfs.analysis.compare",
@@ -91,7 +92,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from vfs.physics.impact import ImpactConfig, ImpactParams, solve_impact
     from vfs.physics.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_arrays
     from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
-    from vfs.study import StudySpec, load_study, run_study
+    from vfs.study import StudySpec, load_study, read_runs, run_study
 
 
 def _register_gym_envs() -> None:
@@ -127,6 +128,7 @@ __all__ = [
     "get_system",
     "load_study",
     "open_database",
+    "read_runs",
     "results_table",
     "run_study",
     "simulate_cases",

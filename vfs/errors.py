@@ -69,6 +69,73 @@ class DefinitionError(ParameterError):
         return (type(self), (self.path, self.field, self.problem, self.allowed))
 
 
+@dataclass(frozen=True)
+class SettingProblem:
+    """One declared setting (:mod:`vfs.settings`) out of bounds, or a rule between settings
+    broken.
+
+    Attributes
+    ----------
+    owner : str
+        The parameter class (``"SensorParams"``).
+    name : str
+        The setting, or the settings of a rule joined by ``", "``.
+    value : object
+        The value given (None for a rule).
+    problem : str
+        What is wrong (``"is out of range"``).
+    allowed : str
+        What is allowed (``"[0, 2] s"``, or the rule).
+    """
+
+    owner: str
+    name: str
+    value: object
+    problem: str
+    allowed: str
+
+    def __str__(self) -> str:
+        what = self.problem if self.value is None else f"{self.value!r} {self.problem}"
+        return f"{self.owner}.{self.name}: {what} (allowed: {self.allowed})"
+
+
+class SettingsError(ParameterError):
+    """Declared settings out of bounds or rules between them broken; every problem at once.
+
+    Attributes
+    ----------
+    problems : list of SettingProblem
+    """
+
+    def __init__(self, problems: list[SettingProblem] | SettingProblem) -> None:
+        if isinstance(problems, SettingProblem):
+            problems = [problems]
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+    def __reduce__(self) -> tuple[type, tuple[list[SettingProblem]]]:
+        return (type(self), (self.problems,))
+
+
+class DefinitionErrors(DefinitionError):
+    """Several problems of one definition file, reported at once (one line each).
+
+    Attributes
+    ----------
+    errors : list of DefinitionError
+        The problems; ``path``, ``field``, ``problem`` and ``allowed`` are the first one's.
+    """
+
+    def __init__(self, errors: list[DefinitionError]) -> None:
+        self.errors = list(errors)
+        first = self.errors[0]
+        super().__init__(first.path, first.field, first.problem, first.allowed)
+        self.args = ("\n".join(str(e) for e in self.errors),)
+
+    def __reduce__(self) -> tuple[type, tuple[list[DefinitionError]]]:  # type: ignore[override]
+        return (type(self), (self.errors,))
+
+
 class GeometryError(VfsError, ValueError):
     """A geometric configuration cannot be evaluated (e.g. degenerate outline)."""
 
@@ -158,9 +225,38 @@ class TargetExistsError(VfsError, FileExistsError):
 
 class MissingExtraError(VfsError, ImportError):
     """An optional dependency of a feature is not installed; the message names the extra
-    (``pip install "vfs[NAME]"``).
+    (``pip install "vfs-accident[NAME]"``).
     """
 
 
 class ClusterError(VfsError, RuntimeError):
     """The workers of a cluster cannot run a study (other vfs or numpy, vfs missing)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: the command stops as on Ctrl-C (a study's status ``interrupted``).
+
+    Raised by the SIGTERM handlers of :func:`vfs.cli.main` and of
+    :func:`vfs.study.faults.stop_on_signals`.
+    """
+
+    #: Exit status of the command line: 128 + SIGTERM (15), as a shell reports it.
+    exit_status = 143
+
+
+#: numpy's floating-point RuntimeWarnings ("invalid value encountered in divide", "Mean of
+#: empty slice", ...): the checks meet NaN and zero on purpose, and the user sees the
+#: clear error or warning that follows, never these (:func:`quiet_numpy_warnings`).
+NUMPY_WARNING_MESSAGES = (r"(invalid value|divide by zero|overflow|underflow) encountered"
+                          r"|Mean of empty slice|Degrees of freedom <= 0|All-NaN (slice|axis)"
+                          r"|invalid value")
+
+
+def quiet_numpy_warnings() -> None:
+    """Ignore numpy's floating-point RuntimeWarnings (:data:`NUMPY_WARNING_MESSAGES`) in
+    this process: called by the command line (inside its warning context) and in the
+    study's worker processes.
+    """
+    import warnings
+
+    warnings.filterwarnings("ignore", message=NUMPY_WARNING_MESSAGES, category=RuntimeWarning)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import numpy as np
@@ -20,7 +21,7 @@ import numpy.typing as npt
 
 from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, SimulationError
 from vfs.physics.impact import (
     CONFIG_IMPACT_FIELDS,
     CONFIG_VEHICLE_FIELDS,
@@ -59,6 +60,15 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
     from vfs.database import Database
+
+
+class ImpactParameterSource(StrEnum):
+    """Where restitution and contact friction come from (``--impact-parameters``;
+    :meth:`CaseBatch.from_database`).
+    """
+
+    RECONSTRUCTION = "reconstruction"
+    DEFAULT = "default"
 
 
 @dataclass(frozen=True)
@@ -177,9 +187,9 @@ class CaseBatch(NamedTuple):
             database has them (the others use :class:`ImpactParams`);
             ``"default"`` uses :class:`ImpactParams` for every case.
         """
-        if impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={impact_parameters!r}; "
-                                 "use 'reconstruction' or 'default'")
+        if impact_parameters not in set(ImpactParameterSource):
+            raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
+                                 f"{', '.join(ImpactParameterSource)}")
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories
@@ -509,6 +519,41 @@ def open_cases(batch: CaseBatch, params: SimulationParams) -> OpenedCases:
     return OpenedCases(batch, penetration_rule(batch, params.effects), eps, mu)
 
 
+def check_record_spacing(batch: CaseBatch) -> None:
+    """Refuse records whose samples lie further apart on average than a valid database allows.
+
+    The pre-crash run steps every case through its whole record, so the steps a
+    case needs follow from its duration [s]; a time column in milliseconds (or
+    dates read as seconds) makes that a thousand to a billion times longer
+    and the run would not end in any useful time.  A record that passed
+    :func:`vfs.database.validation.validate_database` has sample spacings of at most
+    :data:`vfs.database.schema.MAX_SAMPLE_SPACING` [s], so its duration is at
+    most that times its samples less one: the cap on the steps of each case.
+
+    Raises
+    ------
+    SimulationError
+        Naming the cases, the record's duration [s], its samples and the cap.
+    """
+    from vfs.database.schema import MAX_SAMPLE_SPACING
+
+    paths = batch.paths
+    n = batch.size
+    duration = paths.duration  # from the first sample [s]
+    limit = MAX_SAMPLE_SPACING * np.maximum(paths.count - 1, 0) * (1.0 + 1e-6) + 1e-9
+    bad = np.flatnonzero(~(duration <= limit))  # NaN durations too
+    if bad.size == 0:
+        return
+    row = int(bad[0])
+    ids = sorted({int(batch.case_id[i % n]) for i in bad})
+    shown = ", ".join(map(str, ids[:5])) + (f" and {len(ids) - 5} more" if len(ids) > 5 else "")
+    raise SimulationError(
+        f"case_id {shown}: the record of participant {row // n + 1} lasts {duration[row]:.4g} s "
+        f"over {int(paths.count[row])} samples, more than {MAX_SAMPLE_SPACING:g} s per sample "
+        f"({limit[row]:.4g} s); the simulation would not end in useful time: is the time column "
+        "in milliseconds or a date? (vfs db validate names the rows)")
+
+
 def precrash_stage(opened: OpenedCases, params: SimulationParams,
                    controller: BrakeController | None = None,
                    rng: np.random.Generator | SegmentedRandom | None = None,
@@ -533,6 +578,7 @@ def precrash_stage(opened: OpenedCases, params: SimulationParams,
     PrecrashResult
     """
     batch = opened.batch
+    check_record_spacing(batch)
     return simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                              controller=controller, params=params.precrash, rng=rng,
                              penetration=opened.penetration, case_of=case_of,
@@ -657,7 +703,8 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
         Flag pairs that touch again after separating
         (:func:`vfs.physics.runout.run_out_pair`); False skips that check (the
         rest poses are the same: secondary collisions are detected, not solved),
-        and the result reports none.
+        and the result reports none.  With ``params.contact`` (contacts solved) the pair
+        always runs together; False then only leaves the flags out (and the memo unused).
     paths : bool
         Record the path samples and kinetic energies (default); False (only without
         the secondary-collision check) leaves them empty (:func:`vfs.physics.runout.run_out`).
@@ -675,6 +722,18 @@ def runout_stage(vehicle1: VehicleArrays, vehicle2: VehicleArrays, impact_state:
     post1, post2 = (RunoutState(st.x[:, j], st.y[:, j], st.yaw[:, j], result.vx_post[:, j],
                                 result.vy_post[:, j], result.yaw_rate_post[:, j])
                     for j in (0, 1))
+    if params.contact and not secondary_collisions:
+        # the vehicles of a pair interact: no memo of single vehicles; the flags left out
+        pair = runout_stage(vehicle1, vehicle2, impact_state, result, road_friction, params,
+                            wheel_brake1, wheel_brake2, post_impact=post_impact)
+        m = pair.rest_x.shape[0]
+        pair = pair._replace(secondary_collision=np.zeros(m, dtype=bool),
+                             secondary_collision_time=np.full(m, np.nan))
+        if paths:
+            return pair
+        k = pair.path.shape[2]
+        return pair._replace(path=pair.path[:, :, :0], path_t=pair.path_t[:0],
+                             kinetic_energy=pair.kinetic_energy[:, :, :0]) if k else pair
     if secondary_collisions:
         if memo is not None or not paths:
             raise ParameterError("a run-out memo or paths=False needs "

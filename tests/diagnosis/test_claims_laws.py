@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.diagnosis.test_learn import LAWS
 from tests.conftest import slow_scale
+from tests.diagnosis.test_learn import LAWS
 from vfs.diagnosis.claims import LawFinding, Reduction, helps, stepwise_helps
 from vfs.diagnosis.diagnose import diagnose, summary_dict
 from vfs.scenarios.generator import generate_database

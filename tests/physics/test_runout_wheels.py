@@ -187,8 +187,8 @@ def test_pair_run_out_takes_each_vehicles_wheels():
     one = run_out(v, s1, 0.8, steer=0.2)
     two = run_out(v, s2, 0.8, wheel_drag=(0.1,) * 4)
     assert pair.rest_x[0, 0] == one.rest_x[0] and pair.rest_yaw[0, 0] == one.rest_yaw[0]
-    # vehicle 2 runs in a batch with a steered car: the steered solver rounds differently
-    np.testing.assert_allclose(pair.rest_x[0, 1], two.rest_x[0], rtol=1e-12)
+    # vehicle 2 runs in a batch with a steered car and still gets its own result, bit for bit
+    assert pair.rest_x[0, 1] == two.rest_x[0] and pair.rest_yaw[0, 1] == two.rest_yaw[0]
     assert pair.rest_x[0, 1] < run_out(v, s2, 0.8).rest_x[0] - 0.5  # its drag stops it early
 
 
@@ -209,3 +209,27 @@ def test_compiled_kernel_declines_steered_batches(monkeypatch):
 def test_invalid_wheel_inputs_raise(kwargs, match):
     with pytest.raises(ParameterError, match=match):
         run_out(car(), RunoutState.from_arrays(0, 0, 0, 5.0, 0, 0), 0.8, **kwargs)
+
+
+@pytest.mark.skipif(not compiled_runout.AVAILABLE, reason="numba not installed")
+def test_compiled_kernel_takes_the_extra_drag_as_the_numpy_run_out(monkeypatch):
+    """The drag enters through the rolling wheels' brake coefficient, which the kernel reads:
+    the two agree as in tests/physics/test_compiled_runout.py (1e-9 m)."""
+    rng = np.random.default_rng(8)
+    n = 40
+    vehicles = stack_vehicles([VehicleParams()] * n)
+    speed = rng.uniform(2, 15, n)
+    course = rng.uniform(-np.pi, np.pi, n)
+    s = RunoutState.from_arrays(0, 0, 0, speed * np.cos(course), speed * np.sin(course),
+                                rng.uniform(-2, 2, n))
+    kw = dict(wheel_brake=rng.choice([0.0, 0.5, 1.0], (n, 4)),
+              wheel_drag=rng.uniform(0.0, 0.3, (n, 4)))
+    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "0")
+    ref = run_out(vehicles, s, 0.8, **kw)
+    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "1")
+    assert compiled_runout.runout_enabled()
+    fast = run_out(vehicles, s, 0.8, **kw)
+    np.testing.assert_array_equal(fast.time_to_rest, ref.time_to_rest)
+    for name in ("rest_x", "rest_y", "rest_yaw"):
+        np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), rtol=0.0,
+                                   atol=1e-9, err_msg=name)

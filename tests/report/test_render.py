@@ -148,3 +148,16 @@ def test_figure_helper_leaves_the_global_backend_alone(tmp_path) -> None:
     )
     subprocess.run([sys.executable, "-c", code], check=True)
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cell_classes_colour_html_cells_and_must_match_the_rows() -> None:
+    from vfs.report.render import Table, render_html, render_markdown
+
+    t = Table(("VUT km/h", "IL 50 %"), (("30", "0.0 green"), ("40", "12.0 red")),
+              cell_classes=(("", "band-green"), ("", "band-red")))
+    html_text = render_html([t], "grid")
+    assert 'band-green">0.0 green</td>' in html_text
+    assert "band-red" in html_text and "td.band-red{" in html_text
+    assert "band-" not in render_markdown([t])  # markdown keeps the text only
+    with pytest.raises(ParameterError):
+        Table(("a",), (("1",),), cell_classes=(("x", "y"),))

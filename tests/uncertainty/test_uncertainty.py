@@ -615,3 +615,21 @@ def test_benchmark_is_registered_and_reports_throughput():
     figures = fn(True)
     assert figures["model_runs"] == figures["cases"] * figures["samples_per_case"]
     assert figures["runs_per_s"] > 0 and figures["sobol_model_runs"] > 0
+
+
+def test_nominal_run_takes_the_post_impact_inputs_of_the_data(clean):
+    """Locked wheels of vehicle 1 and a steer angle of vehicle 2 from the reconstruction's
+    post_* columns reach the Monte-Carlo model's run-out; NaN leaves the case as it was."""
+    db, _ = clean
+    config = default_config()
+    plain = nominal_runs(CaseSet.from_database(db).take(slice(0, 6)), config)
+    rec = db.reconstruction.copy()
+    rec["post_driver_brake1"] = [1.0] + [np.nan] * (len(rec) - 1)
+    rec["post_steer2"] = [np.nan, math.radians(20.0)] + [np.nan] * (len(rec) - 2)
+    cases = CaseSet.from_database(dataclasses.replace(db, reconstruction=rec)).take(slice(0, 6))
+    given = nominal_runs(cases, config)
+    assert given.outcomes["runout_distance1"][0] < plain.outcomes["runout_distance1"][0]
+    assert given.outcomes["rest_yaw2"][1] != plain.outcomes["rest_yaw2"][1]
+    for name in ("rest_x1", "rest_y1", "rest_x2", "rest_y2"):  # the other cases unchanged
+        np.testing.assert_array_equal(given.outcomes[name][2:], plain.outcomes[name][2:])
+    np.testing.assert_array_equal(given.outcomes["delta_v1"], plain.outcomes["delta_v1"])

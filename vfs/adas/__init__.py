@@ -17,13 +17,13 @@ The built-in systems are the TOML files of ``adas/`` (:mod:`vfs.adas.definition`
 formulas and sources.
 """
 
+from vfs.adas.contract import System, check_system
 from vfs.adas.controller import EVENT_KEYS, STAGES, AEBController, actuator_delay
-from vfs.adas.definition import load_system
+from vfs.adas.definition import AEBSystem, load_system
 from vfs.adas.params import AEBParams, DriverParams, SensorParams
 from vfs.adas.systems import (
     SYSTEM_NAMES,
     SYSTEMS,
-    AEBSystem,
     find_system,
     get_system,
     register_system,
@@ -40,7 +40,9 @@ __all__ = [
     "AEBSystem",
     "DriverParams",
     "SensorParams",
+    "System",
     "actuator_delay",
+    "check_system",
     "find_system",
     "get_system",
     "load_system",

@@ -3,10 +3,10 @@
 A system is written as a TOML file (``adas/<name>.toml`` in the repository;
 every field in ``adas/README.md``)::
 
-    name = "my-aeb"
-    description = "one line for reports"
+    description = "one line for reports"   # the name is the file's: my-aeb
 
-    [aeb]                      # absent: no AEB (the record is replayed)
+    [aeb]                      # absent: write aeb = false (no AEB, the record is replayed)
+    kind = "generic"           # the controller kind (vfs.adas.kinds); default generic
     prediction = "ctrv"
     ttc_horizon_s = 4.0
     release = "standstill"
@@ -31,8 +31,17 @@ every field in ``adas/README.md``)::
 
 Keys name their unit (:data:`vfs.catalog.QUANTITY_UNITS`); :func:`load_system`
 converts to SI at this edge (degrees to radians, km/h to m/s) and checks each
-field against its allowed range (:data:`SCHEMA`), so a wrong file gets one
-:class:`vfs.errors.DefinitionError` naming the file, the field and the range.
+field against its declared range (:mod:`vfs.settings`: the fields, bounds and
+defaults are those declared on the parameter classes; :data:`SCHEMA` is derived
+from them) and the rules between fields (stage order, speed window, driver
+decelerations), and reports every problem of the file at once: one
+:class:`vfs.errors.DefinitionError` line each naming the file, the field and what
+is allowed.
+
+The system's name is the file's name without ``.toml``: a copy of a built-in file
+under a new name runs beside the original without editing.  A file must say what
+it is: an ``[aeb]`` table, or ``aeb = false`` for a system without AEB (an empty
+file is an error, not a system that does nothing).
 A field left out takes the default of :class:`~vfs.adas.params.SensorParams`,
 :class:`~vfs.adas.params.AEBParams`, :class:`~vfs.adas.params.DriverParams` or
 :class:`~vfs.physics.precrash.BrakeActuatorParams`; a stage left out (or a stage
@@ -45,7 +54,6 @@ The built-in systems of :mod:`vfs.adas.systems` are these files
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -54,11 +62,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy.typing as npt
 
-from vfs.adas.controller import AEBController
-from vfs.adas.params import PREDICTION_MODELS, RELEASE_RULES, AEBParams, DriverParams, SensorParams
-from vfs.catalog import Field, read_fields, read_toml, sub_table
+from vfs.adas.contract import SystemController
+from vfs.adas.kinds import CONTROLLER_KINDS, DEFAULT_KIND
+from vfs.adas.kinds.generic import table_fields
+from vfs.adas.params import DriverParams
+from vfs.catalog import Field, read_toml
 from vfs.errors import DefinitionError, ParameterError
 from vfs.physics.precrash import BrakeActuatorParams, PrecrashParams
+from vfs.settings import build, fields_of, raise_problems, read_table
 
 if TYPE_CHECKING:
     from vfs.simulation import CaseBatch
@@ -66,7 +77,9 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class AEBSystem:
-    """A named AEB system: logic, sensor, driver reaction and brake actuator.
+    """A named AEB system defined by a file: logic, sensor, driver reaction, brake actuator.
+
+    It keeps the contract :class:`vfs.adas.contract.System`.
 
     Attributes
     ----------
@@ -74,27 +87,31 @@ class AEBSystem:
         Registry key.
     description : str
         One line for reports.
-    aeb : AEBParams or None
-        The AEB; None = no AEB.
+    aeb : object or None
+        The parameters of the controller kind ``kind`` (:class:`AEBParams` for
+        ``"generic"``); None = no AEB.
     driver : DriverParams or None
         How the equipped vehicle's driver reacts to the first alert; None =
         no reaction.
     brake : BrakeActuatorParams
         The brake actuator of the equipped vehicles (the simulation uses one
         actuator for both participants; see :meth:`precrash_params`).
+    kind : str
+        The controller kind (:data:`vfs.adas.kinds.CONTROLLER_KINDS`).
     """
 
     name: str
     description: str
-    aeb: AEBParams | None
+    aeb: Any | None
     driver: DriverParams | None
     brake: BrakeActuatorParams = dataclasses.field(default_factory=BrakeActuatorParams)
+    kind: str = dataclasses.field(default=DEFAULT_KIND, repr=False)  # repr as before kinds
 
     def __post_init__(self) -> None:
         if not self.name or not isinstance(self.name, str):
             raise ParameterError("an AEB system needs a non-empty name")
 
-    def controller(self, batch: CaseBatch, equipped: npt.ArrayLike) -> AEBController | None:
+    def controller(self, batch: CaseBatch, equipped: npt.ArrayLike) -> SystemController | None:
         """A fresh controller for ``batch``; None for a system without AEB.
 
         Parameters
@@ -105,7 +122,8 @@ class AEBSystem:
         """
         if self.aeb is None:
             return None
-        return AEBController(batch, equipped, self.aeb, self.driver, self.brake)
+        return CONTROLLER_KINDS.get(self.kind).build(batch, equipped, self.aeb, self.driver,
+                                                     self.brake)
 
     def precrash_params(self, base: PrecrashParams) -> PrecrashParams:
         """``base`` with this system's brake actuator."""
@@ -116,95 +134,45 @@ class AEBSystem:
 # The file form
 # ----------------------------------------------------------------------------
 
-_POS = dict(lo=0.0, lo_open=True)          # (0, inf)
-_NONNEG = dict(lo=0.0)                     # [0, inf)
-_FINITE = dict(lo=-math.inf, hi=math.inf, lo_open=True, hi_open=True)
-_POS_FINITE = dict(lo=0.0, lo_open=True, hi_open=True)
-
-#: The fields of each table of a system file (SI bounds; the message shows them in the
-#: unit of the key the file used).  Tables: "" (top level), "aeb", "aeb.sensor",
-#: "aeb.warning", "aeb.partial", "aeb.full", "driver", "brake".
-SCHEMA: dict[str, tuple[Field, ...]] = {
-    "": (Field("name", "text"), Field("description", "text")),
-    "aeb": (
-        Field("prediction", "text", choices=PREDICTION_MODELS),
-        Field("ttc_horizon", "time", lo=0.0, hi=30.0, lo_open=True),
-        Field("ctrv_tolerance", "length", lo=0.001, hi=1.0),
-        Field("ctrv_step", "time", lo=0.01, hi=1.0),
-        Field("release", "text", choices=RELEASE_RULES),
-        Field("release_factor", "ratio", lo=1.0, hi_open=True),
-        Field("box_margin_longitudinal", "length", lo=0.0, hi=20.0),
-        Field("box_margin_lateral", "length", lo=0.0, hi=20.0),
-        Field("min_speed", "speed", lo=0.0, hi_open=True),
-        Field("max_speed", "speed", lo=0.0, hi_open=True, lo_open=True),
-    ),
-    "aeb.sensor": (
-        Field("range", "length", **_POS),  # type: ignore[arg-type]
-        Field("field_of_view", "angle", lo=0.0, hi=2.0 * math.pi, lo_open=True),
-        Field("mount_x", "length", **_FINITE),  # type: ignore[arg-type]
-        Field("mount_y", "length", **_FINITE),  # type: ignore[arg-type]
-        Field("mount_yaw", "angle", **_FINITE),  # type: ignore[arg-type]
-        Field("cycle_time", "time", lo=0.0, hi=1.0),
-        Field("latency", "time", lo=0.0, hi=2.0),
-        Field("detection_probability", "ratio", lo=0.0, hi=1.0),
-    ),
-    "aeb.warning": (Field("ttc", "time", **_POS_FINITE),),  # type: ignore[arg-type]
-    "aeb.partial": (
-        Field("ttc", "time", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("deceleration", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-    ),
-    "aeb.full": (
-        Field("ttc", "time", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("deceleration", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("last_moment", "bool"),
-    ),
-    "driver": (
-        Field("reaction_time", "time", **_NONNEG, hi_open=True),  # type: ignore[arg-type]
-        Field("reaction_shape", "ratio", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("reaction_rate", "rate", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("brake_lag", "time", lo=0.0, hi=2.0),
-        Field("brake_share", "ratio", lo=0.0, hi=1.0),
-        Field("deceleration_mean", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("deceleration_sd", "acceleration", **_NONNEG, hi_open=True),  # type: ignore[arg-type]
-        Field("deceleration_min", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("deceleration_max", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-    ),
-    "brake": (
-        Field("model", "text", choices=("jerk", "first_order")),
-        Field("jerk", "jerk", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("release_jerk", "jerk", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("time_constant", "time", **_POS_FINITE),  # type: ignore[arg-type]
-        Field("max_deceleration", "acceleration", **_POS_FINITE),  # type: ignore[arg-type]
-    ),
-}
-
-_STAGES = ("warning", "partial", "full")
+#: The top level of a system file.
+TOP_FIELDS: tuple[Field, ...] = (Field("name", "text"), Field("description", "text"))
 
 
-def _build(path: str, where: str, cls: Any, values: Mapping[str, Any]) -> Any:
-    """``cls(**values)`` with a ParameterError of the dataclass as a DefinitionError."""
-    try:
-        return cls(**values)
-    except ParameterError as exc:
-        raise DefinitionError(path, where, str(exc)) from None
+def schema() -> dict[str, tuple[Field, ...]]:
+    """The fields of each table of a system file of kind ``generic``, derived from the
+    declared settings: ``""`` (top level), ``"aeb"``, ``"aeb.sensor"``, ``"aeb.warning"``,
+    ``"aeb.partial"``, ``"aeb.full"``, ``"driver"``, ``"brake"``.
+    """
+    return {"": TOP_FIELDS, **table_fields(), "driver": fields_of(DriverParams),
+            "brake": fields_of(BrakeActuatorParams)}
 
 
-def _aeb(table: Mapping[str, Any], path: str) -> AEBParams:
-    tables = ["sensor", *_STAGES]
-    values = read_fields(table, SCHEMA["aeb"], path=path, where="aeb.", extra=tables)
-    sensor_table = sub_table(table, "sensor", path=path, where="aeb.")
-    sensor = _build(path, "aeb.sensor", SensorParams,
-                    read_fields(sensor_table or {}, SCHEMA["aeb.sensor"], path=path,
-                                where="aeb.sensor."))
-    for stage in _STAGES:
-        stage_table = sub_table(table, stage, path=path, where="aeb.")
-        got = read_fields(stage_table or {}, SCHEMA[f"aeb.{stage}"], path=path,
-                          where=f"aeb.{stage}.")
-        values[f"{stage}_ttc"] = got.pop("ttc", None)  # no ttc_s: the stage is off
-        if "deceleration" in got:
-            values[f"{stage}_deceleration"] = got.pop("deceleration")
-        values.update(got)
-    return _build(path, "aeb", AEBParams, {"sensor": sensor, **values})
+#: :func:`schema` as it is at import.
+SCHEMA: dict[str, tuple[Field, ...]] = schema()
+
+
+def _aeb_table(data: Mapping[str, Any], path: str, problems: list[DefinitionError]
+               ) -> tuple[Mapping[str, Any] | None, str]:
+    """The ``[aeb]`` table (None for ``aeb = false``) and its kind."""
+    table = data.get("aeb")
+    if table is False:
+        return None, DEFAULT_KIND
+    if table is None:
+        problems.append(DefinitionError(
+            path, "aeb", "no [aeb] table", "an [aeb] table, or aeb = false for a system "
+            "without AEB (like none.toml)"))
+        return None, DEFAULT_KIND
+    if not isinstance(table, Mapping):
+        problems.append(DefinitionError(path, "aeb", f"{table!r} is neither a table nor false",
+                                        "an [aeb] table, or aeb = false"))
+        return None, DEFAULT_KIND
+    kind = table.get("kind", DEFAULT_KIND)
+    if kind not in CONTROLLER_KINDS:
+        problems.append(DefinitionError(path, "aeb.kind", f"{kind!r} is not allowed",
+                                        "one of " + ", ".join(repr(k) for k in
+                                                              CONTROLLER_KINDS)))
+        return None, DEFAULT_KIND
+    return table, str(kind)
 
 
 def system_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str],
@@ -218,27 +186,41 @@ def system_from_dict(data: Mapping[str, Any], path: str | os.PathLike[str],
     path : path
         The file, for messages.
     default_name : str, optional
-        Name when the file gives none (default the file name without ``.toml``).
+        The system's name (default the file name without ``.toml``; a ``name`` in the
+        file that differs from it is replaced by it, so that a copied file runs beside
+        its original).
 
     Raises
     ------
     DefinitionError
-        Naming the file, the field and the allowed range.
+        Naming the file, the field and the allowed range; several problems at once as
+        :class:`vfs.errors.DefinitionErrors`.
     """
     p = str(path)
-    top = read_fields(data, SCHEMA[""], path=p, extra=("aeb", "driver", "brake"))
-    name = top.get("name") or default_name or Path(p).stem
-    aeb_table = sub_table(data, "aeb", path=p)
-    driver_table = sub_table(data, "driver", path=p)
-    brake_table = sub_table(data, "brake", path=p)
-    aeb = _aeb(aeb_table, p) if aeb_table is not None else None
-    driver = None if driver_table is None else _build(
-        p, "driver", DriverParams, read_fields(driver_table, SCHEMA["driver"], path=p,
-                                               where="driver."))
-    brake = _build(p, "brake", BrakeActuatorParams,
-                   read_fields(brake_table or {}, SCHEMA["brake"], path=p, where="brake."))
-    return _build(p, "name", AEBSystem, dict(name=name, description=top.get("description", ""),
-                                             aeb=aeb, driver=driver, brake=brake))
+    problems: list[DefinitionError] = []
+    top, found = read_table(data, TOP_FIELDS, path=p, extra=("aeb", "driver", "brake"))
+    problems += found
+    name = default_name or Path(p).stem
+    aeb_table, kind = _aeb_table(data, p, problems)
+    aeb = None
+    if aeb_table is not None:
+        aeb = CONTROLLER_KINDS.get(kind).read(aeb_table, p, problems)
+    driver = None
+    driver_table = data.get("driver")
+    if driver_table is not None:
+        values, found = read_table(driver_table, fields_of(DriverParams), path=p,
+                                   where="driver.")
+        problems += found
+        if not found:
+            driver = build(DriverParams, values, path=p, where="driver.", problems=problems)
+    values, found = read_table(data.get("brake", {}), fields_of(BrakeActuatorParams),
+                               path=p, where="brake.")
+    problems += found
+    brake = None if found else build(BrakeActuatorParams, values, path=p, where="brake.",
+                                     problems=problems)
+    raise_problems(problems)
+    return AEBSystem(name=name, description=top.get("description", ""), aeb=aeb,
+                     driver=driver, brake=brake, kind=kind)  # type: ignore[arg-type]
 
 
 def load_system(path: str | os.PathLike[str]) -> AEBSystem:
@@ -247,10 +229,47 @@ def load_system(path: str | os.PathLike[str]) -> AEBSystem:
     Raises
     ------
     DefinitionError
-        A missing file, invalid TOML, an unknown field, a wrong type or a value out of
-        range; the message names the file, the field and its allowed range.
+        A missing file, invalid TOML, an unknown field, a wrong type, a value out of
+        range or a broken rule between fields; each line names the file, the field and
+        what is allowed (all problems of the file at once).
     """
     return system_from_dict(read_toml(path), path)
+
+
+def readme_tables() -> str:
+    """The field tables of adas/README.md, derived from the declared settings (a test
+    checks that the README holds them; regenerate with
+    ``python -c "from vfs.adas.definition import readme_tables; print(readme_tables())"``).
+    """
+    from vfs.adas.kinds.generic import STAGE_SETTINGS
+    from vfs.adas.params import AEBParams, SensorParams
+    from vfs.settings import markdown_table
+
+    staged = [a for keys in STAGE_SETTINGS.values() for a in keys]
+    kinds = ", ".join(f"`{k.name}` ({k.doc})" for k in CONTROLLER_KINDS.values())
+    parts = ["### top level", "",
+             "| key | allowed | default | meaning |", "|---|---|---|---|",
+             "| `name` | text | the file name without .toml | the system's name is the file's "
+             "name; a `name` that differs is replaced by it (so a copy runs beside its "
+             "original) |",
+             "| `description` | text | '' | one line for reports |",
+             "| `aeb` | false | | `aeb = false`: a system without AEB; otherwise the [aeb] "
+             "table is required |", "",
+             "### [aeb]", "", f"`kind` (default `{DEFAULT_KIND}`) names the controller kind: "
+             f"{kinds}. The fields below are those of `generic`.", "",
+             markdown_table(AEBParams, exclude=staged), "",
+             "### [aeb.sensor]", "", markdown_table(SensorParams)]
+    for stage, keys in STAGE_SETTINGS.items():
+        parts += ["", f"### [aeb.{stage}]", "",
+                  markdown_table(AEBParams, include=tuple(keys), rename=keys,
+                                 default_text={f"{stage}_ttc": "absent"})]
+    for kind in CONTROLLER_KINDS.values():
+        if kind.name != DEFAULT_KIND:
+            parts += ["", f"### [aeb] with kind = \"{kind.name}\"", "", kind.doc + ".", "",
+                      markdown_table(kind.params_type)]
+    parts += ["", "### [driver]", "", markdown_table(DriverParams),
+              "", "### [brake]", "", markdown_table(BrakeActuatorParams)]
+    return "\n".join(parts)
 
 
 def is_definition_path(spec: str) -> bool:
@@ -258,4 +277,5 @@ def is_definition_path(spec: str) -> bool:
     return spec.endswith(".toml") or "/" in spec or os.sep in spec
 
 
-__all__ = ["SCHEMA", "AEBSystem", "is_definition_path", "load_system", "system_from_dict"]
+__all__ = ["SCHEMA", "TOP_FIELDS", "AEBSystem", "is_definition_path", "load_system",
+           "readme_tables", "schema", "system_from_dict"]

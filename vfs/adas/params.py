@@ -10,25 +10,53 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import ClassVar
 
-from vfs.errors import ParameterError
+from vfs.settings import Rule, setting, validate
 from vfs.units import KMH_PER_MS
 
-#: Prediction models of the threat assessment (docs/aeb.md, section 3).
-PREDICTION_MODELS = ("cv", "ctrv", "ca", "ctra")
 
-#: Release rules of the braking stages (docs/aeb.md, section 4).
-RELEASE_RULES = ("ttc", "standstill", "never")
+class Prediction(StrEnum):
+    """Prediction models of the threat assessment (docs/aeb.md, section 3)."""
+
+    CV = "cv"
+    CTRV = "ctrv"
+    CA = "ca"
+    CTRA = "ctra"
+
+
+class Release(StrEnum):
+    """Release rules of the braking stages (docs/aeb.md, section 4)."""
+
+    TTC = "ttc"
+    STANDSTILL = "standstill"
+    NEVER = "never"
+
+
+#: Prediction models of the threat assessment (the values of :class:`Prediction`).
+PREDICTION_MODELS: tuple[str, ...] = tuple(m.value for m in Prediction)
+
+#: Release rules of the braking stages (the values of :class:`Release`).
+RELEASE_RULES: tuple[str, ...] = tuple(m.value for m in Release)
+
+#: Longest time to collision [s] a system looks ahead (the bound of the horizon and of
+#: every stage threshold).
+MAX_TTC = 30.0
+
+#: Bounds of a demanded or driver deceleration [m/s^2]: (0, 100], about 10 g; the road
+#: friction and the actuator limit what is delivered.
+_DECELERATION = dict(lo=0.0, lo_open=True, hi=100.0)
+_DRIVER_DECELERATION = dict(hi=20.0)  # a driver brakes at most 2 g
+_STAGE_TTC = dict(lo=0.0, lo_open=True, hi=MAX_TTC, optional=True,
+                  optional_doc="the stage is off")
+_MOUNT = dict(lo=-20.0, hi=20.0)  # within a vehicle length of the bumper
+_SPEED_MAX = 100.0  # [m/s] (360 km/h): the upper bound of the activation window
 
 #: At or below this speed [m/s] a vehicle stands still (release rule "standstill").  The
 #: simulation's speed max(v_rec - dv, 0) reaches exactly 0 when braked to rest; releasing
 #: at any residual speed would leave the vehicle creeping at it (dv stops growing).
 STANDSTILL_SPEED = 1e-6
-
-
-def _finite_positive(name: str, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ParameterError(f"{name}={value} must be finite and > 0")
 
 
 @dataclass(frozen=True)
@@ -69,31 +97,26 @@ class SensorParams:
         uniform draw per cycle and visible object).  Default 1 (no firm source).
     """
 
-    range: float = 150.0
-    field_of_view: float = 0.35
-    mount_x: float = 0.0
-    mount_y: float = 0.0
-    mount_yaw: float = 0.0
-    cycle_time: float = 0.05
-    latency: float = 0.0
-    detection_probability: float = 1.0
+    range: float = setting(150.0, "length", "detection range from the mounting point; "
+                           "inf = unlimited", lo=0.0, lo_open=True)
+    field_of_view: float = setting(0.35, "angle", "horizontal opening angle of the sensor "
+                                   "sector; 360 deg = all around",
+                                   lo=0.0, lo_open=True, hi=2.0 * math.pi)
+    mount_x: float = setting(0.0, "length", "mounting point ahead of the centre of the "
+                             "front bumper", **_MOUNT)  # type: ignore[arg-type]
+    mount_y: float = setting(0.0, "length", "mounting point left of the centre line",
+                             **_MOUNT)  # type: ignore[arg-type]
+    mount_yaw: float = setting(0.0, "angle", "boresight relative to the vehicle's x axis",
+                               lo=-2.0 * math.pi, hi=2.0 * math.pi)
+    cycle_time: float = setting(0.05, "time", "measurement cycle; the decision is held in "
+                                "between; 0 = every simulation step", lo=0.0, hi=1.0)
+    latency: float = setting(0.0, "time", "from a measurement to the moment its decision "
+                             "acts (processing, decision, bus)", lo=0.0, hi=2.0)
+    detection_probability: float = setting(1.0, "ratio", "probability that a visible object "
+                                           "is detected in a cycle", lo=0.0, hi=1.0)
 
     def __post_init__(self) -> None:
-        if not (self.range > 0.0) or math.isnan(self.range):
-            raise ParameterError(f"sensor range={self.range} m must be > 0 (inf allowed)")
-        if not 0.0 < self.field_of_view <= 2.0 * math.pi:
-            raise ParameterError(f"sensor field_of_view={self.field_of_view} rad outside "
-                                 "(0, 2 pi]")
-        for name in ("mount_x", "mount_y", "mount_yaw"):
-            if not math.isfinite(getattr(self, name)):
-                raise ParameterError(f"sensor {name}={getattr(self, name)} must be finite")
-        if not 0.0 <= self.cycle_time <= 1.0:
-            raise ParameterError(f"sensor cycle_time={self.cycle_time} s outside [0, 1]")
-        if not 0.0 <= self.latency <= 2.0:
-            raise ParameterError(f"sensor latency={self.latency} s outside [0, 2]")
-        if not 0.0 <= self.detection_probability <= 1.0:
-            raise ParameterError(f"detection_probability={self.detection_probability} outside "
-                                 "[0, 1]")
+        validate(self)
 
 
 @dataclass(frozen=True)
@@ -160,54 +183,69 @@ class AEBParams:
     """
 
     sensor: SensorParams = field(default_factory=SensorParams)
-    prediction: str = "cv"
-    ttc_horizon: float = 4.0
-    ctrv_tolerance: float = 0.05
-    ctrv_step: float = 0.5
-    warning_ttc: float | None = None
-    partial_ttc: float | None = None
-    partial_deceleration: float = 4.0
-    full_ttc: float | None = 0.6
-    full_deceleration: float = 10.0
-    last_moment: bool = False
-    release: str = "ttc"
-    release_factor: float = 1.5
-    box_margin_longitudinal: float = 0.0
-    box_margin_lateral: float = 0.0
-    min_speed: float = 5.0 / KMH_PER_MS
-    max_speed: float = 250.0 / KMH_PER_MS
+    prediction: str = setting(
+        "cv", "text", "motion model of both outlines for the TTC: cv constant velocity "
+        "(exact), ctrv constant turn rate and velocity, ca constant acceleration, ctra path "
+        "curvature with constant acceleration (docs/aeb.md, section 3)", choices=Prediction)
+    ttc_horizon: float = setting(4.0, "time", "prediction horizon; contacts predicted later "
+                                 "count as no TTC", lo=0.0, lo_open=True, hi=MAX_TTC)
+    ctrv_tolerance: float = setting(0.05, "length", "accuracy of the sampled sweep of the "
+                                    "models other than cv", lo=0.001, hi=1.0)
+    ctrv_step: float = setting(0.5, "time", "largest sampling step of that sweep",
+                               lo=0.01, hi=1.0)
+    warning_ttc: float | None = setting(
+        None, "time", "stage 1 (alerts the driver, no braking) triggers when the TTC falls "
+        "to this; <= ttc_horizon", **_STAGE_TTC)  # type: ignore[arg-type]
+    partial_ttc: float | None = setting(
+        None, "time", "stage 2 (partial braking) triggers at this TTC; <= warning_ttc",
+        **_STAGE_TTC)  # type: ignore[arg-type]
+    partial_deceleration: float = setting(4.0, "acceleration", "partial braking's demanded "
+                                          "deceleration; <= full_deceleration",
+                                          **_DECELERATION)  # type: ignore[arg-type]
+    full_ttc: float | None = setting(
+        0.6, "time", "stage 3 (full braking) triggers at this TTC; <= partial_ttc",
+        **_STAGE_TTC)  # type: ignore[arg-type]
+    full_deceleration: float = setting(10.0, "acceleration", "full braking's demanded "
+                                       "deceleration (road friction and the brake actuator "
+                                       "limit it)", **_DECELERATION)  # type: ignore[arg-type]
+    last_moment: bool = setting(False, "bool", "also trigger full braking at the last moment "
+                                "at which braking still avoids the predicted contact (the "
+                                "ideal system)")
+    release: str = setting("ttc", "text", "when an active stage ends: ttc (the TTC exceeds "
+                           "release_factor x its threshold), standstill (the own vehicle "
+                           "stops), never", choices=Release)
+    release_factor: float = setting(1.5, "ratio", "see release = ttc (openPASS: 1.5)",
+                                    lo=1.0, hi=10.0)
+    box_margin_longitudinal: float = setting(0.0, "length", "added to the length of both "
+                                             "outlines for the TTC, half at each end "
+                                             "(openPASS)", lo=0.0, hi=20.0)
+    box_margin_lateral: float = setting(0.0, "length", "added to the width of both outlines "
+                                        "for the TTC, half on each side", lo=0.0, hi=20.0)
+    min_speed: float = setting(5.0 / KMH_PER_MS, "speed", "stages trigger only at or above "
+                               "this own speed (active ones are held below it)",
+                               lo=0.0, hi=_SPEED_MAX, hi_open=True)
+    max_speed: float = setting(250.0 / KMH_PER_MS, "speed", "... and at or below this one; "
+                               "> min_speed", lo=0.0, lo_open=True, hi=_SPEED_MAX)
+
+    #: Rules between the settings.
+    RULES: ClassVar[tuple[Rule, ...]] = (
+        Rule(("min_speed", "max_speed"), lambda p: p.min_speed < p.max_speed,
+             "min_speed < max_speed"),
+        Rule(("warning_ttc", "partial_ttc", "full_ttc", "last_moment"),
+             lambda p: p.thresholds != (None, None, None) or p.last_moment,
+             "an AEB needs at least one stage (a TTC threshold or last_moment=True)"),
+        Rule(("warning_ttc", "partial_ttc", "full_ttc"), lambda p: _ordered(p.thresholds),
+             "stage order: warning_ttc >= partial_ttc >= full_ttc (of the stages that are on)"),
+        Rule(("warning_ttc", "partial_ttc", "full_ttc", "ttc_horizon"),
+             lambda p: all(t <= p.ttc_horizon for t in p.thresholds if t is not None),
+             "every stage threshold <= ttc_horizon (beyond it no TTC is measured)"),
+        Rule(("partial_ttc", "partial_deceleration", "full_deceleration"),
+             lambda p: p.partial_ttc is None or p.partial_deceleration <= p.full_deceleration,
+             "partial_deceleration <= full_deceleration (when partial braking is on)"),
+    )
 
     def __post_init__(self) -> None:
-        if self.prediction not in PREDICTION_MODELS:
-            raise ParameterError(f"prediction={self.prediction!r}; use one of "
-                                 f"{PREDICTION_MODELS}")
-        if self.release not in RELEASE_RULES:
-            raise ParameterError(f"release={self.release!r}; use one of {RELEASE_RULES}")
-        _finite_positive("ttc_horizon", self.ttc_horizon)
-        if self.ttc_horizon > 30.0:
-            raise ParameterError(f"ttc_horizon={self.ttc_horizon} s above 30 s")
-        if not 0.01 <= self.ctrv_step <= 1.0:
-            raise ParameterError(f"ctrv_step={self.ctrv_step} s outside [0.01, 1]")
-        if not 0.001 <= self.ctrv_tolerance <= 1.0:
-            raise ParameterError(f"ctrv_tolerance={self.ctrv_tolerance} m outside [0.001, 1]")
-        for name in ("warning_ttc", "partial_ttc", "full_ttc"):
-            value = getattr(self, name)
-            if value is not None:
-                _finite_positive(name, value)
-        _finite_positive("partial_deceleration", self.partial_deceleration)
-        _finite_positive("full_deceleration", self.full_deceleration)
-        if not (math.isfinite(self.release_factor) and self.release_factor >= 1.0):
-            raise ParameterError(f"release_factor={self.release_factor} must be >= 1")
-        for name in ("box_margin_longitudinal", "box_margin_lateral"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 <= value <= 20.0):
-                raise ParameterError(f"{name}={value} m outside [0, 20]")
-        if not (0.0 <= self.min_speed < self.max_speed):
-            raise ParameterError(f"activation window [{self.min_speed}, {self.max_speed}] m/s "
-                                 "needs 0 <= min_speed < max_speed")
-        if self.thresholds == (None, None, None) and not self.last_moment:
-            raise ParameterError("an AEB needs at least one stage (a TTC threshold or "
-                                 "last_moment=True)")
+        validate(self)
 
     @property
     def thresholds(self) -> tuple[float | None, float | None, float | None]:
@@ -250,30 +288,44 @@ class DriverParams:
         Clipping range [m/s^2].  Defaults 3 and 9 (same source).
     """
 
-    reaction_time: float | None = None
-    reaction_shape: float = 7.0
-    reaction_rate: float = 7.0
-    brake_lag: float = 0.2
-    brake_share: float = 0.7
-    deceleration_mean: float = 6.4
-    deceleration_sd: float = 1.0
-    deceleration_min: float = 3.0
-    deceleration_max: float = 9.0
+    reaction_time: float | None = setting(
+        None, "time", "a fixed reaction time to the first alert", lo=0.0, hi=10.0,
+        optional=True, optional_doc="drawn from Gamma(reaction_shape, reaction_rate)")
+    reaction_shape: float = setting(7.0, "ratio", "Gamma shape of the reaction time",
+                                    lo=0.0, lo_open=True, hi=100.0)
+    reaction_rate: float = setting(7.0, "rate", "Gamma rate of the reaction time (mean = "
+                                   "shape / rate)", lo=0.0, lo_open=True, hi=100.0)
+    brake_lag: float = setting(0.2, "time", "from the end of the reaction to the driver's "
+                               "braking demand (pedal travel)", lo=0.0, hi=2.0)
+    brake_share: float = setting(0.7, "ratio", "share of drivers who brake at all",
+                                 lo=0.0, hi=1.0)
+    deceleration_mean: float = setting(6.4, "acceleration", "mean of the driver's "
+                                       "deceleration (normal distribution, drawn per case)",
+                                       lo=0.0, lo_open=True,
+                                       **_DRIVER_DECELERATION)  # type: ignore[arg-type]
+    deceleration_sd: float = setting(1.0, "acceleration", "its standard deviation; 0 = the "
+                                     "mean for everybody", lo=0.0,
+                                     **_DRIVER_DECELERATION)  # type: ignore[arg-type]
+    deceleration_min: float = setting(3.0, "acceleration", "drawn decelerations are clipped "
+                                      "to at least this (<= deceleration_mean)",
+                                      lo=0.0, lo_open=True,
+                                      **_DRIVER_DECELERATION)  # type: ignore[arg-type]
+    deceleration_max: float = setting(9.0, "acceleration", "... and at most this "
+                                      "(>= deceleration_mean)", lo=0.0, lo_open=True,
+                                      **_DRIVER_DECELERATION)  # type: ignore[arg-type]
+
+    #: Rules between the settings.
+    RULES: ClassVar[tuple[Rule, ...]] = (
+        Rule(("deceleration_min", "deceleration_mean", "deceleration_max"),
+             lambda p: p.deceleration_min <= p.deceleration_mean <= p.deceleration_max,
+             "deceleration_min <= deceleration_mean <= deceleration_max"),
+    )
 
     def __post_init__(self) -> None:
-        if self.reaction_time is not None and not (
-                math.isfinite(self.reaction_time) and self.reaction_time >= 0.0):
-            raise ParameterError(f"reaction_time={self.reaction_time} s must be >= 0")
-        _finite_positive("reaction_shape", self.reaction_shape)
-        _finite_positive("reaction_rate", self.reaction_rate)
-        if not (math.isfinite(self.brake_lag) and 0.0 <= self.brake_lag <= 2.0):
-            raise ParameterError(f"brake_lag={self.brake_lag} s outside [0, 2]")
-        if not 0.0 <= self.brake_share <= 1.0:
-            raise ParameterError(f"brake_share={self.brake_share} outside [0, 1]")
-        if not (math.isfinite(self.deceleration_sd) and self.deceleration_sd >= 0.0):
-            raise ParameterError(f"deceleration_sd={self.deceleration_sd} must be >= 0")
-        if not (0.0 < self.deceleration_min <= self.deceleration_mean
-                <= self.deceleration_max) or not math.isfinite(self.deceleration_max):
-            raise ParameterError("driver deceleration needs 0 < min <= mean <= max (finite), "
-                                 f"got {self.deceleration_min}, {self.deceleration_mean}, "
-                                 f"{self.deceleration_max}")
+        validate(self)
+
+
+def _ordered(thresholds: tuple[float | None, ...]) -> bool:
+    """True when the thresholds that are on do not increase (warning >= partial >= full)."""
+    on = [t for t in thresholds if t is not None]
+    return all(a >= b for a, b in zip(on, on[1:], strict=False))

@@ -39,7 +39,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from vfs.adas.definition import AEBSystem, is_definition_path, load_system
+from vfs.adas.contract import System, contract_problems, require_system
+from vfs.adas.definition import (
+    AEBSystem,  # noqa: F401  (re-exported, as before)
+    is_definition_path,
+    load_system,
+)
 from vfs.catalog import catalog_path, project_path
 from vfs.errors import ParameterError
 from vfs.registry import Registry
@@ -63,30 +68,20 @@ IDEAL_CTRA = load_system(builtin_definition("ideal-ctra"))
 #: Names of the built-in systems.
 SYSTEM_NAMES: tuple[str, ...] = ("none", "openpass-like", "three-stage", "ideal")
 
-def _is_system(obj: object) -> bool:
-    """True for an :class:`AEBSystem` or any object a study can run (a user's controller)."""
-    return isinstance(obj, AEBSystem) or (
-        isinstance(getattr(obj, "name", None), str)
-        and callable(getattr(obj, "controller", None))
-        and callable(getattr(obj, "precrash_params", None)))
-
-
-def _check_system(name: str, system: AEBSystem) -> None:
-    if not _is_system(system):
-        raise ParameterError(f"register_system needs an AEB system (an AEBSystem or an object "
-                             f"with name, controller() and precrash_params()), got "
-                             f"{type(system).__name__}")
+def _check_system(name: str, system: System) -> None:
+    require_system(system, f"register_system({type(system).__name__} object)")
     if name != system.name:
         raise ParameterError(f"AEB system {system.name!r} registered as {name!r}")
 
 
 #: AEB systems by name (the built-in presets first); add one with :func:`register_system`.
-SYSTEMS: Registry[AEBSystem] = Registry("AEB system", check=_check_system)
+SYSTEMS: Registry[System] = Registry("AEB system", entry_point_group="vfs.systems",
+                                     check=_check_system)
 for _system in (NONE, OPENPASS_LIKE, THREE_STAGE, IDEAL, IDEAL_CTRA):
     SYSTEMS.add(_system.name, _system)
 
 
-def register_system(system: AEBSystem) -> AEBSystem:
+def register_system(system: System) -> System:
     """Add ``system`` to :data:`SYSTEMS` under its name and return it.
 
     Raises
@@ -98,7 +93,7 @@ def register_system(system: AEBSystem) -> AEBSystem:
     return SYSTEMS.add(system.name, system)
 
 
-def get_system(name: str) -> AEBSystem:
+def get_system(name: str) -> System:
     """The registered system ``name``.
 
     Raises
@@ -114,7 +109,7 @@ def system_names() -> tuple[str, ...]:
     return SYSTEMS.names()
 
 
-def find_system(spec: str, *, cwd: str | os.PathLike[str] | None = None) -> AEBSystem:
+def find_system(spec: str, *, cwd: str | os.PathLike[str] | None = None) -> System:
     """An AEB system by name or definition file, as ``vfs study --systems`` takes them.
 
     Parameters
@@ -145,7 +140,7 @@ def find_system(spec: str, *, cwd: str | os.PathLike[str] | None = None) -> AEBS
     return get_system(spec)
 
 
-def python_system(path: str | os.PathLike[str], attribute: str = "SYSTEM") -> AEBSystem:
+def python_system(path: str | os.PathLike[str], attribute: str = "SYSTEM") -> System:
     """The system ``attribute`` of a user's Python file (imported once per process).
 
     A user-written controller (``adas/example_controller.py``) pickles itself as a call of
@@ -161,6 +156,6 @@ def python_system(path: str | os.PathLike[str], attribute: str = "SYSTEM") -> AE
     file = Path(path).resolve()
     module = import_file(file)
     system = getattr(module, attribute, None)
-    if system is None or not _is_system(system):
+    if system is None or contract_problems(system):
         raise ParameterError(f"{file}: {attribute} is not an AEB system")
     return system

@@ -34,6 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vfs.adas.params import Prediction
 from vfs.physics.geometry import first_contact
 from vfs.physics.vehicle import corner_radius
 
@@ -44,8 +45,8 @@ MIN_STEP = 0.01
 _INTERVAL_GROUPS = np.array([4.5, 16.5, 64.5])
 
 #: Models that follow the arc of the current curvature / that keep the acceleration.
-TURNING_MODELS = ("ctrv", "ctra")
-ACCELERATING_MODELS = ("ca", "ctra")
+TURNING_MODELS: tuple[str, ...] = (Prediction.CTRV, Prediction.CTRA)
+ACCELERATING_MODELS: tuple[str, ...] = (Prediction.CA, Prediction.CTRA)
 
 
 class Motion(NamedTuple):

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.model_config import load_model_config
+from vfs.analysis.staged_tests import staged_summary, staged_test_errors
 from vfs.analysis.stats import (
     MIN_PAIRS_FOR_TESTS,
     ContingencyComparison,
@@ -48,6 +49,7 @@ from vfs.database.schema import OUTCOME_MEASUREMENT, RECONSTRUCTION
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import Outcome, from_reconstruction, from_results, get_outcome, unit_factors
 from vfs.physics.geometry import to_vehicle_frame
+from vfs.progress import note
 from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_cases
 from vfs.units import KMH_PER_MS, wrap_angle
 
@@ -351,6 +353,11 @@ class Comparison:
         per measured outcome value, ``case_id``, ``outcome`` (column), ``measured``, ``sd``
         (NaN: not stated), ``model``, ``difference`` (model - measured) and ``z``
         (difference / sd) [SI units]; empty when there are no measurement rows.
+    staged : pandas.DataFrame or None
+        Staged tests (measurement rows): one row per test and vehicle with the errors of
+        :func:`staged_test_errors` (delta-v, heading change, range error) and the published
+        errors of other codes where the database gives them; empty without measurement
+        rows.
     impact_parameters : str
         Restitution and contact friction of the simulation: ``"default"`` (the model's
         generic defaults for every case, the prospective protocol of the frontal-collision
@@ -375,6 +382,7 @@ class Comparison:
     params: SimulationParams | None = None
     measured: pd.DataFrame | None = None
     impact_parameters: str = ""
+    staged: pd.DataFrame | None = None
 
     @property
     def status_counts(self) -> dict[str, int]:
@@ -435,6 +443,9 @@ class Comparison:
             "paired": self.paired.to_dict(orient="records"),
             "table1": self.table1.to_dict(orient="records"),
             "case_errors": self.case_errors.to_dict(orient="records"),
+            **({"staged_tests": self.staged.to_dict(orient="records"),
+                "staged_summary": staged_summary(self.staged).to_dict(orient="records")}
+               if self.staged is not None and len(self.staged) else {}),
         })
 
 
@@ -546,6 +557,7 @@ def compare_database(
     rec = _reconstruction(db)
     ids = rec["case_id"].to_numpy()
     if run is None:
+        note("simulating %d reconstructed case(s), from pre-crash to rest", len(ids))
         batch = CaseBatch.from_database(db, ids, impact_parameters=impact_parameters)
         res = simulate_cases(batch, params=params or SimulationParams())
         vfs = results_table(batch, res)
@@ -555,11 +567,13 @@ def compare_database(
         vfs = read_run_table(run)
         source = "run table" if isinstance(run, pd.DataFrame) else f"run {run}"
         setting = ""
+    note("comparing the simulation with the reconstructions (tests and intervals)")
     comparison = compare_tables(rec, vfs, participants=getattr(db, "participants", None),
                                 margins=margins, alpha=alpha, confidence=confidence,
                                 source=source, params=params)
     return dataclasses.replace(comparison, impact_parameters=setting,
-                               measured=measured_outcomes(rec, vfs))
+                               measured=measured_outcomes(rec, vfs),
+                               staged=staged_test_errors(rec, vfs))
 
 
 #: Reconstruction columns a crash test can measure and the simulation's results table has.

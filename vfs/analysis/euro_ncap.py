@@ -1,16 +1,22 @@
 """Euro NCAP AEB Car-to-Car assessment of a study on the test matrix (``--db euro-ncap-c2c``).
 
 Pure functions over arrays and tables; the protocol (colour bands, points,
-scenario maxima, measure of each scenario) comes from
-``scenarios/euro-ncap-c2c/protocol.toml`` through
-:func:`vfs.scenarios.euro_ncap.read_protocol`.
+scenario maxima, measure of each scenario) comes from the protocol file of the
+version the study's cases name (``ncap_protocol``: 2026 ``protocol.toml``, 2023
+``protocol-2023.toml``) through :func:`vfs.scenarios.euro_ncap.read_protocol`.
 
-Per test and system: the measure the bands apply to (the VUT's impact speed, or
-its impact speed relative to the GVT for rear tests with a moving target, or the
-VUT's speed reduction for head-on tests), rounded to the 0.1 km/h of the
-protocols' speed measurement; the colour band; the points.  Per scenario: the
-maximum points times the mean points of its tests.  Total: the sum over the
-scenarios.  Speeds in km/h here (the edge of the report), SI in the runs table.
+Per test and system (the rules of Euro NCAP's 2026 rating tool,
+``crash_avoidance/matrix_processing.py``): the measure the bands apply to (the
+VUT's impact speed, or its impact speed relative to the GVT for rear tests with
+a moving target, or the VUT's speed reduction for head-on tests), rounded to the
+0.1 km/h of the protocols' speed measurement; the colour band, whose row is the
+VUT's test speed (CCRm too); avoidance tests (CCFtap, CCCscp) are red on any
+contact, a VUT hit while standing included (it entered the GVT's path); the
+points.  Per scenario: the maximum points times the mean points of its tests
+(``test_info``).  Total: the sum over the scenarios.  The forward-collision
+warning's TTC is reported per test (the undisturbed impact time minus the
+warning time); neither version's file scores it for Car-to-Car.  Speeds in km/h
+here (the edge of the report), SI in the runs table.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from vfs.errors import DataError, DataProblem
-from vfs.scenarios.euro_ncap import MATRIX_COLUMNS, read_protocol
+from vfs.scenarios.euro_ncap import MATRIX_COLUMNS, PROTOCOL_VERSIONS, read_protocol
 from vfs.units import KMH_PER_MS
 
 #: Colours from best to worst.
@@ -119,9 +125,54 @@ def run_measures(runs: pd.DataFrame) -> pd.DataFrame:
                          "speed_reduction_kmh": kmh(test - v1)}, index=runs.index)
 
 
+def fcw_ttc(runs: pd.DataFrame) -> np.ndarray:
+    """TTC [s] of the forward-collision warning: undisturbed impact time minus warning time.
+
+    The warning precedes any braking, so until it the VUT follows the
+    undisturbed record and this is the record's time to collision at the
+    warning.  NaN where the system gave no warning (or the runs have no
+    ``warning_time1`` / the cases no ``ncap_impact_time``).
+    """
+    if "warning_time1" not in runs.columns or "ncap_impact_time" not in runs.columns:
+        return np.full(len(runs), np.nan)
+    warn = runs["warning_time1"].to_numpy(dtype=float, na_value=np.nan)
+    return runs["ncap_impact_time"].to_numpy(dtype=float, na_value=np.nan) - warn
+
+
+def protocols_of(cases: pd.DataFrame) -> dict[str, dict[str, Any]]:
+    """The protocol of every version the cases name (column ``ncap_protocol``).
+
+    Raises
+    ------
+    DataError
+        No ``ncap_protocol`` column (a study on a build of the matrix before the
+        versions; rerun it), or an unknown version.
+    """
+    if "ncap_protocol" not in cases.columns:
+        raise DataError(DataProblem("cases", "ncap_protocol", None, None,
+                                    "the study's cases do not name their Euro NCAP protocol "
+                                    "version (a study on an older build of the matrix): rerun "
+                                    "it on --db euro-ncap-c2c (2026) or euro-ncap-c2c-2023"))
+    versions = sorted(set(cases["ncap_protocol"].astype(str)))
+    unknown = [v for v in versions if v not in PROTOCOL_VERSIONS]
+    if unknown:
+        raise DataError(DataProblem("cases", "ncap_protocol", None, None,
+                                    f"unknown Euro NCAP protocol version(s) {unknown}; known: "
+                                    f"{', '.join(PROTOCOL_VERSIONS)}"))
+    return {v: read_protocol(version=v) for v in versions}
+
+
+#: Columns of the per-test result sheet (:func:`assess_tests`), in order.
+TEST_COLUMNS = ("case_id", "system", "protocol", "scenario", "vut_speed_kmh", "gvt_speed_kmh",
+                "overlap_pct", "impact_location_pct", "gvt_impact_location_pct", "gvt_side",
+                "gvt_deceleration_ms2", "headway_m", "collided", "vut_impact_speed_kmh",
+                "relative_impact_speed_kmh", "speed_reduction_kmh", "measure",
+                "measure_kmh", "colour", "points", "fcw_ttc_s")
+
+
 def assess_tests(runs: pd.DataFrame, cases: pd.DataFrame,
                  protocol: dict[str, Any] | None = None) -> pd.DataFrame:
-    """Colour and points of every test and system of a study on the Euro NCAP matrix.
+    """Colour and points of every test and system of a study on a Euro NCAP matrix.
 
     Parameters
     ----------
@@ -130,63 +181,83 @@ def assess_tests(runs: pd.DataFrame, cases: pd.DataFrame,
     cases : pandas.DataFrame
         The study's cases table (with the :data:`~vfs.scenarios.euro_ncap.MATRIX_COLUMNS`).
     protocol : dict, optional
-        :func:`~vfs.scenarios.euro_ncap.read_protocol`'s result.
+        :func:`~vfs.scenarios.euro_ncap.read_protocol`'s result; default the file of
+        the version the cases name.
 
     Returns
     -------
     pandas.DataFrame
-        One row per case and system (baseline included): ``scenario``,
-        ``vut_speed_kmh``, ``gvt_speed_kmh``, ``overlap_pct``, the measures of
-        :func:`run_measures`, ``measure_kmh`` (the one the scenario's bands use),
-        ``colour``, ``points``.
+        One row per case and system (baseline included), :data:`TEST_COLUMNS`:
+        test parameters (km/h, %, m/s^2, m), the measures of :func:`run_measures`,
+        ``measure`` (which one the scenario's bands use) and its value
+        ``measure_kmh``, ``colour``, ``points``, ``fcw_ttc_s`` [s].
 
     Raises
     ------
     DataError
-        The cases are not the Euro NCAP matrix.
+        The cases are not a Euro NCAP matrix, or name no or an unknown version.
     """
     if not is_euro_ncap_cases(cases):
         raise DataError(DataProblem("cases", "", None, None,
                                     "not a study on the Euro NCAP matrix (no ncap_scenario "
                                     "column; run vfs study --db euro-ncap-c2c)"))
-    protocol = read_protocol() if protocol is None else protocol
+    protocols = ({str(protocol["protocol"]["version"]): protocol} if protocol is not None
+                 else protocols_of(cases))
     cols = ["case_id", *[c for c in MATRIX_COLUMNS if c in cases.columns]]
     table = runs.merge(cases[cols], on="case_id", how="inner", validate="many_to_one")
     table = table[table["error"].fillna("").astype(str) == ""].reset_index(drop=True)
+    if "ncap_protocol" not in table.columns:
+        table["ncap_protocol"] = next(iter(protocols))
     measures = run_measures(table)
-    assessment = protocol["assessment"]
+
+    def col(name: str, scale: float = 1.0) -> np.ndarray:
+        if name not in table.columns:
+            return np.full(len(table), np.nan)
+        return np.round(table[name].to_numpy(dtype=float, na_value=np.nan) * scale, 6)
+
     out = pd.DataFrame({
         "case_id": table["case_id"], "system": table["system"],
-        "scenario": table["ncap_scenario"],
-        "vut_speed_kmh": np.round(table["ncap_vut_speed"] * KMH_PER_MS, 6),
-        "gvt_speed_kmh": np.round(table["ncap_gvt_speed"] * KMH_PER_MS, 6),
-        "overlap_pct": np.round(100.0 * table["ncap_overlap"], 6),
+        "protocol": table["ncap_protocol"].astype(str), "scenario": table["ncap_scenario"],
+        "vut_speed_kmh": col("ncap_vut_speed", KMH_PER_MS),
+        "gvt_speed_kmh": col("ncap_gvt_speed", KMH_PER_MS),
+        "overlap_pct": col("ncap_overlap", 100.0),
+        "impact_location_pct": col("ncap_lateral_location", 100.0),
+        "gvt_impact_location_pct": col("ncap_impact_location", 100.0),
+        "gvt_side": col("ncap_gvt_side"),
+        "gvt_deceleration_ms2": col("ncap_gvt_deceleration"),
+        "headway_m": col("ncap_headway"),
         "collided": table["collided"].fillna(False).astype(bool),
         **{c: measures[c] for c in measures.columns}})
+    out["measure"] = ""
     out["measure_kmh"] = np.nan
     out["colour"] = ""
-    for name, sc in protocol["scenarios"].items():
-        rows = (out["scenario"] == name).to_numpy()
-        if not rows.any():
-            continue
-        band = sc["band"]
-        if band == "mitigation":
-            value = out.loc[rows, "speed_reduction_kmh"].to_numpy()
-            colours = band_colours(value, assessment["mitigation"]["reduction_bands"])
-        else:
-            value = out.loc[rows, f"{sc['measure'].removesuffix('_kmh')}_kmh"].to_numpy()
-            if band == "avoidance":
-                colours = band_colours(value, assessment["avoidance"]["bands"])
-            else:
-                row_speed = out.loc[rows, "vut_speed_kmh"].to_numpy()
-                if sc.get("band_row", "vut_speed") == "relative_test_speed":
-                    row_speed = row_speed - out.loc[rows, "gvt_speed_kmh"].to_numpy()
+    out["points"] = np.nan
+    for version, proto in protocols.items():
+        assessment = proto["assessment"]
+        for name, sc in proto["scenarios"].items():
+            rows = ((out["scenario"] == name) & (out["protocol"] == version)).to_numpy()
+            if not rows.any():
+                continue
+            band = sc["band"]
+            measure = sc["measure"].removesuffix("_kmh")
+            value = out.loc[rows, f"{measure}_kmh"].to_numpy()
+            if band == "mitigation":
+                colours = band_colours(value, assessment["mitigation"]["reduction_bands"])
+            elif band == "avoidance":
+                # any contact is red: a VUT hit while standing entered the GVT's path
+                contact = out.loc[rows, "collided"].to_numpy(dtype=bool)
+                colours = band_colours(np.where(contact, np.inf, 0.0),
+                                       assessment["avoidance"]["bands"])
+            else:  # mitigation_or_avoidance: the row is the VUT's test speed (CCRm too)
                 colours = mitigation_or_avoidance_colours(
-                    value, row_speed, assessment["mitigation_or_avoidance"])
-        out.loc[rows, "measure_kmh"] = value
-        out.loc[rows, "colour"] = colours
-    out["points"] = points_of(out["colour"].to_numpy(), assessment["points"])
-    return out
+                    value, out.loc[rows, "vut_speed_kmh"].to_numpy(),
+                    assessment["mitigation_or_avoidance"])
+            out.loc[rows, "measure"] = measure
+            out.loc[rows, "measure_kmh"] = value
+            out.loc[rows, "colour"] = colours
+            out.loc[rows, "points"] = points_of(colours, assessment["points"])
+    out["fcw_ttc_s"] = np.round(fcw_ttc(table), 3)
+    return out[list(TEST_COLUMNS)]
 
 
 def scenario_scores(tests: pd.DataFrame, protocol: dict[str, Any] | None = None
@@ -196,28 +267,29 @@ def scenario_scores(tests: pd.DataFrame, protocol: dict[str, Any] | None = None
     Returns
     -------
     pandas.DataFrame
-        ``system``, ``scenario`` (``"total"`` last), ``tests``, ``avoided``
-        (tests without a collision), ``mean_points`` [-], ``score``, ``max_score``
-        (protocol ``max_points``), ``score_pct``; one count per colour.
+        ``system``, ``protocol``, ``scenario`` (``"total"`` last), ``tests``,
+        ``avoided`` (tests without a collision), ``mean_points`` [-],
+        ``score``, ``max_score`` (protocol ``max_points``), ``score_pct``; one
+        count per colour.
     """
-    protocol = read_protocol() if protocol is None else protocol
     rows: list[dict[str, Any]] = []
-    for system, of_system in tests.groupby("system", sort=False):
+    for (system, version), of_system in tests.groupby(["system", "protocol"], sort=False):
+        proto = protocol if protocol is not None else read_protocol(version=str(version))
         total = {"score": 0.0, "max_score": 0.0, "tests": 0, "avoided": 0}
-        for name, sc in protocol["scenarios"].items():
+        for name, sc in proto["scenarios"].items():
             sub = of_system[of_system["scenario"] == name]
             if sub.empty:
                 continue
             mean = float(sub["points"].mean())
             top = float(sc["max_points"])
-            row = {"system": system, "scenario": name, "tests": len(sub),
-                   "avoided": int((~sub["collided"]).sum()), "mean_points": mean,
-                   "score": top * mean, "max_score": top,
+            row = {"system": system, "protocol": version, "scenario": name,
+                   "tests": len(sub), "avoided": int((~sub["collided"]).sum()),
+                   "mean_points": mean, "score": top * mean, "max_score": top,
                    **{c: int((sub["colour"] == c).sum()) for c in COLOURS}}
             rows.append(row)
             for k in ("score", "max_score", "tests", "avoided"):
                 total[k] += row[k]
-        rows.append({"system": system, "scenario": "total", **total,
+        rows.append({"system": system, "protocol": version, "scenario": "total", **total,
                      "mean_points": math.nan,
                      **{c: int((of_system["colour"] == c).sum()) for c in COLOURS}})
     table = pd.DataFrame(rows)
@@ -225,18 +297,52 @@ def scenario_scores(tests: pd.DataFrame, protocol: dict[str, Any] | None = None
     return table
 
 
-def speed_grid(tests: pd.DataFrame, system: str, scenario: str) -> pd.DataFrame:
-    """One scenario's colours as a VUT speed x (overlap, GVT speed) grid of one system."""
+def grid_column_label(test: pd.Series, with_gvt: bool = True) -> str:
+    """The column of a test in its scenario's grid: GVT speed and lateral position or braking."""
+    parts = [f"GVT {test['gvt_speed_kmh']:g}"] if with_gvt else []
+    if not math.isnan(test["impact_location_pct"]):
+        parts.append(f"IL {test['impact_location_pct']:g} %")
+    elif not math.isnan(test["overlap_pct"]):
+        parts.append(f"ov {test['overlap_pct']:+g} %")
+    if not math.isnan(test["gvt_deceleration_ms2"]):
+        parts.append(f"{test['gvt_deceleration_ms2']:g} m/s2 {test['headway_m']:g} m")
+    if not math.isnan(test.get("gvt_side", math.nan)):
+        parts.append("from right" if test["gvt_side"] > 0 else "from left")
+    return " / ".join(parts) or "-"
+
+
+def speed_grid(tests: pd.DataFrame, system: str, scenario: str
+               ) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """One scenario's grid of one system, as the rating tool lays out its matrices.
+
+    Rows: the VUT speed [km/h] (with the GVT speed where each VUT speed has
+    one, as in the head-on and rear tests); columns: :func:`grid_column_label`.
+
+    Returns
+    -------
+    (values, colours) : pandas.DataFrame, pandas.DataFrame
+        The measure [km/h] per cell (formatted ``"12.3"``) and its colour, indexed
+        by the row label; empty frames when the system has no test of the
+        scenario.  A cell without a test (N/A in the protocol's matrix) is empty.
+    """
     sub = tests[(tests["system"] == system) & (tests["scenario"] == scenario)]
     if sub.empty:
-        return pd.DataFrame()
-    label = sub["gvt_speed_kmh"].map(lambda g: f"GVT {g:g}") + " / " + sub["overlap_pct"].map(
-        lambda o: f"{o:+g} %")
-    cell = sub["colour"] + " " + sub["measure_kmh"].map(lambda v: f"{v:.1f}")
-    return pd.DataFrame({"vut": sub["vut_speed_kmh"], "col": label, "cell": cell}).pivot_table(
-        index="vut", columns="col", values="cell", aggfunc="first", sort=False)
+        return pd.DataFrame(), pd.DataFrame()
+    one_gvt = bool(sub.groupby("vut_speed_kmh")["gvt_speed_kmh"].nunique().max() == 1)
+    rows = [f"{v:g} / GVT {g:g}" if one_gvt else f"{v:g}"
+            for v, g in zip(sub["vut_speed_kmh"], sub["gvt_speed_kmh"], strict=True)]
+    frame = pd.DataFrame({"row": rows,
+                          "col": [grid_column_label(r, not one_gvt) for _, r in sub.iterrows()],
+                          "value": sub["measure_kmh"].map(lambda v: f"{v:.1f}").to_numpy(),
+                          "colour": sub["colour"].to_numpy()})
+    values = frame.pivot_table(index="row", columns="col", values="value", aggfunc="first",
+                               sort=False)
+    colours = frame.pivot_table(index="row", columns="col", values="colour",
+                                aggfunc="first", sort=False)
+    return values.fillna(""), colours.fillna("")
 
 
-__all__ = ["COLOURS", "SPEED_RESOLUTION_KMH", "assess_tests", "band_colours",
-           "is_euro_ncap_cases", "mitigation_or_avoidance_colours", "points_of",
-           "scenario_scores", "speed_grid", "speed_row", "run_measures"]
+__all__ = ["COLOURS", "SPEED_RESOLUTION_KMH", "TEST_COLUMNS", "assess_tests", "band_colours",
+           "fcw_ttc", "grid_column_label", "is_euro_ncap_cases",
+           "mitigation_or_avoidance_colours", "points_of", "protocols_of", "run_measures",
+           "scenario_scores", "speed_grid", "speed_row"]

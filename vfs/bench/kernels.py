@@ -75,7 +75,7 @@ def bench_overlap(quick: bool) -> dict[str, Any]:
                     "compiled_max_area_difference_m2": float(np.max(np.abs(
                         ck.overlap_compiled(o1, o2).area - check.area)))}
     else:
-        compiled = {"compiled_polygons_per_s": "numba not installed (pip install vfs[fast])"}
+        compiled = {"compiled_polygons_per_s": "numba not installed (pip install numba)"}
     return {
         "batch": n,
         "ours_polygons_per_s": n / ours,
@@ -106,6 +106,44 @@ def bench_case_runs(quick: bool) -> dict[str, Any]:
         "collided_share": float(res.precrash.collided.mean()),
         "precrash_dt_s": params.precrash.dt, "runout_dt_s": params.runout.dt,
     }
+
+
+def bench_replay(quick: bool) -> dict[str, Any]:
+    """Pre-crash replays (no controller) per CPU second: the compiled per-case loop of
+    :mod:`vfs.physics.core` against the numpy reference (``VFS_COMPILED=0``), on the same
+    synthetic cases (2,000; 500 with --quick); ``identical``: every output equal.
+    """
+    import os
+
+    from vfs.physics.precrash import simulate_precrash
+
+    n = 500 if quick else 2_000
+    batch = synthetic_case_batch(n, np.random.default_rng(5))
+    args = (batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction)
+    saved = os.environ.get("VFS_COMPILED")
+    out: dict[str, Any] = {"cases": n}
+    results = {}
+    try:
+        for flag, name in (("0", "numpy"), ("1", "compiled")):
+            os.environ["VFS_COMPILED"] = flag
+            simulate_precrash(*args)  # compiles or loads the kernel
+            c0 = time.process_time()
+            results[name] = simulate_precrash(*args)
+            cpu = time.process_time() - c0
+            out[f"{name}_cpu_s"] = cpu
+            out[f"{name}_replays_per_cpu_s"] = n / cpu
+    finally:
+        if saved is None:
+            os.environ.pop("VFS_COMPILED", None)
+        else:
+            os.environ["VFS_COMPILED"] = saved
+    a, b = results["numpy"], results["compiled"]
+    out["identical"] = all(
+        np.array_equal(np.asarray(x), np.asarray(y), equal_nan=np.asarray(x).dtype.kind == "f")
+        for fa, fb in zip(a, b, strict=True)
+        for x, y in (zip(fa, fb, strict=True) if isinstance(fa, tuple) else [(fa, fb)]))
+    out["speed_up"] = out["numpy_cpu_s"] / out["compiled_cpu_s"]
+    return out
 
 
 def bench_generate(quick: bool) -> dict[str, Any]:

@@ -113,6 +113,67 @@ def bench_study(quick: bool) -> dict[str, Any]:
     }
 
 
+def first_compiled_run() -> None:
+    """The first pre-crash runs of a process: a replay (the compiled per-case loop) and a
+    run with a controller (the compiled step), on 20 synthetic cases; what a first
+    ``vfs study`` compiles (or loads from numba's cache).
+    """
+    import numpy as np
+
+    from vfs.physics.precrash import ScheduledBraking, simulate_precrash
+    from vfs.scenarios.random import synthetic_case_batch
+
+    batch = synthetic_case_batch(20, np.random.default_rng(3))
+    args = (batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction)
+    simulate_precrash(*args)
+    simulate_precrash(*args, controller=ScheduledBraking(np.full((20, 2), 4.0),
+                                                         np.full((20, 2), 8.0)))
+
+
+def bench_warmup(quick: bool) -> dict[str, Any]:
+    """Cold and warm start of the compiled core, CPU time of a fresh interpreter that runs
+    :func:`first_compiled_run`: with an empty numba cache (``NUMBA_CACHE_DIR`` a new
+    folder: the first run after install compiles), again with that cache filled (every
+    later run), and on the numpy reference path (``VFS_COMPILED=0``: no numba at all).
+    ``compile_cpu_s`` = cold - reference, ``cache_load_cpu_s`` = warm - reference.
+    """
+    tmp = Path(tempfile.mkdtemp(prefix="vfs-bench-warmup-"))
+    code = "from vfs.bench.study import first_compiled_run; first_compiled_run()"
+    try:
+        cold = run_python(code, {"NUMBA_CACHE_DIR": str(tmp)})
+        warm = run_python(code, {"NUMBA_CACHE_DIR": str(tmp)})
+        ref = run_python(code, {"NUMBA_CACHE_DIR": str(tmp), "VFS_COMPILED": "0"})
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return {
+        "cold_wall_s": cold[0], "cold_cpu_s": cold[1], "warm_wall_s": warm[0],
+        "warm_cpu_s": warm[1], "reference_cpu_s": ref[1],
+        "compile_cpu_s": cold[1] - ref[1], "cache_load_cpu_s": warm[1] - ref[1],
+        "load_average_1min": os.getloadavg()[0],
+    }
+
+
+def run_python(code: str, extra_env: dict[str, str]) -> tuple[float, float]:
+    """Run ``python -c CODE`` in a fresh interpreter with ``extra_env``; (wall [s], CPU [s])
+    (imports the same ``vfs`` as this process, as :func:`run_cli`).
+    """
+    import vfs
+
+    env = dict(os.environ)
+    env.update(extra_env)
+    root = str(Path(vfs.__file__).resolve().parent.parent)
+    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+    cpu0 = _child_cpu()
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", code], env=env, cwd=root,
+                          capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"python -c {code!r} failed ({proc.returncode}): "
+                           f"{proc.stderr.strip()[-2000:]}")
+    return wall, _child_cpu() - cpu0
+
+
 def _cases_in(out: Path, n_chunks: int, n_redo: int, n_cases: int) -> int:
     """Cases of the last ``n_redo`` of ``n_chunks`` chunks of a study of ``n_cases``."""
     import json
@@ -159,5 +220,6 @@ def bench_diagnose(quick: bool) -> dict[str, Any]:
     }
 
 
-__all__ = ["STUDY_SYSTEMS", "bench_diagnose", "bench_study", "generated_database",
-           "run_cli", "run_diagnose"]
+__all__ = ["STUDY_SYSTEMS", "bench_diagnose", "bench_study", "bench_warmup",
+           "first_compiled_run", "generated_database", "run_cli", "run_diagnose",
+           "run_python"]

@@ -7,19 +7,28 @@ commands, so ``vfs --help`` stays fast.
 Exit codes (every command; tests/cli/test_exit_codes.py):
 
 * 0: done;
-* 1: ``vfs db validate`` found problems in the database it checks (its verdict), or the
-  system refused a file operation (a full disk, a read-only folder: one line);
+* 1: ``vfs db validate`` found problems in the database it checks (its verdict), the
+  system refused a file operation (a full disk, a read-only folder: one line), or no command
+  was given (the help is printed);
 * 2: a user error: a bad flag value (argparse), or a :class:`vfs.errors.VfsError` (unreadable
   input, a value out of range), printed as one line without a traceback;
 * 3: ``vfs study`` ended incomplete (``vfs.study.run.EXIT_INCOMPLETE``; ``--resume`` goes on);
-* 130: interrupted (Ctrl-C).
+* 4: ``vfs study`` finished but some runs failed inside the simulation
+  (``vfs.study.faults.EXIT_FAILED_CASES``; ``--allow-failed`` accepts them);
+* 130: interrupted (Ctrl-C); 143: terminated by SIGTERM (``vfs study`` and ``python -m vfs``)
+  (``vfs.study.faults.EXIT_TERMINATED``).
+
+README.md lists the same codes; tests/test_docs_figures.py checks that the two lists agree.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
 
 from vfs.cli import (
     bench,
@@ -34,7 +43,7 @@ from vfs.cli import (
     study,
     uncertainty,
 )
-from vfs.errors import VfsError
+from vfs.errors import Terminated, VfsError
 
 #: Every command group of the CLI, in the order of ``vfs --help``.
 COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
@@ -52,19 +61,34 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
 )
 
 
+#: Shown below the command list of ``vfs --help``.
+EXAMPLES = """examples:
+  vfs study --db default --systems three-stage,ideal --out results/quickstart
+  vfs report effectiveness results/quickstart      # report.html, a page per case
+  vfs run-case --plot case.png                     # the built-in example, pre-crash to rest
+  vfs compare --db default                         # simulation against reconstructions
+  vfs diagnose --db DIR                            # which physical effect is missing
+  vfs db schema runs                               # the columns of runs.parquet, with units
+  vfs COMMAND --help                               # the options of one command
+
+documentation: README.md and docs/ (mkdocs build), exit codes: README.md"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command."""
+    from vfs.cli.common import Parser
     from vfs.version import __version__
 
-    parser = argparse.ArgumentParser(
-        prog="vfs",
+    parser = Parser(
+        prog="vfs", verbosity=False,
         description="Virtual forward simulation of real accidents for the assessment of ADAS.",
+        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"vfs {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
         add(subparsers)
-    return parser
+    return parser  # -v/-q: declared once, by every sub-parser (vfs.cli.common.Parser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -75,19 +99,43 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 1
     from vfs.blas import single_threaded_blas
-    from vfs.cli.common import input_messages
+    from vfs.cli.common import configure_logging, input_messages
+
+    configure_logging(args.verbose - args.quiet)
 
     try:
         # input warnings as "warning:" lines; --strict; one BLAS thread (vfs.blas)
-        with input_messages(args), single_threaded_blas():
+        with _terminate_as_interrupt(), input_messages(args), single_threaded_blas():
             return _run(args)
     except VfsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as exc:  # Ctrl-C (in vfs study also SIGTERM) before its handler
+        print("interrupted", file=sys.stderr, flush=True)
+        return int(getattr(exc, "exit_status", 130))  # Terminated: 143
     except OSError as exc:  # a full disk, a read-only folder: one line, not a traceback
         where = f" ({exc.filename})" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises :class:`vfs.errors.Terminated` here (main thread only): the command
+    ends with one line and exit 143, as on Ctrl-C (``vfs study`` handles both itself).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        raise Terminated(f"signal {signum} (SIGTERM)")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -100,4 +148,4 @@ def _run(args: argparse.Namespace) -> int:
     return int(args.func(args))
 
 
-__all__ = ["COMMAND_GROUPS", "build_parser", "main"]
+__all__ = ["COMMAND_GROUPS", "EXAMPLES", "build_parser", "main"]

@@ -6,11 +6,12 @@ import argparse
 import contextlib
 import importlib
 import importlib.util
+import logging
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, ClassVar, NoReturn
 
 from vfs.errors import ParameterError
 from vfs.registry import import_file
@@ -91,6 +92,9 @@ def input_messages(args: argparse.Namespace) -> Iterator[None]:
 
     with warnings.catch_warnings():
         warnings.simplefilter("always", DataWarning)
+        from vfs.errors import quiet_numpy_warnings
+
+        quiet_numpy_warnings()  # users see the clear line, not numpy's RuntimeWarning
         shown = warnings.showwarning
 
         def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
@@ -113,8 +117,93 @@ def open_db(args: argparse.Namespace) -> Database:
 
 
 def say(msg: str) -> None:
-    """Print a progress line now (not buffered)."""
-    print(msg, flush=True)
+    """A progress line (INFO on the ``vfs`` logger: standard error; ``-q`` silences it)."""
+    from vfs.progress import note
+
+    note("%s", msg)
+
+
+class Parser(argparse.ArgumentParser):
+    """The parser of ``vfs`` and of every command (argparse gives sub-parsers their parent's
+    class): ``-v/--verbose`` and ``-q/--quiet`` on every command, declared here once, and
+    "did you mean" for a mistyped command, choice or option (Python 3.11's argparse has no
+    ``suggest_on_error``).
+
+    Parameters
+    ----------
+    verbosity : bool
+        Declare ``-v/-q`` (every command; not the top-level ``vfs``, whose value the
+        command's own default would override).
+    **kwargs
+        Those of :class:`argparse.ArgumentParser`.
+    """
+
+    #: Every option string a vfs parser declared (the candidates of "did you mean").
+    declared: ClassVar[set[str]] = set()
+
+    def __init__(self, *args: Any, verbosity: bool = True, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        if verbosity:
+            group = self.add_argument_group("output")
+            group.add_argument("-v", "--verbose", action="count", default=0,
+                               help="more detail on standard error (debug lines)")
+            group.add_argument("-q", "--quiet", action="count", default=0,
+                               help="no progress lines or bars, warnings and errors only")
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> Any:
+        """:meth:`argparse.ArgumentParser.add_argument`, remembering the option strings."""
+        Parser.declared.update(a for a in args if isinstance(a, str) and a.startswith("-"))
+        return super().add_argument(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        """Print usage and ``message`` with the closest valid word, exit with code 2."""
+        import difflib
+        import re
+
+        m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if m:
+            choices = re.findall(r"'([^']*)'", m.group(2)) or \
+                [c.strip() for c in m.group(2).split(",")]
+            close = difflib.get_close_matches(m.group(1), choices, n=3, cutoff=0.5)
+            if close:
+                message += "; did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+        m = re.search(r"unrecognized arguments: (.*)", message)
+        if m:
+            for word in m.group(1).split():
+                close = difflib.get_close_matches(word.split("=")[0], sorted(Parser.declared),
+                                                  n=1, cutoff=0.6) \
+                    if word.startswith("-") else []
+                if close:
+                    message += f"; did you mean '{close[0]}' for '{word}'?"
+        super().error(message)
+
+
+class _Format(logging.Formatter):
+    """Progress lines as they are; warnings and errors with their level."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = record.getMessage()
+        if record.levelno >= logging.WARNING:
+            return f"{record.levelname.lower()}: {text}"
+        return text
+
+
+def configure_logging(verbosity: int) -> None:
+    """The ``vfs`` logger of the command line: standard error, INFO by default, DEBUG with
+    ``-v``, WARNING with ``-q`` (``verbosity`` = number of -v minus number of -q).
+    """
+    from vfs.progress import LOGGER
+
+    level = logging.DEBUG if verbosity > 0 else logging.INFO if verbosity == 0 else \
+        logging.WARNING
+    for handler in [h for h in LOGGER.handlers if getattr(h, "vfs_cli", False)]:
+        LOGGER.removeHandler(handler)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Format())
+    handler.vfs_cli = True  # type: ignore[attr-defined]
+    LOGGER.addHandler(handler)
+    LOGGER.setLevel(level)
+    LOGGER.propagate = False
 
 
 def _register_laws(path: Path) -> list[str]:

@@ -75,7 +75,11 @@ def run_compare(args: argparse.Namespace) -> int:
     comparison = compare_database(db, run=args.run, params=params,
                                   margins=parse_margins(args.margins), alpha=args.alpha,
                                   impact_parameters=setting)
+    from vfs.progress import note
+
+    note("writing the report, its figures and case pages")
     files = write_comparison_report(comparison, args.out, database=db, top=args.top,
+                                    database_reference=str(args.db),
                                     sketches=args.sketches, case_pages=args.case_pages)
     print(comparison.summary())
     print(f"report -> {files['report_md']} and {files['report_html']} ({len(files)} files)")

@@ -16,9 +16,11 @@ import sys
 from pathlib import Path
 
 from vfs.cli.common import add_input_option
-from vfs.database.io import save_csv_folder, save_database
-from vfs.database.pcm import export_pcm, import_pcm
-from vfs.database.source import FORMATS, load_any, resolve_database_path
+from vfs.database.formats import DATABASE_FORMATS, formats_by_priority
+from vfs.database.io import save_database
+from vfs.database.pcm import import_pcm
+from vfs.database.schema import TABLE_NAMES
+from vfs.database.source import load_any, resolve_database_path
 from vfs.errors import DataError, ParameterError
 
 #: Exit code of a user error (unreadable input, bad value): the code of every ``vfs`` command.
@@ -77,14 +79,68 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def runs_columns() -> list[str]:
+    """The columns of a study's ``runs.parquet``, in file order: the study's own run of the
+    built-in example case with the ``three-stage`` system (key columns, results, AEB events).
+    """
+    import numpy as np
+
+    from vfs.adas import get_system
+    from vfs.scenarios.examples import example_case_database
+    from vfs.simulation import CaseBatch, SimulationParams
+    from vfs.study.tasks import normalise_runs, run_batch
+
+    db = example_case_database()
+    batch = CaseBatch.from_database(db)
+    table, _, _ = run_batch(batch, get_system("three-stage"), np.ones((batch.size, 2), bool),
+                            SimulationParams(), np.random.default_rng(0))
+    table.insert(0, "system", "three-stage")
+    table["error"] = ""
+    table["equipped1"] = table["equipped2"] = True
+    return list(normalise_runs(table, db.cases).columns)
+
+
+def _column_listing(table: str) -> tuple[str, dict[str, object]]:
+    """Text (column, unit, description) and JSON of one table's columns."""
+    from vfs.database.metadata import field_metadata
+    from vfs.database.schema import TABLES
+
+    columns = runs_columns() if table == "runs" else [c.name for c in TABLES[table].columns]
+    meta = field_metadata(columns, table=None if table == "runs" else table,
+                          stored=table != "runs")
+    rows = [(c, meta.get(c, {}).get("unit", "?") or "-", meta.get(c, {}).get("description", ""))
+            for c in columns]
+    width = max(len(r[0]) for r in rows)
+    units = max(len(r[1]) for r in rows)
+    where = ("a study's runs.parquet, SI units (vfs.read_runs puts them in df.attrs)"
+             if table == "runs" else f"the database table {table}, units as stored in its files")
+    lines = [f"{table}: {where}", f"{'column':{width}}  {'unit':{units}}  description"]
+    lines += [f"{c:{width}}  {u:{units}}  {d}" for c, u, d in rows]
+    doc: dict[str, object] = {"table": table, "columns": [{"name": c, "unit": u, "description": d}
+                                       for c, u, d in rows]}
+    return "\n".join(lines) + "\n", doc
+
+
 def cmd_schema(args: argparse.Namespace) -> int:
-    """``vfs db schema [--format json|frictionless] [--out FILE]``."""
+    """``vfs db schema [TABLE] [--format text|json|frictionless] [--out FILE]``."""
     import json
 
     from vfs.database.metadata import frictionless_schema, schema_json
 
-    doc = frictionless_schema() if args.format == "frictionless" else schema_json()
-    text = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+    if args.table:
+        listing, table_doc = _column_listing(args.table)
+        fmt = args.format or "text"
+        if fmt == "frictionless":
+            raise ParameterError("--format frictionless describes the whole database; "
+                                 "drop TABLE or use --format text|json")
+        text = listing if fmt == "text" else json.dumps(table_doc, indent=2) + "\n"
+    else:
+        fmt = args.format or "json"
+        if fmt == "text":
+            raise ParameterError("--format text lists one table: name it (vfs db schema runs)")
+        doc = frictionless_schema() if fmt == "frictionless" else schema_json()
+        text = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+    args.format = fmt
     if args.out:
         from vfs.atomic import write_text
 
@@ -96,10 +152,12 @@ def cmd_schema(args: argparse.Namespace) -> int:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    """``vfs db convert SRC DST --to {parquet,csv,pcm}``."""
+    """``vfs db convert SRC DST --to FORMAT`` (a writable :data:`DATABASE_FORMATS` entry)."""
     try:
         db = load_any(_path(args.source), validate=True)
-        writer = {"parquet": save_database, "csv": save_csv_folder, "pcm": export_pcm}[args.to]
+        writer = DATABASE_FORMATS.get(args.to).save
+        if writer is None:
+            raise ParameterError(f"--to {args.to}: this format is read only")
         out = writer(db, args.destination)
     except DataError as error:
         _print_problems(error)
@@ -215,22 +273,31 @@ def add_parsers(
         "a Frictionless Data Package (Table Schema per table, the unit as the custom field "
         "property 'unit'). The same units and descriptions are in the field metadata of "
         "every Parquet file vfs writes.")
-    schema.add_argument("--format", choices=("json", "frictionless"), default="json",
-                        help="output format (default json)")
+    schema.add_argument("table", nargs="?", choices=("runs", *TABLE_NAMES),
+                        help="list one table's columns with unit and description: 'runs' "
+                        "(a study's runs.parquet, SI) or a database table")
+    schema.add_argument("--format", choices=("text", "json", "frictionless"), default=None,
+                        help="output format (default: json for the whole schema, text for one "
+                        "table)")
     schema.add_argument("--out", type=Path, help="write to this file instead of stdout")
     schema.set_defaults(func=cmd_schema)
 
     convert = commands.add_parser("convert", help="convert between database formats")
     convert.add_argument("source", type=Path, help="Parquet, CSV or PCM folder")
     convert.add_argument("destination", type=Path, help="output folder (replaced)")
-    convert.add_argument("--to", choices=FORMATS, required=True,
-                         help="output format: " + ", ".join(FORMATS))
+    writable = [f.name for f in formats_by_priority() if f.save is not None]
+    convert.add_argument("--to", choices=writable, required=True,
+                         help="output format: " + "; ".join(
+                             f"{f.name}: {f.doc}" for f in formats_by_priority()
+                             if f.save is not None))
     convert.set_defaults(func=cmd_convert)
 
     pcm = commands.add_parser("import-pcm", help="PreCrash-Matrix CSV folder -> Parquet")
     pcm.add_argument("source", type=Path, help="folder with participant_data.csv, ...")
     pcm.add_argument("destination", type=Path, help="output database folder (replaced)")
     pcm.set_defaults(func=cmd_import_pcm)
+
+    from vfs.study.layout import Equip
 
     export = commands.add_parser(
         "export-xosc", help="cases -> OpenSCENARIO (.xosc) + OpenDRIVE (.xodr) files",
@@ -239,7 +306,7 @@ def add_parsers(
         "trajectories as timed polylines, a two-lane road (straight, or fitted to the "
         "recorded paths). With --system the motion is re-simulated with that AEB system; "
         "with --run STUDY exactly as that study simulated it. Needs the optional extra: "
-        'pip install "vfs[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
+        'pip install "vfs-accident[xosc]". Run a file with: esmini --window 60 60 800 400 --osc '
         "case_1.xosc. See docs/interop.md.")
     add_input_option(export, help="database folder, or 'default'")  # reads a database
     export.add_argument("--case", required=True, nargs="+", metavar="ID", help="case id(s)")
@@ -250,7 +317,7 @@ def add_parsers(
     export.add_argument("--system", metavar="NAME",
                         help="AEB system: export the motion with the system instead of the "
                         "recorded one (vfs study --help lists the systems)")
-    export.add_argument("--equip", choices=("1", "2", "both"), default="both",
+    export.add_argument("--equip", choices=[m.value for m in Equip], default=Equip.BOTH.value,
                         help="vehicles carrying --system without --run (default both)")
     export.add_argument("--seed", type=int, default=0,
                         help="seed of --system without --run (default 0)")

@@ -59,19 +59,18 @@ def diagnose_spec(args: argparse.Namespace, database: str = "") -> DiagnoseSpec:
                         database=database)
 
 
-def _progress(quiet: bool) -> Callable[[str], None]:
-    """Progress lines with the elapsed time on stderr; silent with --quiet or when stderr
-    is not a terminal (the lines then go nowhere: the summary is printed at the end).
+def _progress() -> Callable[[str], None]:
+    """Progress lines with the elapsed time, through the ``vfs`` logger (stderr; ``-q``
+    silences them, ``vfs.progress``), on a terminal and when piped alike.
     """
-    import sys
     import time
 
-    if quiet or not sys.stderr.isatty():
-        return lambda _msg: None
+    from vfs.progress import note
+
     t0 = time.perf_counter()
 
     def tell(msg: str) -> None:
-        print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
+        note("[%6.1f s] %s", time.perf_counter() - t0, msg)
 
     return tell
 
@@ -112,7 +111,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     out_folder(args, "diagnose", args.db)
     db, path = _load_db(args.db)
     spec = diagnose_spec(args, str(path))
-    diag = diagnose(db, spec, progress=_progress(args.quiet))
+    diag = diagnose(db, spec, progress=_progress())
     paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
     print()
     print(format_selection(diag))
@@ -283,9 +282,6 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "vfs.diagnosis.diagnose_spec.MAX_STEPS)")
     p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
                    help=argparse.SUPPRESS)
-    p.add_argument("--quiet", action="store_true",
-                   help="no progress lines on stderr (they are off when stderr is not a "
-                   "terminal)")
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")
     p.set_defaults(func=cmd_diagnose)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -86,16 +87,21 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    '10, "privileged": true, "sensor": {"range": 100}}\' (over those a saved '
                    'policy carries)')
     add_input_option(p, help="database folder or 'default'")  # reads a database
-    p.add_argument("--split", choices=("train", "test", "all"), default="test",
+    from vfs.gym.config import EnvConfig, Split  # gymnasium: a dependency, loaded with vfs
+    from vfs.study import EXECUTORS
+
+    env_defaults = {f.name: f.default for f in dataclasses.fields(EnvConfig)}
+    p.add_argument("--split", choices=[m.value for m in Split], default=Split.TEST.value,
                    help="cases of the environment's split (default test)")
-    p.add_argument("--test-share", type=float, default=0.2,
-                   help="share of test cases (default 0.2)")
-    p.add_argument("--split-seed", type=int, default=0, help="seed of the split (default 0)")
+    p.add_argument("--test-share", type=float, default=env_defaults["test_share"],
+                   help=f"share of test cases (default {env_defaults['test_share']})")
+    p.add_argument("--split-seed", type=int, default=env_defaults["split_seed"],
+                   help=f"seed of the split (default {env_defaults['split_seed']})")
     p.add_argument("--where", help="SQL predicate on the cases table first")
     p.add_argument("--ego", type=int, choices=(1, 2), default=1,
                    help="participant braked by the policy (default 1)")
     out_option(p, "study folder", "evaluate-policy-<db>")
-    p.add_argument("--engine", choices=("serial", "process", "dask"), default="process",
+    p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
                    help="executor (default process; serial for policies that cannot be pickled)")
     p.add_argument("--workers", type=int, help="parallel workers")
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")

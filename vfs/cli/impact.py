@@ -23,16 +23,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
 
 def cmd_impact(args: argparse.Namespace) -> int:
-    """Run ``vfs impact``."""
-    from pathlib import Path
+    """Run ``vfs impact``: record batches in, solved record batches out (memory bounded)."""
+    from vfs.database.impact_table import solve_impact_file
 
-    from vfs.atomic import write_table
-    from vfs.database.impact_table import read_table, solve_impact_table
-
-    df = read_table(args.input)
-    out = solve_impact_table(df, on_error=args.on_error, table=Path(args.input).name)
-    write_table(args.output, out)
-    counts = out["impact_type"].value_counts().to_dict()
+    counts = solve_impact_file(args.input, args.output, on_error=args.on_error)
     summary = ", ".join(f"{k}: {v}" for k, v in sorted(counts.items()))
-    print(f"solved {len(out)} impacts ({summary}) -> {args.output}")
+    print(f"solved {sum(counts.values())} impacts ({summary}) -> {args.output}")
     return 0

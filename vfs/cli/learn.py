@@ -90,12 +90,12 @@ def cmd_learn(args: argparse.Namespace) -> int:
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Add ``identify`` and ``learn`` to the main parser."""
+    from vfs.effects.learned import CHANNELS
+
     p = subparsers.add_parser(
         "identify", help="per-case values of model channels that reproduce the reconstruction",
         description=(
-            "For every case and channel (restitution, contact_friction, poi_along, "
-            "poi_across, cp_angle, penetration_time, ees_stiffness_ratio, yaw_inertia_factor, "
-            "tyre_impulse, runout_brake1, runout_brake2) the value that "
+            f"For every case and channel ({', '.join(CHANNELS)}) the value that "
             "best reproduces the reconstruction outcomes (chi^2 of the residuals standardised "
             "by the _sd scales), a chi^2 + 1 interval (noise scale estimated, --noise) and "
             "identifiability flags. Writes "

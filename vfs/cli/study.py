@@ -9,8 +9,10 @@ once.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
+from pathlib import Path
 
 from vfs.cli.common import WHERE_HELP, add_figure_options, add_input_option, out_option
 from vfs.errors import ParameterError, VfsError
@@ -27,7 +29,9 @@ def _positive_int(text: str) -> int:
 
 
 def _default_equip(db: str) -> str:
-    """``meta["equip"]`` of the database (the Euro NCAP matrix equips the VUT: "1"), else "both"."""
+    """``meta["equip"]`` of the database (the Euro NCAP matrix equips the VUT: "1"), else
+    :attr:`Equip.BOTH`.
+    """
     from vfs.database import database_location
     from vfs.database.io import read_meta
 
@@ -35,8 +39,10 @@ def _default_equip(db: str) -> str:
         meta, _ = read_meta(database_location(db))
     except (OSError, VfsError):  # unreadable here: run_study reports it properly
         return "both"
-    equip = str(meta.get("equip", "both"))
-    return equip if equip in ("1", "2", "both") else "both"
+    from vfs.study.layout import EQUIP_RULES, Equip
+
+    equip = str(meta.get("equip", Equip.BOTH))
+    return equip if equip in EQUIP_RULES else Equip.BOTH.value
 
 
 def cmd_study(args: argparse.Namespace) -> int:
@@ -44,9 +50,10 @@ def cmd_study(args: argparse.Namespace) -> int:
     from vfs.cli.common import load_plugins, out_folder, path_label
     from vfs.study import StudySpec, run_study
     from vfs.study.spec import Equip
+    from vfs.study.systems import split_systems
 
     load_plugins(args.plugin)
-    systems = [s.strip() for s in args.systems.split(",") if s.strip()]
+    systems = [str(s) for s in split_systems(args.systems)]
     if not systems:
         raise ParameterError("--systems: name at least one system, e.g. three-stage,ideal")
     from vfs.study.faults import (
@@ -54,7 +61,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         EXIT_TERMINATED,
         Terminated,
         failed_runs,
-        terminate_as_interrupt,
+        stop_on_signals,
     )
 
     out_folder(args, "study", args.db, "+".join(path_label(s) for s in systems))
@@ -64,14 +71,21 @@ def cmd_study(args: argparse.Namespace) -> int:
         seed=args.seed, where=args.where, equip=Equip(args.equip or _default_equip(args.db)),
         resume=args.resume, overwrite=args.overwrite,
         impact_parameters=args.impact_parameters, dashboard=args.dashboard)
-    try:
-        with terminate_as_interrupt():  # SIGTERM stops the study as Ctrl-C does
+    # SIGINT and SIGTERM are handled here, once (the workers ignore them): the study
+    # stops, kills its workers, writes its manifest, and this says how to resume
+    with stop_on_signals():
+        try:
             result = run_study(spec)
-    except KeyboardInterrupt as exc:
-        what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
-        print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
-              f"{args.out}; continue with the same command and --resume", file=sys.stderr)
-        return EXIT_TERMINATED if isinstance(exc, Terminated) else 130
+        except KeyboardInterrupt as exc:
+            what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+            if (Path(args.out) / "study.json").exists():
+                print(f"{what}; the manifest says 'interrupted'; finished chunks are kept in "
+                      f"{args.out}; continue with the same command and --resume",
+                      file=sys.stderr, flush=True)
+            else:
+                print(f"{what} before the study started; nothing was written to {args.out}",
+                      file=sys.stderr, flush=True)
+            return EXIT_TERMINATED if isinstance(exc, Terminated) else 130
     print(result.summary())
     if result.complete:
         print(f"runs -> {result.path / 'runs.parquet'}")
@@ -135,7 +149,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     from vfs.adas import SYSTEMS
     from vfs.study import EXECUTORS
     from vfs.study.layout import DEFAULT_CHUNK_SIZE
-    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource
+    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
 
     add_input_option(p)  # reads a database
     p.add_argument("--systems", required=True, metavar="NAMES",
@@ -151,7 +165,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--equip", choices=[m.value for m in Equip], default=None,
                    help="vehicles carrying the system in the treatment runs (default the "
                    "database's meta 'equip', else both; euro-ncap-c2c: 1, the VUT)")
-    p.add_argument("--engine", choices=EXECUTORS.names(), default="process",
+    defaults = {f.name: f.default for f in dataclasses.fields(StudySpec)}  # declared once
+    p.add_argument("--engine", choices=EXECUTORS.names(), default=defaults["engine"],
                    help="executor: serial, local processes (default), dask, or one registered "
                    "with vfs.study.register_executor or by an installed package (entry-point "
                    "group vfs.executors)")
@@ -172,7 +187,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "its own random stream, so results do not depend on it; larger batches "
                    f"share the per-step cost (default {DEFAULT_TASK_CASES}; with workers the "
                    "tasks are sized by their estimated cost)")
-    p.add_argument("--seed", type=int, default=0, help="seed of all random draws (default 0)")
+    p.add_argument("--seed", type=int, default=defaults["seed"],
+                   help=f"seed of all random draws (default {defaults['seed']})")
     p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
                    default=ImpactParameterSource.RECONSTRUCTION.value,
                    help="restitution and contact friction: the reconstruction's where present "

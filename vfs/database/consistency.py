@@ -162,6 +162,8 @@ def check_consistency(db: Any, accel_error: float, limits: ConsistencyLimits | N
         _acceleration(traj, accel_error, lim, err, warn)
     if len(parts) and len(traj):
         _start_overlap(parts, traj, warn)
+        if "collision" in db.cases.columns:
+            _near_miss_contact(db.cases, parts, traj, warn)
     if len(db.reconstruction) and len(parts):
         _reconstruction(db.reconstruction, parts, lim, warn)
     return err, warn
@@ -348,6 +350,42 @@ def _start_overlap(parts: pd.DataFrame, traj: pd.DataFrame, warn: list[DataProbl
               np.hypot(p1["x"] - p2["x"], p1["y"] - p2["y"]).to_numpy(float)[overlap],
               strict=True)],
          "participants overlapping at the start")
+
+
+def _near_miss_contact(cases: pd.DataFrame, parts: pd.DataFrame, traj: pd.DataFrame,
+                       warn: list[DataProblem]) -> None:
+    """Cases labelled near misses (``collision`` False) whose recorded outlines overlap.
+
+    The outlines of both participants are compared at every time both records
+    hold (sample times equal within 1 ms; records on other time grids are not
+    compared); the first overlap is named.
+    """
+    label = cases["collision"]
+    if label.dtype != bool:
+        label = label.astype(str).str.strip().str.lower().isin({"true", "1", "yes"})
+    near = cases.loc[~label.to_numpy(bool), "case_id"].to_numpy()
+    if near.size == 0:
+        return
+    rows = traj[traj["case_id"].isin(near)][["case_id", "participant", "t", "x", "y", "yaw"]]
+    rows = rows.assign(participant=pd.to_numeric(rows["participant"], errors="coerce"),
+                       tick=np.round(rows["t"].to_numpy(float) * 1000.0))
+    geo = _geometry(parts).reset_index()
+    geo.columns = ["case_id", "participant", "front", "rear", "width"]
+    rows = rows.merge(geo, on=["case_id", "participant"])
+    one, two = rows[rows["participant"] == 1], rows[rows["participant"] == 2]
+    both = one.merge(two, on=["case_id", "tick"], suffixes=("1", "2"))
+    if both.empty:
+        return
+    c1 = outline_corners(both["x1"], both["y1"], both["yaw1"], both["front1"], both["rear1"],
+                         both["width1"])
+    c2 = outline_corners(both["x2"], both["y2"], both["yaw2"], both["front2"], both["rear2"],
+                         both["width2"])
+    hit = both[outline_distance(c1, c2) <= 0.0].drop_duplicates("case_id")
+    _add(warn, "cases", "collision", hit["case_id"].to_numpy(),
+         [f"labelled a near miss (collision=False) but the recorded outlines of participants "
+          f"1 and 2 overlap at t={t:g} s: the label or the trajectories are wrong"
+          for t in hit["t1"].to_numpy(float)],
+         "near misses whose trajectories collide")
 
 
 def _reconstruction(rec: pd.DataFrame, parts: pd.DataFrame, lim: ConsistencyLimits,

@@ -87,7 +87,11 @@ class Database:
 
     def normalised(self) -> Database:
         """Copy with schema dtypes, defaults and column order (see :func:`normalise_table`)."""
-        frames = {name: normalise_table(df, name) for name, df in self.tables().items()}
+        from vfs.database.metadata import with_units
+
+        # units and descriptions (SI, as in memory) in each frame's attrs
+        frames = {name: with_units(normalise_table(df, name), name)
+                  for name, df in self.tables().items()}
         return Database(**frames, meta=dict(self.meta))
 
     @property

@@ -9,9 +9,12 @@ plus :data:`OUTPUT_COLUMNS`.
 
 from __future__ import annotations
 
+import contextlib
+import csv
 import os
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -93,6 +96,30 @@ MAX_POI_DISTANCE = 15.0
 MAX_DELTA_V = 30.0
 #: Speed [m/s] that warns (km/h?): the database's warning limit for road vehicles.
 MAX_SPEED = 60.0
+#: Yaw rate [rad/s] that warns (deg/s?): one turn per second, 2 pi rad/s.  A car of
+#: 1,500 kg and 2,500 kg m^2 then holds 49 kJ of rotational energy, that of the whole car
+#: at 29 km/h; yaw rates in deg/s of turning or spinning vehicles (10-200 deg/s) read as
+#: rad/s lie above it.
+MAX_YAW_RATE = 2.0 * np.pi
+#: Contact-plane angle [rad] that warns (degrees?): beyond one turn, 2 pi.
+MAX_CP_ANGLE = 2.0 * np.pi
+#: Speed [m/s] that warns in a crossing impact (velocity directions 30-150 deg apart):
+#: 30 m/s (108 km/h), above the 100 km/h speed limit of rural roads of most EU states,
+#: where crossing traffic meets; urban speeds in km/h (30-60) read as m/s lie at or above
+#: it.  Same-direction and head-on impacts (motorways, overtaking) are left to
+#: :data:`MAX_SPEED` and :data:`MAX_DELTA_V`.
+MAX_CROSSING_SPEED = 30.0
+#: Mass [kg] above which a vehicle is a truck or bus (EU categories N2/N3, M2/M3).
+HEAVY_VEHICLE_MASS = 3500.0
+#: Speed [m/s] that warns for a heavy vehicle: their speed limiters stop at 90 km/h
+#: (trucks) and 100 km/h (buses) (Council Directive 92/6/EEC as amended by 2002/85/EC);
+#: 100 km/h plus 10 %.
+MAX_HEAVY_SPEED = 100.0 / 3.6 * 1.1
+#: Factor on the sum of both vehicles' half-lengths estimated from the radius of gyration
+#: (a uniform rod of length L has k = L / sqrt(12), half-length sqrt(3) k) above which
+#: the CGs are too far apart for the outlines to touch: 1.5 (mass concentrated towards the
+#: centre and the widths).
+CONTACT_REACH_FACTOR = 1.5
 
 
 def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
@@ -100,9 +127,11 @@ def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
     """Values each in range but not from a real impact (units mixed up), per row.
 
     Masses in tonnes or pounds, a yaw inertia whose radius of gyration no road
-    vehicle has, yaw angles in degrees, both centres of gravity at one point, a
-    POI far from both vehicles, speeds above any road vehicle's; the limits are
-    the constants above, with their sources.  Delta-v is checked after solving
+    vehicle has, yaw angles, yaw rates or the contact-plane angle in degrees, both
+    centres of gravity at one point or too far apart to touch, a POI far from both
+    vehicles, speeds above any road vehicle's, above a truck's speed limiter, or a
+    crossing impact at speeds of km/h read as m/s; the limits are the constants
+    above, with their sources.  Delta-v is checked after solving
     (:func:`solve_impact_table`).
 
     Returns
@@ -156,12 +185,47 @@ def impact_table_warnings(df: pd.DataFrame, config: ImpactConfig, table: str
             add(f"vx{i}", fast, [f"speed {v:.4g} m/s of vehicle {i} is above the "
                                  f"{MAX_SPEED:g} m/s of road vehicles in a crash: km/h? (m/s "
                                  "required)" for v in speed[fast]])
+            heavy_fast = ~fast & (m > HEAVY_VEHICLE_MASS) & (speed > MAX_HEAVY_SPEED)
+            add(f"vx{i}", heavy_fast,
+                [f"speed {v:.4g} m/s ({v * 3.6:.4g} km/h) of vehicle {i}, a truck or bus of "
+                 f"{w:g} kg, is above the {MAX_HEAVY_SPEED:.3g} m/s its speed limiter allows: "
+                 "km/h? (m/s required)" for v, w in zip(speed[heavy_fast], m[heavy_fast],
+                                                         strict=True)])
+            rate = config.yaw_rate[:, i - 1]
+            spin = np.abs(rate) > MAX_YAW_RATE
+            add(f"yaw_rate{i}", spin,
+                [f"yaw_rate{i}={v:g} rad/s is more than one turn per second "
+                 f"({MAX_YAW_RATE:.3g} rad/s): deg/s? (rad/s required)" for v in rate[spin]])
+        speed1 = np.hypot(config.vx[:, 0], config.vy[:, 0])
+        speed2 = np.hypot(config.vx[:, 1], config.vy[:, 1])
+        between = np.abs(wrap_angle(np.arctan2(config.vy[:, 0], config.vx[:, 0])
+                                    - np.arctan2(config.vy[:, 1], config.vx[:, 1])))
+        crossing = ((speed1 > 2.0) & (speed2 > 2.0) & (between > np.radians(30.0))
+                    & (between < np.radians(150.0)))
+        top = np.maximum(speed1, speed2)
+        urban = crossing & (top > MAX_CROSSING_SPEED) & (top <= MAX_SPEED)
+        add("vx1", urban, [f"a crossing impact (velocities {np.degrees(b):.0f} deg apart) at "
+                           f"{v:.4g} m/s ({v * 3.6:.4g} km/h): above the {MAX_CROSSING_SPEED:g} "
+                           "m/s of crossing traffic; speeds in km/h? (m/s required)"
+                           for b, v in zip(between[urban], top[urban], strict=True)])
+        cp = config.cp_angle
+        cp_deg = np.abs(cp) > MAX_CP_ANGLE
+        add("cp_angle", cp_deg, [f"cp_angle={v:g} is more than one turn read as radians: "
+                                 "degrees? (rad required)" for v in cp[cp_deg]])
         x1, x2, y1, y2 = config.x[:, 0], config.x[:, 1], config.y[:, 0], config.y[:, 1]
         gap = np.hypot(x1 - x2, y1 - y2)
         close = gap < MIN_CG_DISTANCE
         add("x2", close, [f"the centres of gravity of both vehicles are {g:.3g} m apart "
                           f"(below {MIN_CG_DISTANCE:g} m): two vehicles cannot share one point"
                           for g in gap[close]])
+        free_both = np.isfinite(config.m).all(axis=1)
+        half = np.sqrt(3.0) * np.sqrt(config.izz / config.m)
+        reach = CONTACT_REACH_FACTOR * half.sum(axis=1)
+        apart = free_both & ~close & (gap > reach)
+        add("x2", apart, [f"the centres of gravity are {g:.4g} m apart, more than the {r:.3g} m "
+                          "at which vehicles of these masses and yaw inertias can touch: "
+                          "positions in other units, or of another moment? (m required)"
+                          for g, r in zip(gap[apart], reach[apart], strict=True)])
         poi = np.minimum(np.hypot(config.poi_x - x1, config.poi_y - y1),
                          np.hypot(config.poi_x - x2, config.poi_y - y2))
         far = poi > MAX_POI_DISTANCE
@@ -196,6 +260,17 @@ def _numeric_column(df: pd.DataFrame, name: str, table: str,
     return values
 
 
+def _check_columns(columns: pd.Index, table: str) -> None:
+    """Refuse a table without the required columns or with one of them twice."""
+    frame = pd.DataFrame(columns=columns)
+    missing = [c for c in INPUT_COLUMNS if c not in columns]
+    duplicated = _duplicated_columns(frame, table)
+    if missing or duplicated:
+        raise DataError(duplicated + [DataProblem(table, c, None, None,
+                                                  "required column is missing")
+                                      for c in missing])
+
+
 def solve_impact_table(
     df: pd.DataFrame, *, on_error: Literal["raise", "record"] = "raise", table: str = "input",
 ) -> pd.DataFrame:
@@ -217,13 +292,54 @@ def solve_impact_table(
     DataFrame
         The input columns followed by :data:`OUTPUT_COLUMNS`.
     """
-    missing = [c for c in INPUT_COLUMNS if c not in df.columns]
-    duplicated = _duplicated_columns(df, table)
-    if missing or duplicated:
-        raise DataError(duplicated + [DataProblem(table, c, None, None,
-                                                  "required column is missing")
-                                      for c in missing])
-    df = df.reset_index(drop=True)
+    _check_columns(df.columns, table)
+    block = solve_block(df.reset_index(drop=True), on_error=on_error, table=table)
+    if block.problems and on_error == "raise":
+        raise DataError(block.problems, header=_problems_header(len(block.problems), table))
+    from vfs.database.checks import settle
+
+    settle([], block.warnings, header=_warnings_header(table))
+    if block.table is None:  # pragma: no cover - problems with "raise" raised above
+        raise DataError(block.problems)
+    return block.table
+
+
+def _problems_header(n: int, table: str) -> str:
+    return (f"{n} problem(s) in impact table '{table}' (use --on-error record to solve the "
+            "valid rows):")
+
+
+def _warnings_header(table: str) -> str:
+    return f"impact table '{table}': plausibility warnings under --strict:"
+
+
+class SolvedBlock(NamedTuple):
+    """One block of rows of an impact table, solved (:func:`solve_block`).
+
+    Attributes
+    ----------
+    table : DataFrame or None
+        The rows with :data:`OUTPUT_COLUMNS`; None when ``on_error="raise"`` found
+        problems (nothing is solved then).
+    problems : list of DataProblem
+        Values that are not allowed (rows counted within the block).
+    warnings : list of DataProblem
+        Plausibility warnings (rows counted within the block).
+    """
+
+    table: pd.DataFrame | None
+    problems: list[DataProblem]
+    warnings: list[DataProblem]
+
+
+def solve_block(df: pd.DataFrame, *, on_error: Literal["raise", "record"] = "raise",
+                table: str = "input") -> SolvedBlock:
+    """Check and solve one block of rows whose columns :func:`_check_columns` accepted.
+
+    What :func:`solve_impact_table` does to a whole table, without raising on
+    problems or emitting warnings: :func:`solve_impact_file` calls it once per
+    record batch and reports for the whole file.
+    """
     problems: list[DataProblem] = []
     arrays = {f: _numeric_column(df, f, table, problems) for f in CONFIG_COLUMNS}
     config = ImpactConfig.from_columns(**arrays)
@@ -253,24 +369,27 @@ def solve_impact_table(
         bad_rows |= wrong
         stiffness = np.where(wrong, np.nan, stiffness)
     if problems and on_error == "raise":
-        raise DataError(problems, header=f"{len(problems)} problem(s) in impact table '{table}' "
-                        "(use --on-error record to solve the valid rows):")
+        return SolvedBlock(None, problems, [])
     found = impact_table_warnings(df, config, table)
     if bad_rows.any():
         found = [p for p in found if p.row is None or not bad_rows[p.row]]
     # solve valid rows only; bad rows are filled with a harmless configuration
     bad_pairs = bad_rows[:, None]
-    safe = ImpactConfig(*(np.where(bad_pairs if a.ndim == 2 else bad_rows, 0.0, a)
-                          for a in config))
-    apart = np.where(bad_pairs, [0.0, 1.0], safe.x)  # at rest, apart: no impact
-    safe = safe._replace(
-        x=apart,
-        m=np.where(bad_pairs, 1.0, safe.m), izz=np.where(bad_pairs, 1.0, safe.izz),
-        restitution=np.where(bad_rows, 0.0, safe.restitution),
-        contact_friction=np.where(bad_rows, 0.0, safe.contact_friction),
-    )
-    result = solve_impact(safe, stiffness_ratio=stiffness)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        safe = ImpactConfig(*(np.where(bad_pairs if a.ndim == 2 else bad_rows, 0.0, a)
+                              for a in config))
+        apart = np.where(bad_pairs, [0.0, 1.0], safe.x)  # at rest, apart: no impact
+        safe = safe._replace(
+            x=apart,
+            m=np.where(bad_pairs, 1.0, safe.m), izz=np.where(bad_pairs, 1.0, safe.izz),
+            restitution=np.where(bad_rows, 0.0, safe.restitution),
+            contact_friction=np.where(bad_rows, 0.0, safe.contact_friction),
+        )
+        result = solve_impact(safe, stiffness_ratio=stiffness)
     out = df.copy()
+    for field in CONFIG_COLUMNS:  # read as text (CSV with a value that is no number): numbers
+        if not pd.api.types.is_numeric_dtype(out[field].dtype):
+            out[field] = arrays[field]
     impact_type = impact_type_names(result.impact_type).astype(object)
     impact_type[bad_rows] = "error"
     out["impact_type"] = impact_type
@@ -291,12 +410,252 @@ def solve_impact_table(
         dv = out[f"delta_v{i}"].to_numpy(float)
         with np.errstate(invalid="ignore"):
             big = dv > MAX_DELTA_V
-        for row in np.flatnonzero(big)[:20]:
+        rows = np.flatnonzero(big)
+        for row in rows[:20]:
             found.append(DataProblem(
                 table, f"delta_v{i}", int(row), df["case_id"].iloc[row],
                 f"delta-v {dv[row]:.4g} m/s of vehicle {i} is above the {MAX_DELTA_V:g} m/s of "
                 "real crashes: speeds in km/h? (m/s required)"))
+        if rows.size > 20:
+            found.append(DataProblem(table, f"delta_v{i}", None, None,
+                                     f"... and {rows.size - 20} more rows"))
+    return SolvedBlock(out, problems, found)
+
+
+#: Rows read, solved and written at a time by :func:`solve_impact_file`.
+BATCH_ROWS = 65536
+
+#: Problems or warnings listed per column for a whole file (the rest are counted).
+LISTED_PER_COLUMN = 20
+
+
+class _Listing:
+    """Problems of a whole file, block by block: rows made file-wide, at most
+    :data:`LISTED_PER_COLUMN` listed per column and the rest counted.
+    """
+
+    def __init__(self, table: str) -> None:
+        self.table = table
+        self.listed: list[DataProblem] = []
+        self.per_column: dict[str, int] = {}
+        self.more: dict[str, int] = {}
+
+    def add(self, problems: list[DataProblem], offset: int) -> None:
+        for p in problems:
+            if p.row is None and p.message.startswith("... and "):
+                words = p.message.split()
+                self.more[p.column] = self.more.get(p.column, 0) + int(words[2])
+                continue
+            if self.per_column.get(p.column, 0) >= LISTED_PER_COLUMN:
+                self.more[p.column] = self.more.get(p.column, 0) + 1
+                continue
+            self.per_column[p.column] = self.per_column.get(p.column, 0) + 1
+            row = None if p.row is None else p.row + offset
+            self.listed.append(DataProblem(p.table, p.column, row, p.case_id, p.message))
+
+    def all(self) -> list[DataProblem]:
+        return self.listed + [DataProblem(self.table, column, None, None,
+                                          f"... and {n} more rows")
+                              for column, n in self.more.items()]
+
+    def __len__(self) -> int:
+        return len(self.listed) + sum(self.more.values())
+
+
+def _batches(path: Path, batch_rows: int, text: bool) -> Iterator[pd.DataFrame]:
+    """The rows of a Parquet or CSV table, ``batch_rows`` at a time (the CSV reader's blocks
+    hold about as many); ``text``: the impact columns of a CSV file read as text.
+    """
+    import pyarrow as pa
+
+    suffix = path.suffix.lower()
+    if suffix in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        with pq.ParquetFile(path) as file:
+            names = file.schema_arrow.names
+            if file.metadata.num_rows == 0:
+                yield file.schema_arrow.empty_table().to_pandas()
+                return
+            for batch in file.iter_batches(batch_size=batch_rows):
+                yield _frame(batch, names)
+        return
+    import pyarrow.csv as pacsv
+
+    with open(path, "rb") as head:
+        first = head.readline()
+    if not first.strip():
+        raise pd.errors.EmptyDataError("no header")
+    header = next(csv.reader([first.decode("utf-8-sig")]))
+    row_bytes = max(64, path.stat().st_size // max(1, _count_estimate(path)))
+    kinds = {c: pa.string() for c in CONFIG_COLUMNS} if text else \
+        {c: pa.float64() for c in CONFIG_COLUMNS}
+    reader = pacsv.open_csv(
+        path, read_options=pacsv.ReadOptions(block_size=max(1 << 20, row_bytes * batch_rows)),
+        convert_options=pacsv.ConvertOptions(
+            column_types={c: t for c, t in kinds.items() if c in header},
+            strings_can_be_null=True))
+    with reader:
+        empty = True
+        for batch in reader:
+            empty = False
+            yield _frame(batch, header)
+        if empty:
+            yield reader.schema.empty_table().to_pandas()
+
+
+def _count_estimate(path: Path) -> int:
+    """Rows of a CSV file estimated from its first 64 kB."""
+    with open(path, "rb") as file:
+        head = file.read(1 << 16)
+    lines = max(1, head.count(b"\n"))
+    return max(1, int(path.stat().st_size / (len(head) / lines)))
+
+
+def _frame(batch: Any, names: list[str]) -> pd.DataFrame:
+    """A record batch as a DataFrame, keeping two columns of one name apart (checked later)."""
+    if len(set(names)) == len(names):
+        return batch.to_pandas()
+    return pd.DataFrame({i: batch.column(i).to_pandas() for i in range(batch.num_columns)}
+                        ).set_axis(names, axis=1)
+
+
+class _AsText(Exception):
+    """A CSV value that is no number: read the file again with the impact columns as text."""
+
+
+def solve_impact_file(source: str | os.PathLike[str], target: str | os.PathLike[str], *,
+                      on_error: Literal["raise", "record"] = "raise",
+                      batch_rows: int = BATCH_ROWS) -> dict[str, int]:
+    """Solve an impact table file into another, record batch by record batch.
+
+    Reads ``batch_rows`` rows at a time (Parquet: :meth:`pyarrow.parquet.ParquetFile.
+    iter_batches`; CSV: pyarrow's streaming reader), solves them
+    (:func:`solve_block`) and appends them to the output (Parquet:
+    :class:`pyarrow.parquet.ParquetWriter`; CSV: text appended), so memory stays
+    bounded by one batch whatever the table's length.  The output is written to
+    a temporary file and renamed only when the whole table is solved: with
+    ``on_error="raise"`` a bad row anywhere leaves no output, and every bad row
+    of the file is listed (up to :data:`LISTED_PER_COLUMN` per column) with its
+    file-wide row number; warnings are reported once for the file.
+
+    Parameters
+    ----------
+    source, target : path
+        ``.parquet``/``.pq`` or ``.csv`` files.
+    on_error : {'raise', 'record'}
+        As :func:`solve_impact_table`.
+    batch_rows : int
+        Rows per batch.
+
+    Returns
+    -------
+    dict
+        Rows per impact type (``full``, ``sliding``, ``none``, ``error``).
+
+    Raises
+    ------
+    DataError
+        Unreadable input, missing or duplicated columns, bad values (``raise``), or
+        warnings under ``--strict``.
+    """
+    from vfs.atomic import write_atomic
+
+    path = _existing_table(source)
+    out = Path(target)
+    if out.suffix.lower() not in (".parquet", ".pq", ".csv"):
+        raise DataError(DataProblem(out.name, "", None, None,
+                                    f"unknown table format {out.suffix!r} (use .parquet or "
+                                    ".csv)"))
+    counts: dict[str, int] = {}
+
+    def write(tmp: Path) -> None:
+        try:
+            counts.update(_stream(path, tmp, on_error, batch_rows, text=False))
+        except _AsText:
+            counts.clear()
+            counts.update(_stream(path, tmp, on_error, batch_rows, text=True))
+
+    write_atomic(out, write)
+    return counts
+
+
+def _existing_table(source: str | os.PathLike[str]) -> Path:
+    p = Path(source)
+    if not p.exists():
+        raise DataError(DataProblem(p.name, "", None, None, f"file {p} does not exist"))
+    if p.suffix.lower() not in (".parquet", ".pq", ".csv"):
+        raise DataError(DataProblem(p.name, "", None, None,
+                                    f"unknown table format {p.suffix!r}; use .parquet or .csv"))
+    return p
+
+
+def _stream(path: Path, tmp: Path, on_error: Literal["raise", "record"], batch_rows: int,
+            *, text: bool) -> dict[str, int]:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     from vfs.database.checks import settle
 
-    settle([], found, header=f"impact table '{table}': plausibility warnings under --strict:")
-    return out
+    table = path.name
+    problems, found = _Listing(table), _Listing(table)
+    counts: dict[str, int] = {}
+    writer: Any = None
+    schema = None
+    parquet = tmp.suffix.lower() in (".parquet", ".pq")
+    offset = 0
+    kind = "Parquet" if path.suffix.lower() in (".parquet", ".pq") else "CSV (UTF-8 text)"
+    batches = _batches(path, batch_rows, text)
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="") if not parquet else \
+                contextlib.nullcontext() as csv_out:
+            while True:
+                try:
+                    df = next(batches, None)
+                except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
+                    if not text and kind.startswith("CSV") and "conversion" in str(exc).lower():
+                        raise _AsText from None
+                    raise _unreadable(path, kind, exc) from None
+                except (UnicodeDecodeError, OSError, ValueError, pa.ArrowException) as exc:
+                    if isinstance(exc, pd.errors.EmptyDataError):
+                        raise DataError(DataProblem(
+                            table, "", None, None,
+                            f"file {path} is empty (expected a header row with the columns of "
+                            "docs/data-format.md, 'Impact tables')")) from None
+                    raise _unreadable(path, kind, exc) from None
+                if df is None:
+                    break
+                if offset == 0:
+                    _check_columns(df.columns, table)
+                    if df.empty:
+                        raise DataError(DataProblem(table, "", None, None,
+                                                    f"file {path} has no rows"))
+                block = solve_block(df, on_error=on_error, table=table)
+                problems.add(block.problems, offset)
+                found.add(block.warnings, offset)
+                if block.table is not None and not (on_error == "raise" and len(problems)):
+                    for name, k in block.table["impact_type"].value_counts().items():
+                        counts[str(name)] = counts.get(str(name), 0) + int(k)
+                    if parquet:
+                        arrow = pa.Table.from_pandas(block.table, schema=schema,
+                                                     preserve_index=False)
+                        if writer is None:
+                            schema = arrow.schema
+                            writer = pq.ParquetWriter(tmp, schema)
+                        writer.write_table(arrow)
+                    else:
+                        block.table.to_csv(csv_out, index=False, header=offset == 0)
+                offset += len(df)
+    finally:
+        if writer is not None:
+            writer.close()
+    if len(problems) and on_error == "raise":
+        raise DataError(problems.all(), header=_problems_header(len(problems), table))
+    settle([], found.all(), header=_warnings_header(table))
+    return counts
+
+
+def _unreadable(path: Path, kind: str, exc: BaseException) -> DataError:
+    first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return DataError(DataProblem(path.name, "", None, None,
+                                 f"file {path} is not a readable {kind} table: {first}"))

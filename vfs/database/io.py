@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -227,13 +228,36 @@ def unreadable_parquet(table: str, file: object, exc: BaseException) -> DataProb
                        f"file {file} is not a readable Parquet file ({first})")
 
 
+def duplicated_columns(table: str, file: object, names: Iterable[str]) -> DataProblem | None:
+    """The problem of a table file with two columns of one name (None if there is none).
+
+    pyarrow reads such a file, but a column name then selects two columns;
+    the problem names the column and the file.
+    """
+    counts = Counter(names)
+    twice = sorted(n for n, k in counts.items() if k > 1)
+    if not twice:
+        return None
+    shown = ", ".join(repr(n) for n in twice)
+    return DataProblem(table, twice[0], None, None,
+                       f"file {file}: column {shown} appears twice; a table holds one column "
+                       "of each name (rename or drop the copy)")
+
+
 def _readable_parquet(name: str, file: Any, problems: list[DataProblem],
                       filesystem: Any = None, shown: object = None) -> bool:
-    """Read the footer of one table file (cheap); a damaged file becomes a problem."""
+    """Read the footer of one table file (cheap); a damaged file becomes a problem, as does
+    one with two columns of one name.
+    """
     try:
-        pq.read_metadata(file, filesystem=filesystem)
+        meta = pq.read_metadata(file, filesystem=filesystem)
+        names = meta.schema.to_arrow_schema().names
     except (OSError, ValueError, pa.ArrowException) as exc:
         problems.append(unreadable_parquet(name, shown or file, exc))
+        return False
+    twice = duplicated_columns(name, shown or file, names)
+    if twice is not None:
+        problems.append(twice)
         return False
     return True
 
@@ -403,6 +427,24 @@ def _finish_loading(
     return db
 
 
+def finish_loading(frames: dict[str, pd.DataFrame], meta: dict[str, object],
+                   problems: list[DataProblem], validate: bool) -> Database:
+    """The database of tables read from files in the file units (:mod:`vfs.database.schema`):
+    normalised, converted to SI and, with ``validate``, checked (every problem at once).
+
+    Raises
+    ------
+    DataError
+        ``problems`` of a table (a missing or damaged file), or the problems the checks find.
+    """
+    return _finish_loading(frames, meta, problems, validate)
+
+
+def meta_text(meta: dict[str, object]) -> str:
+    """``meta.json`` as written with a database."""
+    return _meta_for_writing(meta)
+
+
 def load_database(
     path: str | os.PathLike[str], *, where: str | None = None, validate: bool = True
 ) -> Database:
@@ -570,6 +612,10 @@ def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | 
     except (OSError, ValueError, pa.ArrowException) as exc:
         source.close()
         raise DataError(unreadable_parquet(table, shown, exc)) from None
+    twice = duplicated_columns(table, shown, file.schema_arrow.names)
+    if twice is not None:
+        source.close()
+        raise DataError(twice)
     with source, file:  # memory: a batch at a time
         empty = True
         for batch in file.iter_batches(batch_size=batch_rows):

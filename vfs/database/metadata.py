@@ -33,6 +33,9 @@ RUN_COLUMNS: dict[str, tuple[str, str]] = {
     "time_closest": ("s", "time of the smallest outline distance"),
     "secondary_collision": ("", "the outlines overlap again during the run-out"),
     "secondary_collision_time": ("s", "time of the secondary collision from separation"),
+    "cp_rule": ("-", "contact-plane rule applied: 0 no contact, 1 line through the two "
+                     "intersection points, 2 the two farthest apart, 3 perpendicular to the CG "
+                     "line, 4 along the touching edges (vfs.physics.geometry.CP_RULES)"),
 }
 _PER_VEHICLE_RUN = {
     "impact_speed": ("m/s", "speed of participant {i} at impact"),
@@ -42,6 +45,18 @@ _PER_VEHICLE_RUN = {
     "brake_start": ("s", "first braking of participant {i} (record time)"),
     "speed_reduction": ("m/s", "speed reduction of participant {i} by braking before impact"),
     "equipped": ("", "participant {i} carries the system"),
+    # AEB events (vfs.adas.controller.EVENT_KEYS); NaN where it never happened
+    "warning_time": ("s", "first AEB warning of participant {i} (record time)"),
+    "partial_time": ("s", "first partial AEB braking of participant {i} (record time)"),
+    "full_time": ("s", "first full AEB braking of participant {i} (record time)"),
+    "ttc_at_trigger": ("s", "time to collision measured when the first AEB stage of "
+                            "participant {i} triggered"),
+    "driver_reaction_time": ("s", "sampled reaction time of the driver of participant {i} "
+                                  "(drivers who brake)"),
+    "driver_brake_time": ("s", "start of the braking demand of the driver of participant {i} "
+                               "(record time)"),
+    "driver_deceleration": ("m/s^2", "sampled deceleration of the driver of participant {i} "
+                                     "(drivers who brake)"),
 }
 
 
@@ -113,6 +128,50 @@ def field_metadata(columns: Iterable[str], *, table: str | None = None,
         if entry is not None:
             out[name] = {"unit": entry[0], "description": entry[1]}
     return out
+
+
+def with_units(frame: Any, table: str | None = None,
+               metadata: Mapping[str, Mapping[str, str]] | None = None) -> Any:
+    """``frame`` with its columns' units and descriptions in ``frame.attrs``.
+
+    ``attrs["units"]`` maps column -> unit (SI, "" or "-" for flags, names and ratios) and
+    ``attrs["descriptions"]`` column -> description, for every column vfs knows (from
+    ``metadata``, e.g. a Parquet file's field metadata, else :func:`field_metadata`).  The
+    frame is changed in place and returned; pandas keeps ``attrs`` through copies and most
+    selections.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+    table : str, optional
+        Database table whose columns to prefer (:data:`TABLES`).
+    metadata : mapping, optional
+        Column -> ``{"unit": ..., "description": ...}`` read with the data.
+    """
+    known = field_metadata(frame.columns, table=table)
+    given = dict(metadata or {})
+    units, texts = {}, {}
+    for name in frame.columns:
+        entry = given.get(name) or known.get(name)
+        if entry and ("unit" in entry or "description" in entry):
+            units[name] = str(entry.get("unit", ""))
+            texts[name] = str(entry.get("description", ""))
+    frame.attrs["units"] = units
+    frame.attrs["descriptions"] = texts
+    return frame
+
+
+def read_parquet_with_units(path: Any, **options: Any) -> Any:
+    """A Parquet file as a DataFrame with the units and descriptions of its field metadata in
+    ``attrs`` (:func:`with_units`; columns without metadata looked up in the schema).
+    """
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    frame = pd.read_parquet(path, **options)
+    fields = {f.name: {k.decode(): v.decode() for k, v in (f.metadata or {}).items()}
+              for f in pq.read_schema(path)}
+    return with_units(frame, metadata={k: v for k, v in fields.items() if v})
 
 
 def _allowed_si(spec: ColumnSpec) -> str:
@@ -189,4 +248,4 @@ def frictionless_schema() -> dict[str, Any]:
 
 
 __all__ = ["RUN_COLUMNS", "extra_column_metadata", "field_metadata", "frictionless_schema",
-           "schema_json"]
+           "read_parquet_with_units", "schema_json", "with_units"]

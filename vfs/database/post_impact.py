@@ -3,7 +3,7 @@
 The optional reconstruction columns ``post_brake_<wheel>{i}``, ``post_driver_brake{i}``,
 ``post_drag_<wheel>{i}``, ``post_steer{i}`` and ``post_steer_onset{i}``
 (:data:`vfs.database.schema.POST_IMPACT_COLUMNS`) become the arrays of
-:class:`vfs.physics.runout.PostImpactInputs`; absent columns, NaN values and cases
+:class:`vfs.physics.post_impact.PostImpactInputs`; absent columns, NaN values and cases
 without a reconstruction row are NaN there, the run-out's defaults.
 """
 
@@ -14,7 +14,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from vfs.database.schema import POST_IMPACT_COLUMNS, POST_IMPACT_WHEELS
-from vfs.physics.runout import PostImpactInputs
+from vfs.physics.post_impact import PostImpactInputs
 
 
 def has_post_impact_columns(reconstruction: pd.DataFrame | None) -> bool:

@@ -29,7 +29,8 @@ import numpy.typing as npt
 import pandas as pd
 
 from vfs.errors import ParameterError
-from vfs.physics.runout import MAX_STEER, MAX_STEER_ONSET, MAX_WHEEL_DRAG, WHEEL_NAMES
+from vfs.physics.post_impact import MAX_STEER, MAX_STEER_ONSET, MAX_WHEEL_DRAG
+from vfs.physics.runout import WHEEL_NAMES
 from vfs.physics.vehicle import PARAMETER_RANGES
 
 #: The schema version written to and expected in ``meta.json``.
@@ -429,7 +430,7 @@ def _post_impact_columns() -> list[ColumnSpec]:
     """The optional post-impact inputs of the run-out, per vehicle (``{i}`` = 1, 2).
 
     Absent columns and NaN values take the defaults of the run-out
-    (:class:`vfs.physics.runout.RunoutParams`, :class:`vfs.physics.runout.PostImpactInputs`).
+    (:class:`vfs.physics.runout.RunoutParams`, :class:`vfs.physics.post_impact.PostImpactInputs`).
     """
     cols: list[ColumnSpec] = []
     for i in (1, 2):

@@ -28,25 +28,26 @@ from pathlib import Path
 
 from vfs.catalog import catalog_path
 from vfs.database.database import Database
+from vfs.database.formats import DATABASE_FORMATS, formats_by_priority
 from vfs.database.io import (
     is_url,
-    load_csv_folder,
     load_database,
     select_cases,
     url_filesystem,
 )
-from vfs.database.pcm import import_pcm
 from vfs.errors import DataError, DataProblem, ParameterError
 
 #: Databases shipped with vfs: ``--db NAME`` -> folder below ``scenarios/databases``.
 BUNDLED_DATABASES: dict[str, str] = {
     "default": "default",
     "crash-tests": "crash-tests",  # scenarios/databases/crash-tests/README.md
-    "euro-ncap-c2c": "euro-ncap-c2c",  # built by vfs.scenarios.euro_ncap
+    "euro-ncap-c2c": "euro-ncap-c2c",  # Euro NCAP 2026; built by vfs.scenarios.euro_ncap
+    "euro-ncap-c2c-2023": "euro-ncap-c2c-2023",  # Euro NCAP 2023; likewise
 }
 
-#: Folder formats :func:`load_any` reads.
-FORMATS: tuple[str, ...] = ("parquet", "csv", "pcm")
+#: Folder formats :func:`load_any` reads, built in (:data:`DATABASE_FORMATS` holds them and
+#: those of installed packages).
+FORMATS: tuple[str, ...] = tuple(f.name for f in formats_by_priority())
 
 #: Value of :attr:`DatabaseSelection.fmt` for an in-memory database.
 MEMORY = "memory"
@@ -107,7 +108,8 @@ def database_location(reference: str | os.PathLike[str]) -> str:
 
 
 def detect_format(path: str | os.PathLike[str]) -> str:
-    """Format of a database folder: ``"parquet"``, ``"csv"`` or ``"pcm"``.
+    """Format of a database folder: the first of :data:`DATABASE_FORMATS` (by priority)
+    whose marker file it holds (``"parquet"``, ``"csv"``, ``"pcm"``, ...).
 
     A database given by URL (:func:`vfs.database.io.is_url`) must be Parquet.
 
@@ -128,16 +130,14 @@ def detect_format(path: str | os.PathLike[str]) -> str:
             "given by URL must be Parquet (convert a folder with vfs db convert)"))
     folder = Path(path)
     names = {p.name.lower() for p in folder.iterdir()} if folder.is_dir() else set()
-    if "cases.parquet" in names:
-        return "parquet"
-    if "cases.csv" in names:
-        return "csv"
-    if "participant_data.csv" in names:
-        return "pcm"
+    formats = formats_by_priority()
+    for fmt in formats:
+        if fmt.marker in names:
+            return fmt.name
     raise DataError(DataProblem(
         "meta", "", None, None,
-        f"{folder} is not a database folder (no cases.parquet, cases.csv or "
-        "participant_data.csv)",
+        f"{folder} is not a database folder (no "
+        + ", ".join(f.marker for f in formats[:-1]) + f" or {formats[-1].marker})",
     ))
 
 
@@ -150,8 +150,9 @@ def load_any(
     ----------
     path : path
         Folder.
-    fmt : {"parquet", "csv", "pcm"}, optional
-        Format; default :func:`detect_format`.
+    fmt : str, optional
+        A name of :data:`DATABASE_FORMATS` ("parquet", "csv", "pcm", ...); default
+        :func:`detect_format`.
     validate : bool
         Validate and raise :class:`DataError` listing every problem.
 
@@ -160,14 +161,10 @@ def load_any(
     Database
     """
     fmt = detect_format(path) if fmt is None else fmt
-    if fmt == "parquet":
-        return load_database(path, validate=validate)
-    if fmt == "csv":
-        return load_csv_folder(path, validate=validate)
-    if fmt == "pcm":
-        return import_pcm(path, validate=validate)
-    raise DataError(DataProblem("meta", "", None, None,
-                                f"unknown format {fmt!r} (known: {', '.join(FORMATS)})"))
+    if fmt not in DATABASE_FORMATS:
+        raise DataError(DataProblem("meta", "", None, None, f"unknown format {fmt!r} (known: "
+                                    f"{', '.join(DATABASE_FORMATS)})"))
+    return DATABASE_FORMATS.get(fmt).load(path, validate)
 
 
 @dataclass(frozen=True)

@@ -81,6 +81,10 @@ class _Report:
                      f"... and {len(case_ids) - MAX_REPORTED_ROWS} more cases: {message}")
 
 
+#: Added to a sample spacing 100 times the allowed one: the likely cause.
+_UNIT_HINT = "; time in milliseconds, or a date? (t is in seconds)"
+
+
 def _case_ids_at(df: pd.DataFrame, positions: np.ndarray) -> list[object]:
     if "case_id" not in df.columns:
         return [None] * len(positions)
@@ -311,6 +315,12 @@ def _check_trajectories(report: _Report, db: Database) -> None:
                            "table 'participants'")
     if "t" not in traj.columns or traj.empty:
         return
+    if pd.api.types.is_datetime64_any_dtype(traj["t"]) or \
+            pd.api.types.is_timedelta64_dtype(traj["t"]):
+        report.add("trajectories", "t", None, None,
+                   f"column 't' holds {traj['t'].dtype} values (dates or durations); time "
+                   "must be a number of seconds (e.g. from the start of the record)")
+        return
     t, _ = _numeric_values(traj["t"])
     time = pd.Series(t, index=traj.index)
     groups = time.groupby([traj["case_id"], traj["participant"]], sort=False)
@@ -329,7 +339,8 @@ def _check_trajectories(report: _Report, db: Database) -> None:
                 "duplicate time")
     report.rows("trajectories", "t", traj, coarse,
                 [f"sample spacing {d:g} s before t={v:g} s exceeds the allowed "
-                 f"{MAX_SAMPLE_SPACING:g} s" for d, v in
+                 f"{MAX_SAMPLE_SPACING:g} s" + (_UNIT_HINT if d > 100 * MAX_SAMPLE_SPACING
+                                                else "") for d, v in
                  zip(dt[coarse][:MAX_REPORTED_ROWS], t[coarse][:MAX_REPORTED_ROWS], strict=True)],
                 f"sample spacing above {MAX_SAMPLE_SPACING:g} s")
     sizes = groups.size()

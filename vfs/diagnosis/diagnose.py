@@ -481,6 +481,8 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
     progress : callable, optional
         Called with one line per finished step.
 
+    Notes
+    -----
     Steps: where the model fails (:func:`_where_it_fails`), every library candidate alone
     (:func:`_library_alone`), every channel identified and its law learned
     (:func:`vfs.diagnosis.claims.first_laws`), then **one selection** over both

@@ -77,7 +77,14 @@ from vfs.diagnosis.robust_fit import (
     robust_spline,
     smoothing_spline,
 )
-from vfs.effects.learned import CHANNELS, FORMS, LAW_FEATURES, evaluate_law, law_text
+from vfs.effects.learned import (
+    CHANNELS,
+    FORM_EXPRESSIONS,
+    FORMS,
+    LAW_FEATURES,
+    evaluate_law,
+    law_text,
+)
 from vfs.errors import ParameterError
 
 #: Numeric features regressed on, in report order.
@@ -603,10 +610,7 @@ def plugin_source(law: Mapping[str, Any], file: str = "law.py") -> str:
         names = FORMS[form][1]
         signature = "".join(f", {n}={float(v)!r}" for n, v in
                             zip(names, law["coefficients"], strict=True))
-        expr = {"constant": "np.full_like(x, a)", "linear": "a + b * x",
-                "power": "a * np.maximum(x, 1e-9) ** b", "exponential": "a * np.exp(b * x)",
-                "saturating": "a + b * (1.0 - np.exp(-np.maximum(x, 0.0) / c))",
-                "step": "np.where(x >= c, a + b, a)"}[form]
+        expr = FORM_EXPRESSIONS[form][1]
         body = f"    return {expr}"
     clean = {k: v for k, v in law.items() if k not in ("cv",)}
     cv = law.get("cv", {})

@@ -177,26 +177,32 @@ def feature_values(ctx: ContactContext | ImpactContext, config: ImpactConfig | N
     return _pair_feature(ctx, name)
 
 
-def _sat(x: np.ndarray, a: float, b: float, c: float) -> np.ndarray:
-    return a + b * (1.0 - np.exp(-np.maximum(x, 0.0) / max(c, 1e-9)))
+#: Each closed form written once: (coefficient names, numpy expression of ``x`` and the
+#: coefficients, text for reports).  The functions of :data:`FORMS` are compiled from the
+#: expressions, and the exported code of a law (:mod:`vfs.analysis.learn`) is written with
+#: them, so both compute the same numbers.
+FORM_EXPRESSIONS: Mapping[str, tuple[tuple[str, ...], str, str]] = {
+    "constant": (("a",), "np.full_like(np.asarray(x, float), a)", "a"),
+    "linear": (("a", "b"), "a + b * x", "a + b x"),
+    "power": (("a", "b"), "a * np.maximum(x, 1e-9) ** b", "a x^b"),
+    "exponential": (("a", "b"), "a * np.exp(b * x)", "a exp(b x)"),
+    "saturating": (("a", "b", "c"), "a + b * (1.0 - np.exp(-np.maximum(x, 0.0) / max(c, 1e-9)))",
+                   "a + b (1 - exp(-x / c))"),
+    "step": (("a", "b", "c"), "np.where(x >= c, a + b, a)", "a + b [x >= c]"),
+}
 
 
-def _step(x: np.ndarray, a: float, b: float, c: float) -> np.ndarray:
-    return np.where(x >= c, a + b, a)
-
-
-def _power(x: np.ndarray, a: float, b: float) -> np.ndarray:
-    return a * np.maximum(x, 1e-9) ** b
+def _compiled(names: tuple[str, ...], expression: str) -> Callable[..., np.ndarray]:
+    """``lambda x, <names>: <expression>`` (numpy as ``np``)."""
+    code = f"lambda x, {', '.join(names)}: {expression}"
+    fn: Callable[..., np.ndarray] = eval(code, {"np": np, "max": max})  # noqa: S307
+    return fn
 
 
 #: Closed forms: name -> (function of x and coefficients, coefficient names, text).
 FORMS: Mapping[str, tuple[Callable[..., np.ndarray], tuple[str, ...], str]] = {
-    "constant": (lambda x, a: np.full_like(np.asarray(x, float), a), ("a",), "a"),
-    "linear": (lambda x, a, b: a + b * x, ("a", "b"), "a + b x"),
-    "power": (_power, ("a", "b"), "a x^b"),
-    "exponential": (lambda x, a, b: a * np.exp(b * x), ("a", "b"), "a exp(b x)"),
-    "saturating": (_sat, ("a", "b", "c"), "a + b (1 - exp(-x / c))"),
-    "step": (_step, ("a", "b", "c"), "a + b [x >= c]"),
+    form: (_compiled(names, expression), names, text)
+    for form, (names, expression, text) in FORM_EXPRESSIONS.items()
 }
 
 

@@ -23,12 +23,14 @@ def play_traces(db: Any, case_id: Any, system: str = "three-stage", *, ego: int 
     from vfs.adas.systems import get_system
     from vfs.gym.env import AEBEnv
     from vfs.gym.policies import AEBPolicy
+    from vfs.physics.precrash import PrecrashParams
 
     sys_ = get_system(system)
+    brake = sys_.precrash_params(PrecrashParams()).brake  # the system's actuator
     traces = []
     for with_system in (False, True):
         env = AEBEnv(render_mode="ansi", db=db, split="all", ego=ego,
-                     action_repeat=action_repeat, brake=sys_.brake)
+                     action_repeat=action_repeat, brake=brake)
         obs, _ = env.reset(seed=0, options={"case_id": case_id})
         policy = AEBPolicy(sys_).bind(env) if with_system else None
         if policy is not None:

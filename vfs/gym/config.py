@@ -13,6 +13,7 @@ import math
 import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, TypeVar
 
 import numpy as np
@@ -33,7 +34,7 @@ from vfs.gym.observation import (
     THREAT_NAMES,
 )
 from vfs.physics.precrash import BrakeActuatorParams
-from vfs.simulation import SimulationParams
+from vfs.simulation import ImpactParameterSource, SimulationParams
 
 T = TypeVar("T")
 
@@ -111,10 +112,19 @@ class RewardParams:
 
 #: Sensor of the environments by default: 150 m, 1.6 rad (about 92 deg: a radar and
 #: camera fusion that also sees crossing traffic), every step, no latency.
-DEFAULT_SENSOR = SensorParams(range=150.0, field_of_view=1.6, cycle_time=0.0, latency=0.0)
+DEFAULT_SENSOR = SensorParams(field_of_view=1.6, cycle_time=0.0, latency=0.0)
 
-#: Brake actuator by default: the generic AEB's (jerk 40 m/s^3, vfs.adas.systems.THREE_STAGE).
-DEFAULT_BRAKE = BrakeActuatorParams(model="jerk", jerk=40.0, release_jerk=40.0)
+#: Brake actuator by default: the declared defaults (jerk 40 m/s^3, as
+#: vfs.adas.systems.THREE_STAGE).
+DEFAULT_BRAKE = BrakeActuatorParams()
+
+
+class Split(StrEnum):
+    """The cases of an environment (:attr:`EnvConfig.split`)."""
+
+    TRAIN = "train"
+    TEST = "test"
+    ALL = "all"
 
 
 @dataclass(frozen=True)
@@ -191,8 +201,8 @@ class EnvConfig:
     effects: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if self.split not in ("train", "test", "all"):
-            raise ParameterError(f"split={self.split!r}; use 'train', 'test' or 'all'")
+        if self.split not in set(Split):
+            raise ParameterError(f"split={self.split!r}; use one of {', '.join(Split)}")
         if not 0.0 < self.test_share < 1.0:
             raise ParameterError(f"test_share={self.test_share} outside (0, 1)")
         if self.ego not in (1, 2):
@@ -202,9 +212,9 @@ class EnvConfig:
         if not (math.isfinite(self.near_miss_weight) and self.near_miss_weight > 0.0):
             raise ParameterError(f"near_miss_weight={self.near_miss_weight} must be finite "
                                  "and > 0")
-        if self.impact_parameters not in ("reconstruction", "default"):
-            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use "
-                                 "'reconstruction' or 'default'")
+        if self.impact_parameters not in set(ImpactParameterSource):
+            raise ParameterError(f"impact_parameters={self.impact_parameters!r}; use one of "
+                                 f"{', '.join(ImpactParameterSource)}")
         if isinstance(self.effects, str):
             object.__setattr__(self, "effects", (self.effects,))
 

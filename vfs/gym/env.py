@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -60,6 +61,7 @@ from vfs.physics.precrash import KinematicState, PrecrashObservation, PrecrashRu
 from vfs.simulation import (
     CaseBatch,
     ImpactInputs,
+    SimulationParams,
     impact_stage,
     open_cases,
 )
@@ -102,6 +104,68 @@ def _load(cfg: EnvConfig) -> tuple[Any, np.ndarray]:
         raise ParameterError(f"no case in split {cfg.split!r}"
                              + (f" of the selection {cfg.where!r}" if cfg.where else ""))
     return db, ids
+
+
+@dataclasses.dataclass(frozen=True)
+class SharedCases:
+    """What every environment of one configuration reads and none changes: the split's cases
+    ready for simulation and their recorded outcome (the replay without braking).
+
+    Built once per configuration and process (:func:`shared_cases`), so that the second and
+    every later environment of a vector or a training script skips loading and checking the
+    database and replaying its records (about 1 s of CPU for the bundled database).
+    """
+
+    database: Any
+    split_ids: np.ndarray
+    batch: CaseBatch
+    penetration: Callable[[np.ndarray, KinematicState], np.ndarray] | None
+    eps: np.ndarray
+    mu: np.ndarray
+    recorded: np.ndarray
+
+
+#: Configurations kept by :func:`shared_cases` (the most recently used ones).
+SHARED_CACHE_SIZE = 4
+_SHARED: dict[tuple[Any, ...], SharedCases] = {}
+
+
+def _shared_key(cfg: EnvConfig, params: SimulationParams) -> tuple[Any, ...]:
+    db = cfg.db if isinstance(cfg.db, str) else ("object", id(cfg.db))
+    return (db, cfg.where, cfg.split, cfg.test_share, cfg.split_seed,
+            str(cfg.impact_parameters), repr(params))
+
+
+def shared_cases(cfg: EnvConfig, params: SimulationParams) -> SharedCases:
+    """The :class:`SharedCases` of a configuration, built on first use and then reused.
+
+    A database given as an object is shared as long as it is the same object; one given by
+    name or folder is read once per process (call :func:`clear_shared_cases` after changing
+    its files).
+    """
+    key = _shared_key(cfg, params)
+    hit = _SHARED.pop(key, None)
+    if hit is not None and (isinstance(cfg.db, str) or hit.database is cfg.db):
+        _SHARED[key] = hit  # most recently used last
+        return hit
+    db, ids = _load(cfg)
+    batch, penetration, eps, mu = open_cases(
+        CaseBatch.from_database(db, ids, impact_parameters=cfg.impact_parameters), params)
+    replay = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                         params=params.precrash, penetration=penetration)
+    while not replay.done:
+        replay.advance(None)
+    shared = SharedCases(db if not isinstance(cfg.db, str) else None, ids, batch,
+                         penetration, eps, mu, replay.result().collided)
+    _SHARED[key] = shared
+    while len(_SHARED) > SHARED_CACHE_SIZE:
+        _SHARED.pop(next(iter(_SHARED)))
+    return shared
+
+
+def clear_shared_cases() -> None:
+    """Forget every :class:`SharedCases` (the next environment reads its database again)."""
+    _SHARED.clear()
 
 
 def _rest_from(batch: CaseBatch, column: int) -> np.ndarray:
@@ -149,23 +213,19 @@ class EpisodeBatch:
             raise ParameterError(f"num_envs={num_slots} must be a positive integer")
         self.config = cfg = config
         self.num_slots = int(num_slots)
-        db, ids = _load(cfg)
-        self.split_ids = ids
         effects = tuple(parse_effect(e) if isinstance(e, str) else e for e in cfg.effects)
         base = cfg.simulation
         self.params = dataclasses.replace(
             base, precrash=dataclasses.replace(base.precrash, brake=cfg.brake), effects=effects)
-        batch, penetration, self.eps, self.mu = open_cases(
-            CaseBatch.from_database(db, ids, impact_parameters=cfg.impact_parameters),
-            self.params)
+        # loaded, prepared and replayed once per configuration (shared by every env)
+        shared = shared_cases(cfg, self.params)
+        self.split_ids = shared.split_ids
+        batch, penetration, self.eps, self.mu = (shared.batch, shared.penetration,
+                                                 shared.eps, shared.mu)
         n_cases = batch.size
         self.batch = batch
         # recorded outcome of every case: a near miss makes any braking unnecessary
-        replay = PrecrashRun(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
-                             params=self.params.precrash, penetration=penetration)
-        while not replay.done:
-            replay.advance(None)
-        recorded = replay.result().collided
+        recorded = shared.recorded
         # sampling weight per case; enough copies that the heaviest case is idle about half
         # the time (uniform weights: twice as many instances as slots)
         weight = np.where(recorded, 1.0, cfg.near_miss_weight)
@@ -645,6 +705,7 @@ __all__ = [
     "DEFAULT_BRAKE", "DEFAULT_SENSOR", "OBSERVATION_HIGH", "OBSERVATION_LOW",
     "OBSERVATION_NAMES", "OBSERVATION_UNITS", "PRIVILEGED_HIGH", "PRIVILEGED_LOW",
     "PRIVILEGED_NAMES", "STANDSTILL", "TTC_NONE", "AEBEnv", "AEBVectorEnv", "Dimensions",
-    "EnvConfig", "EpisodeBatch", "RewardParams", "make_config", "observe", "params_from_dict",
+    "EnvConfig", "EpisodeBatch", "RewardParams", "SHARED_CACHE_SIZE", "SharedCases",
+    "clear_shared_cases", "make_config", "observe", "params_from_dict", "shared_cases",
     "split_case_ids",
 ]

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from vfs.adas.systems import AEBSystem
+from vfs.adas.definition import AEBSystem
 from vfs.database import Database, open_database
 from vfs.errors import ParameterError
 from vfs.gym.config import make_config

@@ -79,7 +79,7 @@ ALWAYS_BRAKE = ConstantBrake(1.0, "always-brake")
 
 
 class AEBPolicy:
-    """A generic AEB system (:class:`vfs.adas.systems.AEBSystem`) as an environment policy.
+    """A generic AEB system (:class:`vfs.adas.definition.AEBSystem`) as an environment policy.
 
     Privileged: :meth:`act` ignores the observation and runs the system's
     own sensor, threat assessment, stages and driver model on the state of
@@ -266,7 +266,7 @@ class SB3Policy:
             import stable_baselines3 as sb3
         except ImportError:
             raise ParameterError("sb3: policies need stable-baselines3 (pip install "
-                                 "'vfs[rl]')") from None
+                                 "'vfs-accident[rl]')") from None
         file = Path(path)
         stem = file.with_suffix("") if file.suffix == ".zip" else file
         zip_file = stem.with_suffix(".zip")

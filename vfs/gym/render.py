@@ -140,12 +140,34 @@ def _outline(x: float, y: float, yaw: float, front: float, rear: float,
                             y + s * local[:, 0] + c * local[:, 1]])
 
 
+def view_box(ego: tuple[float, float], other: tuple[float, float],
+             view: float = VIEW_HALF_WIDTH) -> tuple[float, float, float]:
+    """Centre (x, y) [m] and half width [m] of a top view that frames both vehicles.
+
+    Centred between ego and object, half width the half distance plus 10 m of margin, at least
+    ``view`` / 2 and at most 4 ``view`` (both vehicles stay in the frame up to about
+    8 ``view`` - 20 m apart, 220 m with the default, beyond the sensors' range); farther
+    apart the view follows the ego alone.
+
+    Examples
+    --------
+    >>> view_box((0.0, 0.0), (100.0, 0.0), 30.0)
+    (50.0, 0.0, 60.0)
+    """
+    (ex, ey), (ox, oy) = ego, other
+    dist = math.hypot(ox - ex, oy - ey)
+    cap = 4.0 * view
+    half = min(max(0.5 * dist + 10.0, 0.5 * view), cap)
+    if dist <= 2.0 * cap - 20.0:
+        return 0.5 * (ex + ox), 0.5 * (ey + oy), half
+    return ex, ey, half
+
+
 def draw_step(ax: Axes, trace: EpisodeTrace, step: int = -1, *, title: str = "",
               view: float = VIEW_HALF_WIDTH) -> None:
     """Draw step ``step`` of ``trace`` into ``ax``.
 
-    A top view centred between ego and object, ``view`` [m] wide on either side at
-    least half and at most twice (the ego alone when the object is farther away).
+    A top view that frames ego and object (:func:`view_box`).
     """
     from matplotlib.patches import Polygon, Wedge
 
@@ -173,10 +195,7 @@ def draw_step(ax: Axes, trace: EpisodeTrace, step: int = -1, *, title: str = "",
                                         (EGO_COLOR, OBJECT_COLOR), strict=True):
         ax.add_patch(Polygon(_outline(x, y, yaw, *dims), closed=True, fc=color, ec="black",
                              lw=0.8, alpha=0.85))
-    # centred between ego and object, wide enough for both (up to 2 x view)
-    dist = math.hypot(ox - ex, oy - ey)
-    half = min(max(0.5 * dist + 10.0, 0.5 * view), 2.0 * view)
-    cx, cy = (0.5 * (ex + ox), 0.5 * (ey + oy)) if dist < 4.0 * view - 20.0 else (ex, ey)
+    cx, cy, half = view_box((ex, ey), (ox, oy), view)  # both vehicles in the frame
     ax.set_xlim(cx - half, cx + half)
     ax.set_ylim(cy - half, cy + half)
     ax.set_xlabel("x [m]")
@@ -233,5 +252,5 @@ def ansi_line(trace: EpisodeTrace, step: int = -1) -> str:
 
 __all__ = [
     "EGO_COLOR", "OBJECT_COLOR", "VIEW_HALF_WIDTH", "EpisodeTrace", "FrameRenderer",
-    "ansi_line", "draw_step", "frame_to_rgb", "record_step", "start_trace",
+    "ansi_line", "draw_step", "frame_to_rgb", "record_step", "start_trace", "view_box",
 ]

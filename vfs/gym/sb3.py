@@ -13,7 +13,7 @@ at the end of their case).  So PPO trains on thousands of sub-environments at on
     env = AEBVecEnv(1024, split="train", action_repeat=10)
     PPO("MlpPolicy", env, n_steps=16, batch_size=4096).learn(200_000)
 
-stable-baselines3 is an optional dependency (``pip install "vfs[rl]"``); this module
+stable-baselines3 is an optional dependency (``pip install "vfs-accident[rl]"``); this module
 imports it, the rest of vfs does not.
 """
 

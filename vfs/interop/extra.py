@@ -9,7 +9,7 @@ from vfs.errors import MissingExtraError
 
 __all__ = ["EXTRA", "EXTRA_PACKAGES", "require_extra"]
 
-#: Name of the optional extra (``pip install "vfs[xosc]"``).
+#: Name of the optional extra (``pip install "vfs-accident[xosc]"``).
 EXTRA = "xosc"
 #: Import name -> distribution name of the packages of the extra.
 EXTRA_PACKAGES: dict[str, str] = {"scenariogeneration": "scenariogeneration",
@@ -31,4 +31,4 @@ def require_extra(module: str) -> ModuleType:
         raise MissingExtraError(
             f"{EXTRA_PACKAGES.get(top, top)} is needed for OpenSCENARIO/OpenDRIVE files and "
             f"is not installed ({exc}); install the optional extra: pip install "
-            f'"vfs[{EXTRA}]"') from None
+            f'"vfs-accident[{EXTRA}]"') from None

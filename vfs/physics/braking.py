@@ -11,22 +11,35 @@ step loop that uses them.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.settings import setting, validate
 from vfs.units import G
 
 __all__ = [
     "BrakeActuatorParams",
     "BrakeController",
+    "BrakeModel",
     "PrecrashObservation",
     "ScheduledBraking",
     "actuator_step",
     "friction_limited_deceleration",
 ]
+
+
+class BrakeModel(StrEnum):
+    """How the brake actuator builds the deceleration up (:class:`BrakeActuatorParams`)."""
+
+    JERK = "jerk"
+    FIRST_ORDER = "first_order"
+
+
+_JERK = dict(lo=0.0, lo_open=True, hi=1e6)  # [m/s^3]; 1e5 and more: a step
 
 
 @dataclass(frozen=True)
@@ -51,20 +64,20 @@ class BrakeActuatorParams:
         Brake-system limit [m/s^2] before the road limit; default 10.
     """
 
-    model: str = "jerk"
-    jerk: float = 40.0
-    release_jerk: float = 40.0
-    time_constant: float = 0.1
-    max_deceleration: float = 10.0
+    model: str = setting("jerk", "text", "jerk: the deceleration ramps towards the demand at "
+                         "jerk / release_jerk; first_order: d' = (demand - d) / time_constant",
+                         choices=BrakeModel)
+    jerk: float = setting(40.0, "jerk", "build-up rate of the deceleration (1e5 = a step)",
+                          **_JERK)  # type: ignore[arg-type]
+    release_jerk: float = setting(40.0, "jerk", "release rate",
+                                  **_JERK)  # type: ignore[arg-type]
+    time_constant: float = setting(0.1, "time", "first-order time constant (model "
+                                   "first_order)", lo=0.0, lo_open=True, hi=10.0)
+    max_deceleration: float = setting(10.0, "acceleration", "brake-system limit before the "
+                                      "road limit", lo=0.0, lo_open=True, hi=100.0)
 
     def __post_init__(self) -> None:
-        if self.model not in ("jerk", "first_order"):
-            raise ParameterError(f"brake actuator model {self.model!r}: use 'jerk' or "
-                                 "'first_order'")
-        for name in ("jerk", "release_jerk", "time_constant", "max_deceleration"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise ParameterError(f"brake actuator {name}={value} must be > 0")
+        validate(self)
 
 
 

@@ -11,7 +11,7 @@ sums differs (numpy sums a row pairwise, the loop sequentially), so areas
 and centroids agree to rounding (a few ulp of the summands), not bit for bit;
 ``tests/test_compiled_overlap.py`` checks the agreement.
 
-numba is an optional extra (``pip install vfs[fast]``); :data:`AVAILABLE` is
+numba is a required dependency; :data:`AVAILABLE` is
 False without it and :func:`overlap_compiled` then raises
 :class:`vfs.errors.ParameterError`.
 """

@@ -20,7 +20,7 @@ machines we measured: ``tests/test_compiled_runout.py`` checks the agreement
 to a tolerance that allows for an ulp in the step and its amplification over
 the steps to rest, and reports bit identity separately).
 
-numba is an optional extra (``pip install vfs[fast]``).  :func:`enabled` says
+numba is a required dependency (it was the extra ``fast``).  :func:`enabled` says
 whether the bit-identical compiled kernels run (:mod:`vfs.gym.compiled`): where
 numba is installed and the environment variable ``VFS_COMPILED`` is not ``0``.
 This kernel agrees with the reference only to rounding and gave no single-core
@@ -51,7 +51,8 @@ def require_numba() -> None:
     one check of every compiled kernel (run-out, overlap clip, the gym's gap).
     """
     if not AVAILABLE:
-        raise ParameterError("the compiled kernels need numba: pip install 'vfs[fast]'")
+        raise ParameterError("the compiled kernels need numba (a dependency of vfs): "
+                             "pip install numba")
 
 #: Environment variable that switches the compiled kernels off ("0").
 ENV_SWITCH = "VFS_COMPILED"

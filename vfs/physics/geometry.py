@@ -763,7 +763,7 @@ def first_contact(dx: npt.ArrayLike, dy: npt.ArrayLike, ddx: npt.ArrayLike,
     Returns
     -------
     ndarray
-        First-contact fraction s in [0, 1] [-] of the interval (0 if they
+        First-contact fraction s [-] in [0, 1] of the interval (0 if they
         overlap at the start; the contact time is s times the interval's
         duration, the penetration depth along the motion (1 - s) |dd| when
         they overlap at its end); ``inf`` where they do not touch within the

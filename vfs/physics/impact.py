@@ -59,12 +59,14 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.settings import declared, setting, validate
 from vfs.units import wrap_angle
 
 #: Impact type codes of :attr:`ImpactResult.impact_type`.
@@ -77,7 +79,14 @@ _NAME_OF_CODE = np.array([IMPACT_TYPE_NAMES[k] for k in range(len(IMPACT_TYPE_NA
 #: Conventions for the restitution (:attr:`ImpactParams.restitution_mode`): ``"impulse"``
 #: restitutes both impulse components (PC-Crash, Kudlich-Slibar), ``"normal"`` only the
 #: normal relative velocity (Brach; tangential impulse up to the critical impulse ratio).
-RESTITUTION_MODES: tuple[str, ...] = ("impulse", "normal")
+class RestitutionMode(StrEnum):
+    """Conventions for the restitution (:attr:`ImpactParams.restitution_mode`)."""
+
+    IMPULSE = "impulse"
+    NORMAL = "normal"
+
+
+RESTITUTION_MODES: tuple[str, ...] = tuple(m.value for m in RestitutionMode)
 
 
 def impact_type_names(codes: npt.ArrayLike) -> np.ndarray:
@@ -113,9 +122,14 @@ class ImpactParams:
     solved is :attr:`vfs.physics.precrash.PrecrashParams.penetration_time`.
     """
 
-    restitution: float = 0.1
-    contact_friction: float = 0.6
-    restitution_mode: str = "impulse"
+    restitution: float = setting(0.1, "ratio", "impulse ratio eps = S_R / S_C",
+                                 lo=0.0, hi=1.0)
+    contact_friction: float = setting(0.6, "ratio", "friction coefficient between the bodies "
+                                      "at the POI (tan rho of the friction cone)",
+                                      lo=0.0, hi=10.0)
+    restitution_mode: str = setting("impulse", "text", "how eps enters: impulse "
+                                    "(Kudlich-Slibar, PC-Crash) or normal (Brach)",
+                                    choices=RestitutionMode)
 
     @property
     def penetration_time(self) -> float:
@@ -132,13 +146,7 @@ class ImpactParams:
         return PrecrashParams().penetration_time
 
     def __post_init__(self) -> None:
-        if self.restitution_mode not in RESTITUTION_MODES:
-            raise ParameterError(f"restitution_mode={self.restitution_mode!r}; use one of "
-                                 f"{RESTITUTION_MODES}")
-        if not 0.0 <= self.restitution <= 1.0:
-            raise ParameterError(f"restitution={self.restitution} outside [0, 1]")
-        if not (self.contact_friction >= 0.0 and np.isfinite(self.contact_friction)):
-            raise ParameterError(f"contact_friction={self.contact_friction} must be >= 0")
+        validate(self)
 
 
 #: Table column of each per-vehicle field of :class:`ImpactResult` (``{i}`` = 1, 2): the
@@ -451,8 +459,8 @@ CONFIG_RANGES: dict[str, tuple[float, float]] = {
     "vx1": (-150.0, 150.0), "vy1": (-150.0, 150.0), "vx2": (-150.0, 150.0),
     "vy2": (-150.0, 150.0),
     "yaw_rate1": (-50.0, 50.0), "yaw_rate2": (-50.0, 50.0),
-    "restitution": (0.0, 1.0),
-    "contact_friction": (0.0, 10.0),
+    **{name: (s.lo, s.hi) for name, s in declared(ImpactParams).items()
+       if name in ("restitution", "contact_friction")},
 }
 
 

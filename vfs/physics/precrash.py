@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
+from vfs.physics import core
 from vfs.physics.braking import (
     BrakeActuatorParams,
     BrakeController,
@@ -283,6 +284,13 @@ def simulate_precrash(
     """
     if first_step is not None and controller is not None:
         raise ParameterError("first_step replays the records: it takes no controller")
+    if controller is None and penetration is None:
+        if core.enabled():  # numba is imported with the first compiled run
+            instances = check_instances(vehicle1.size, paths, case_of, first_step)
+            return core.replay_precrash(vehicle1, vehicle2, paths, params or PrecrashParams(),
+                                        CLOSE_RANGE, case_of=instances[0],
+                                        first_step=instances[1])
+    log_stepped_run(controller, penetration)
     run = PrecrashRun(vehicle1, vehicle2, paths, road_friction, params=params,
                       penetration=penetration, case_of=case_of, first_step=first_step)
     if controller is not None:
@@ -291,6 +299,57 @@ def simulate_precrash(
         demand = controller.demand(run.observation()) if controller is not None else None
         run.advance(demand)
     return run.result()
+
+
+def check_instances(n_data: int, paths: PathArrays, case_of: npt.ArrayLike | None,
+                    first_step: npt.ArrayLike | None
+                    ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Checked case instances of a run over ``n_data`` cases: ``case_of`` (int array or
+    None) and ``first_step`` (int array (n,) or None), as :func:`simulate_precrash` takes them.
+
+    Raises
+    ------
+    ParameterError
+        Paths not two per case, ``case_of`` outside 0..n_data - 1, ``first_step`` < 0.
+    """
+    if paths.size != 2 * n_data:
+        raise ParameterError(f"paths hold {paths.size} records for {n_data} cases "
+                             "(need 2 per case)")
+    rows = None if case_of is None else np.asarray(case_of, np.int64).reshape(-1)
+    if rows is not None and rows.size and (rows.min() < 0 or rows.max() >= n_data):
+        raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
+    if first_step is None:
+        return rows, None
+    n = n_data if rows is None else rows.size
+    steps = np.broadcast_to(np.asarray(first_step, np.int64), (n,))
+    if steps.size and steps.min() < 0:
+        raise ParameterError("first_step must be >= 0")
+    return rows, steps
+
+
+#: Kinds of run already reported on the reference path (one log line per kind and process).
+_REPORTED: set[str] = set()
+
+
+def log_stepped_run(controller: BrakeController | None,
+                    penetration: Callable[..., np.ndarray] | None) -> None:
+    """Say once per process and kind (logging, INFO) why a run is stepped from Python
+    instead of running in the compiled per-case loop (:mod:`vfs.physics.core`): a
+    controller or a penetration rule in Python (called between the compiled steps,
+    :meth:`PrecrashRun.advance`), or the compiled core switched off.
+    """
+    import logging
+
+    if not core.enabled():
+        why = f"{core.ENV_SWITCH}=0: the numpy reference path"
+    elif controller is not None:
+        why = (f"the controller {type(controller).__name__} runs in Python between "
+               "compiled steps")
+    else:
+        why = "a Python penetration rule (an effect's hook) runs between compiled steps"
+    if why not in _REPORTED:
+        _REPORTED.add(why)
+        logging.getLogger("vfs.physics.precrash").info("pre-crash: %s", why)
 
 
 class PrecrashRun(PrecrashCases):
@@ -343,13 +402,7 @@ class PrecrashRun(PrecrashCases):
                  first_step: npt.ArrayLike | None = None) -> None:
         params = params or PrecrashParams()
         n_data = vehicle1.size
-        if paths.size != 2 * n_data:
-            raise ParameterError(f"paths hold {paths.size} records for {n_data} cases "
-                                 "(need 2 per case)")
-        self.case_of = None if case_of is None else np.asarray(case_of, np.int64).reshape(-1)
-        if self.case_of is not None and self.case_of.size and (
-                self.case_of.min() < 0 or self.case_of.max() >= n_data):
-            raise ParameterError(f"case_of indices outside 0..{n_data - 1}")
+        self.case_of, steps = check_instances(n_data, paths, case_of, first_step)
         n = n_data if self.case_of is None else self.case_of.size
         super().__init__(vehicle1, vehicle2, paths, params.dt, n, self.case_of)
         self.params = params
@@ -369,13 +422,11 @@ class PrecrashRun(PrecrashCases):
         self.running = np.zeros(n, dtype=bool)
 
         rows = np.arange(n) if start is None else np.unique(np.asarray(start, np.int64))
-        if first_step is not None:
+        if steps is not None:
             # a row started at step j of its record: its clock reads (k + j) dt
-            steps = np.broadcast_to(np.asarray(first_step, np.int64), (n,))
-            if steps.size and steps.min() < 0:
-                raise ParameterError("first_step must be >= 0")
             self.k0 = -steps.copy()
         self.rows = rows
+        self._core_inputs: tuple[np.ndarray, ...] | None = None
         self.running[rows] = True
         self.track = _Track(rows.shape[0])
         self.active: tuple[np.ndarray, np.ndarray] | None = None
@@ -403,6 +454,9 @@ class PrecrashRun(PrecrashCases):
 
     def _settle(self) -> None:
         """Kinematics at the current step; impacts due, contacts, closest approach, ends."""
+        if core.enabled():
+            self._settle_compiled()
+            return
         params, dt, paths = self.params, self.dt, self.paths
         v1, v2 = self.v1, self.v2
         track = self.track
@@ -463,32 +517,14 @@ class PrecrashRun(PrecrashCases):
                     paths, v1, v2, self._d(rows[sel]), prev_tau[sel], tau[sel],
                     self.prev_dv[sel], track.dv[sel], self.prev_ds[sel], track.ds[sel],
                     params.contact_tolerance, (self.prev_ti[sel], self.prev_si[sel]))
-            self.collided[r] = True
-            self.contact_time[r] = t_c
-            pending[r] = True
-            self.min_distance[r] = 0.0
-            self.time_closest[r] = t_c
             w = np.where(first, 0.0, np.clip((t_c - prev_tau[new_contact]) / dt, 0.0,
                                              1.0))[:, None]
             dv_c = self.prev_dv[new_contact] + w * (track.dv[new_contact]
                                                     - self.prev_dv[new_contact])
             ds_c = self.prev_ds[new_contact] + w * (track.ds[new_contact]
                                                     - self.prev_ds[new_contact])
-            st_c = kinematics_at(paths, self._d(r), t_c, dv_c, ds_c)
-            put_rows(self.contact_state, r, st_c)
-            self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
-            t_pen = np.full(r.shape[0], params.penetration_time)
-            if self.penetration is not None:
-                t_pen = np.asarray(self.penetration(self._d(r), st_c), float)
-                if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
-                    raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
-            impact_time[r] = t_c + t_pen
-            instant = t_pen == 0.0
-            if instant.any():
-                ri = r[instant]
-                put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
-                pending[ri] = False
-                self.speed_reduction[ri] = dv_c[instant]
+            self._contact(r, t_c, kinematics_at(paths, self._d(r), t_c, dv_c, ds_c), dv_c,
+                          ds_c)
         # closest approach: exact outline distance while the outlines are
         # within CLOSE_RANGE; beyond it, the pose of minimal CG distance is
         # kept and measured at the end
@@ -509,6 +545,14 @@ class PrecrashRun(PrecrashCases):
             self.min_distance[r[better]] = dist[better]
             self.time_closest[r[better]] = tau[cand][better]
 
+        self._end_rows(ended, tau)
+
+    def _end_rows(self, ended: list[np.ndarray], tau: np.ndarray) -> None:
+        """The end of a step: drop the rows impacted with zero penetration time, close the
+        expired ones (own times ``tau`` [s] of the running rows) and, at the run's
+        horizon, all; ``ended`` lists the rows ended earlier in the step.
+        """
+        pending, rows = self.pending, self.rows
         # drop cases that are finished: impacted with zero penetration time
         done = ~pending[rows] & self.collided[rows]
         if done.any():
@@ -529,6 +573,85 @@ class PrecrashRun(PrecrashCases):
             self.done = True
         self.finished = np.concatenate(ended) if ended else np.zeros(0, dtype=np.int64)
         self.running[self.finished] = False
+
+    def _settle_compiled(self) -> None:
+        """:meth:`_settle` by the compiled step (:func:`vfs.physics.core.settle_rows`): the
+        same arithmetic row by row; the penetration time and the ends of the rows here.
+        """
+        params, dt, track, rows = self.params, self.dt, self.track, self.rows
+        if self._core_inputs is None:
+            paths, v1, v2 = self.paths, self.v1, self.v2
+            dims = np.stack([v1.cg_to_front, v1.cg_to_rear, v1.width, v2.cg_to_front,
+                             v2.cg_to_rear, v2.width], axis=1)
+            self._core_inputs = (np.ascontiguousarray(paths.knots, dtype=float),
+                                 np.ascontiguousarray(paths.count, dtype=np.int64),
+                                 np.ascontiguousarray(paths.end_curvature, dtype=float),
+                                 np.ascontiguousarray(dims, dtype=float))
+        knots, count, end_curvature, dims = self._core_inputs
+        m = rows.shape[0]
+        kk = self.k - self.k0[rows]  # steps since each case's start
+        st = np.empty((7, m, 2))
+        rec = np.empty((2, m, 2))
+        event = np.empty(m, dtype=np.int64)
+        ev_state = np.empty((m, 7, 2))
+        ev_f = np.empty((m, 5))
+        min_distance, time_closest = self.min_distance[rows], self.time_closest[rows]
+        core.settle_rows(knots, count, end_curvature, dims, self.reach[rows],
+                         np.ascontiguousarray(self._d(rows), dtype=np.int64), kk, dt,
+                         params.contact_tolerance, CLOSE_RANGE, track.dv, track.ds, track.gap,
+                         track.t_index, track.s_index, self.prev_dv, self.prev_ds,
+                         self.prev_ti, self.prev_si, track.best_centre, track.best_time,
+                         track.best_x, track.best_y, track.best_yaw, self.pending[rows],
+                         self.impact_time[rows], min_distance, time_closest, st, rec, event,
+                         ev_state, ev_f)
+        self.min_distance[rows], self.time_closest[rows] = min_distance, time_closest
+        self.state = KinematicState(*st)
+        self.v_rec, self.a_rec = rec[0], rec[1]
+        tau = kk * dt
+        ended: list[np.ndarray] = []
+        new = event == core.EVENT_CONTACT
+        if new.any():
+            r = rows[new]
+            t_c = ev_f[new, 0]
+            st_c = KinematicState(*np.ascontiguousarray(ev_state[new].transpose(1, 0, 2)))
+            self._contact(r, t_c, st_c, ev_f[new, 1:3], ev_f[new, 3:5])
+        due = event == core.EVENT_IMPACT
+        if due.any():
+            r = rows[due]
+            put_rows(self.impact_state, r,
+                     KinematicState(*np.ascontiguousarray(ev_state[due].transpose(1, 0, 2))))
+            self.pending[r] = False
+            self.speed_reduction[r] = ev_f[due, 1:3]
+            ended.append(r)
+            self._keep(~due)
+            tau = tau[~due]
+        self._end_rows(ended, tau)
+
+    def _contact(self, r: np.ndarray, t_c: np.ndarray, st_c: KinematicState,
+                 dv_c: np.ndarray, ds_c: np.ndarray) -> None:
+        """Record the first contact of rows ``r`` at times ``t_c`` [s] in state ``st_c``
+        with the reductions ``dv_c``, ``ds_c`` there; the penetration time sets the impact.
+        """
+        params = self.params
+        self.collided[r] = True
+        self.contact_time[r] = t_c
+        self.pending[r] = True
+        self.min_distance[r] = 0.0
+        self.time_closest[r] = t_c
+        put_rows(self.contact_state, r, st_c)
+        self.contact_dv[r], self.contact_ds[r] = dv_c, ds_c
+        t_pen = np.full(r.shape[0], params.penetration_time)
+        if self.penetration is not None:
+            t_pen = np.asarray(self.penetration(self._d(r), st_c), float)
+            if t_pen.shape != r.shape or not np.all((t_pen >= 0.0) & (t_pen <= 0.5)):
+                raise ParameterError("penetration times must be (n,) values in [0, 0.5] s")
+        self.impact_time[r] = t_c + t_pen
+        instant = t_pen == 0.0
+        if instant.any():
+            ri = r[instant]
+            put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
+            self.pending[ri] = False
+            self.speed_reduction[ri] = dv_c[instant]
 
     def _close(self, r: np.ndarray, sel: np.ndarray) -> None:
         """End rows ``r`` (= running rows ``sel``) without a collision at the current step."""

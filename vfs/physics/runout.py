@@ -56,16 +56,22 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
 from vfs.physics import compiled_runout
-from vfs.physics.geometry import AREA_TOLERANCE, overlap, vehicle_outline
+from vfs.physics.post_impact import PostImpactInputs as PostImpactInputs  # re-exported
+from vfs.physics.post_impact import WheelInputs, check_wheel_inputs
+from vfs.physics.runout_contacts import Contacts, Kick, SecondaryCollisions
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, setting, validate
 from vfs.units import G
+
+#: The pair tracker under its former name (tests reach it here).
+_SecondaryCollisions = SecondaryCollisions
 
 #: Wheel order of every per-wheel array (columns of ``wheel_brake``).
 WHEEL_NAMES = ("FL", "FR", "RL", "RR")
@@ -94,6 +100,12 @@ _COMPACT_SHARE = 0.8
 
 #: Smallest working set [vehicles] worth compacting.
 _COMPACT_MIN = 64
+
+
+def _whole_multiple(interval: float, dt: float) -> bool:
+    """True when ``interval`` is a whole multiple (>= 1) of ``dt`` (to 1e-6 relative)."""
+    ratio = interval / dt
+    return not (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio)
 
 
 @dataclass(frozen=True)
@@ -138,18 +150,53 @@ class RunoutParams:
     path_interval : float
         Time between the recorded path samples [s]; a whole multiple of dt.
         Default 0.05 s.
+    contact : bool
+        Resolve the contact of the two vehicles of a pair (:func:`run_out_pair`): where
+        their outlines overlap and the contact points approach each other, an impulse of
+        the impact model (:func:`vfs.physics.impact.solve_impact`, POI and contact plane
+        of the overlap, restitution ``contact_restitution``, inter-vehicle friction
+        ``ImpactParams().contact_friction``) stops the approach, every step it recurs:
+        a second impact after separating, or the two moving together, hooked, until
+        they separate.  Default False: vehicles pass through each other (secondary
+        collisions are detected, not solved), as the published comparisons of vfs were
+        made.
+    contact_restitution : float
+        Impulse ratio of those contact impulses [-], in [0, 1]; default 0 (plastic:
+        the contact points share their normal velocity afterwards).
     """
 
-    dt: float = 0.005
+    dt: float = setting(0.005, "time", "time step (sets the accuracy only: the step is "
+                        "stable and dissipative for every dt)", lo=0.0, lo_open=True, hi=0.05)
     wheel_brake: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
-    rolling_resistance: float = 0.015
-    cornering_stiffness: float = 10.0
-    load_transfer: bool = False
-    v_stop: float = 0.05
-    max_time: float = 30.0
-    path_interval: float = 0.05
+    rolling_resistance: float = setting(0.015, "ratio", "rolling-resistance coefficient of a "
+                                        "rolling wheel", lo=0.0, hi=0.5)
+    cornering_stiffness: float = setting(10.0, "ratio", "cornering stiffness per unit wheel "
+                                         "load [1/rad]", lo=0.0, lo_open=True, hi=100.0)
+    load_transfer: bool = setting(False, "bool", "shift the wheel loads with the "
+                                  "accelerations of the previous steps")
+    v_stop: float = setting(0.05, "speed", "a vehicle is at rest when its CG speed and "
+                            "|yaw rate| x half diagonal are both below this",
+                            lo=0.0, lo_open=True, hi=1.0)
+    max_time: float = setting(30.0, "time", "longest simulated run-out",
+                              lo=0.0, lo_open=True, hi=3600.0)
+    path_interval: float = setting(0.05, "time", "time between the recorded path samples; "
+                                   "a whole multiple of dt", lo=0.0, lo_open=True, hi=3600.0)
+    contact: bool = setting(False, "bool", "resolve the contact of the two vehicles of a pair "
+                            "(a second impact, or moving on together) instead of passing "
+                            "through")
+    contact_restitution: float = setting(0.0, "ratio", "impulse ratio of the run-out contact "
+                                         "impulses", lo=0.0, hi=1.0)
+
+    #: Rules between the settings.
+    RULES: ClassVar[tuple[Rule, ...]] = (
+        Rule(("path_interval", "dt"), lambda p: _whole_multiple(p.path_interval, p.dt),
+             "path_interval a whole multiple of dt"),
+        Rule(("max_time", "dt"), lambda p: p.max_time >= p.dt, "max_time >= dt"),
+    )
 
     def __post_init__(self) -> None:
+        validate(self)
+
         def check(name: str, value: object, lo: float, hi: float, lo_open: bool) -> float:
             if isinstance(value, (bool, np.bool_)):
                 raise ParameterError(f"{name}={value!r} is not a number")
@@ -163,26 +210,12 @@ class RunoutParams:
                 raise ParameterError(f"{name}={v:g} outside {bracket}{lo:g}, {hi:g}]")
             return v
 
-        dt = check("dt", self.dt, 0.0, 0.05, True)
-        check("rolling_resistance", self.rolling_resistance, 0.0, 0.5, False)
-        check("cornering_stiffness", self.cornering_stiffness, 0.0, 100.0, True)
-        check("v_stop", self.v_stop, 0.0, 1.0, True)
-        max_time = check("max_time", self.max_time, 0.0, 3600.0, True)
-        interval = check("path_interval", self.path_interval, 0.0, 3600.0, True)
         brake = self.wheel_brake
         if isinstance(brake, (str, bytes)) or np.ndim(brake) != 1 or len(brake) != 4:
             raise ParameterError(
                 f"wheel_brake={brake!r} must be 4 brake factors (FL, FR, RL, RR)")
         for name, b in zip(WHEEL_NAMES, brake, strict=True):
             check(f"wheel_brake[{name}]", b, 0.0, 1.0, False)
-        if not isinstance(self.load_transfer, (bool, np.bool_)):
-            raise ParameterError(f"load_transfer={self.load_transfer!r} must be True or False")
-        ratio = interval / dt
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
-            raise ParameterError(
-                f"path_interval={interval:g} s must be a whole multiple of dt={dt:g} s")
-        if max_time < dt:
-            raise ParameterError(f"max_time={max_time:g} s is shorter than dt={dt:g} s")
 
     @property
     def steps_per_sample(self) -> int:
@@ -195,120 +228,6 @@ class RunoutParams:
         samples = math.ceil(self.max_time / self.path_interval - 1e-9)
         return samples * self.steps_per_sample
 
-
-@dataclass(frozen=True, eq=False)
-class PostImpactInputs:
-    """What a reconstruction knows about the run-out of N cases, per vehicle; NaN = not given.
-
-    The inputs of the reconstruction columns ``post_*`` (``docs/data-format.md``), in SI
-    units, vehicle 1 at index 0 of axis 1.  :meth:`wheel_brake`, :meth:`wheel_drag`,
-    :meth:`steer` and :meth:`steer_onset` resolve NaN to the documented defaults, so a
-    case without any of them runs exactly as before (bit for bit).
-
-    Attributes
-    ----------
-    brake : ndarray (N, 2, 4)
-        Brake factor per wheel (FL, FR, RL, RR) after the impact [-], in [0, 1]:
-        1 locked, b < 1 rolling and braked with b mu N.  NaN: ``driver_brake``.
-    driver_brake : ndarray (N, 2)
-        Driver braking after the crash [-], the brake factor of every wheel without its
-        own value.  NaN: the run-out default ``RunoutParams.wheel_brake``.
-    drag : ndarray (N, 2, 4)
-        Extra rolling drag per wheel [-], a coefficient of the wheel load added to the
-        rolling resistance (a damaged wheel rubbing on the body, the engine in gear).
-        NaN: 0.
-    steer_angle : ndarray (N, 2)
-        Steer angle of both front wheels after the impact [rad], positive to the left.
-        NaN: 0.
-    steer_onset : ndarray (N, 2)
-        Time after the separation at which the steer angle sets in [s] (straight wheels
-        before).  NaN: 0.
-    """
-
-    brake: np.ndarray
-    driver_brake: np.ndarray
-    drag: np.ndarray
-    steer_angle: np.ndarray
-    steer_onset: np.ndarray
-
-    def __post_init__(self) -> None:
-        shapes = {"brake": 3, "driver_brake": 2, "drag": 3, "steer_angle": 2,
-                  "steer_onset": 2}
-        n = np.shape(self.brake)[0] if np.ndim(self.brake) else -1
-        for name, ndim in shapes.items():
-            a = np.array(getattr(self, name), dtype=float)
-            want = (n, 2, 4) if ndim == 3 else (n, 2)
-            if a.shape != want:
-                raise ParameterError(f"PostImpactInputs.{name} has shape {a.shape}, "
-                                     f"expected {want}")
-            lo, hi = _POST_IMPACT_RANGES[name]
-            bad = ~np.isnan(a) & ~((a >= lo) & (a <= hi))
-            if bad.any():
-                at = tuple(int(i[0]) for i in np.nonzero(bad))
-                raise ParameterError(f"PostImpactInputs.{name}{list(at)}={a[at]!r} outside "
-                                     f"[{lo:g}, {hi:g}]")
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
-
-    @property
-    def size(self) -> int:
-        """Number of cases N."""
-        return int(self.brake.shape[0])
-
-    @classmethod
-    def unknown(cls, n: int) -> PostImpactInputs:
-        """N cases of which nothing is known (every value NaN: the defaults)."""
-        return cls(np.full((n, 2, 4), np.nan), np.full((n, 2), np.nan),
-                   np.full((n, 2, 4), np.nan), np.full((n, 2), np.nan),
-                   np.full((n, 2), np.nan))
-
-    def take(self, index: npt.ArrayLike) -> PostImpactInputs:
-        """Select cases by index (or mask)."""
-        idx = np.arange(self.size)[index]
-        return PostImpactInputs(self.brake[idx], self.driver_brake[idx], self.drag[idx],
-                                self.steer_angle[idx], self.steer_onset[idx])
-
-    @property
-    def given(self) -> bool:
-        """True if any value is given (not NaN)."""
-        return any(not np.isnan(a).all() for a in (self.brake, self.driver_brake, self.drag,
-                                                    self.steer_angle, self.steer_onset))
-
-    def wheel_brake(self, default: npt.ArrayLike) -> np.ndarray:
-        """Brake factors (N, 2, 4) [-]: a wheel's own value, else the driver braking, else
-        ``default`` (4,) (``RunoutParams.wheel_brake``).
-        """
-        base = np.broadcast_to(np.asarray(default, float), (self.size, 2, 4))
-        driver = np.where(np.isnan(self.driver_brake)[..., None], base,
-                          self.driver_brake[..., None])
-        return np.where(np.isnan(self.brake), driver, self.brake)
-
-    def wheel_drag(self) -> np.ndarray:
-        """Extra rolling drag (N, 2, 4) [-], NaN -> 0."""
-        return np.where(np.isnan(self.drag), 0.0, self.drag)
-
-    def steer(self) -> np.ndarray:
-        """Front-wheel steer angles (N, 2) [rad], NaN -> 0."""
-        return np.where(np.isnan(self.steer_angle), 0.0, self.steer_angle)
-
-    def onset(self) -> np.ndarray:
-        """Steering onsets (N, 2) [s], NaN -> 0."""
-        return np.where(np.isnan(self.steer_onset), 0.0, self.steer_onset)
-
-
-#: Largest front-wheel steer angle of the run-out [rad] (60 deg: beyond the steering lock of a
-#: passenger car, room for a wheel turned by the damage).
-MAX_STEER = math.radians(60.0)
-#: Latest onset of the steering [s] after the separation.
-MAX_STEER_ONSET = 30.0
-#: Largest extra rolling drag of a wheel [-] (a jammed wheel slides: brake factor 1).
-MAX_WHEEL_DRAG = 1.0
-#: Allowed ranges of the :class:`PostImpactInputs` fields (SI), the same as the database
-#: columns' (:mod:`vfs.database.schema` reads the bounds from here).
-_POST_IMPACT_RANGES: dict[str, tuple[float, float]] = {
-    "brake": (0.0, 1.0), "driver_brake": (0.0, 1.0), "drag": (0.0, MAX_WHEEL_DRAG),
-    "steer_angle": (-MAX_STEER, MAX_STEER), "steer_onset": (0.0, MAX_STEER_ONSET),
-}
 
 
 class RunoutState(NamedTuple):
@@ -540,44 +459,6 @@ def _check_brake(wheel_brake: npt.ArrayLike | None, params: RunoutParams, n: int
     return b
 
 
-class _Wheels(NamedTuple):
-    """Per-vehicle wheel inputs of the run-out beyond the brake factors, checked."""
-
-    drag: np.ndarray  # (n, 4) extra rolling drag [-]
-    steer: np.ndarray  # (n,) front-wheel steer angle [rad]
-    onset: np.ndarray  # (n,) time the steer angle sets in [s]
-
-    def take(self, rows: np.ndarray) -> _Wheels:
-        return _Wheels(self.drag[rows], self.steer[rows], self.onset[rows])
-
-    @property
-    def steered(self) -> bool:
-        """True if some vehicle steers."""
-        return bool(np.any(self.steer != 0.0))
-
-
-def _check_wheels(wheel_drag: npt.ArrayLike | None, steer: npt.ArrayLike | None,
-                  steer_onset: npt.ArrayLike | None, n: int, suffix: str = "") -> _Wheels:
-    """Extra drag (4,) or (n, 4), steer angle and onset () or (n,), defaults 0, checked."""
-    out = []
-    for name, raw, shapes, (lo, hi) in (
-            ("wheel_drag", wheel_drag, ((4,), (n, 4)), _POST_IMPACT_RANGES["drag"]),
-            ("steer", steer, ((), (n,)), _POST_IMPACT_RANGES["steer_angle"]),
-            ("steer_onset", steer_onset, ((), (n,)), _POST_IMPACT_RANGES["steer_onset"])):
-        label = name + suffix
-        a = np.asarray(0.0 if raw is None else raw, float)
-        if a.shape not in shapes and raw is not None:
-            raise ParameterError(f"{label} has shape {a.shape}, expected one of "
-                                 f"{', '.join(str(x) for x in shapes)}")
-        a = np.broadcast_to(a, shapes[1]).copy()
-        ok = np.isfinite(a) & (a >= lo) & (a <= hi)
-        if not ok.all():
-            at = tuple(int(i[0]) for i in np.nonzero(~ok))
-            raise ParameterError(f"{label}{list(at)}={a[at]!r} outside [{lo:g}, {hi:g}]")
-        out.append(a)
-    return _Wheels(*out)
-
-
 # ----------------------------------------------------------------------------
 # The integrator
 # ----------------------------------------------------------------------------
@@ -630,7 +511,7 @@ class _Working(NamedTuple):
 
 
 def _prepare(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray,
-             brake: np.ndarray, params: RunoutParams, wheels: _Wheels) -> _Working:
+             brake: np.ndarray, params: RunoutParams, wheels: WheelInputs) -> _Working:
     n = state.x.shape[0]
     wb = vehicles.wheelbase
     lf, lr = vehicles.cg_to_front_axle, vehicles.cg_to_rear_axle
@@ -920,15 +801,14 @@ def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
     v0 = c * w.vy - s * w.vx
     um, vm = c * vx_m + s * vy_m, c * vy_m - s * vx_m
     k = (1.0 - 2.0 * _GAMMA) * dt
-    if not steered:
-        a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
-        solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
-        u1, v1, r1 = solver.solve(u0, v0, w.r)
-        u2, v2, r2 = solver.solve(u1, v1, r1)
-        u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
-        v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
-        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
-    else:
+    a = _damping_matrix(w, limits, um, vm, r_m, any_locked, any_rolling)
+    solver = _Solver.factor(w.mass, w.inertia, a, _GAMMA * dt)
+    u1, v1, r1 = solver.solve(u0, v0, w.r)
+    u2, v2, r2 = solver.solve(u1, v1, r1)
+    u_new = u2 - k * (a.uu * u2 + a.ur * r2) / w.mass
+    v_new = v2 - k * (a.vv * v2 + a.vr * r2) / w.mass
+    r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+    if steered:
         # the share of the step after the onset, so that the onset falls between steps
         # without a first-order error: the turned share of the step's impulse
         delta = w.steer * np.clip((t + dt - w.onset) / dt, 0.0, 1.0)
@@ -938,9 +818,13 @@ def _advance(w: _Working, params: RunoutParams, first: bool, t: float = 0.0,
         u1, v1, r1 = full.solve(u0, v0, w.r)
         u2, v2, r2 = full.solve(u1, v1, r1)
         uv = a.uv if a.uv is not None else 0.0
-        u_new = u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass
-        v_new = v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass
-        r_new = r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia
+        # only the steered vehicles take the cofactor solution: a vehicle's run-out never
+        # depends on the others of its batch, to the last bit (the memo relies on it)
+        turned = w.steer != 0.0
+        u_new = np.where(turned, u2 - k * (a.uu * u2 + uv * v2 + a.ur * r2) / w.mass, u_new)
+        v_new = np.where(turned, v2 - k * (uv * u2 + a.vv * v2 + a.vr * r2) / w.mass, v_new)
+        r_new = np.where(turned, r2 - k * (a.ur * u2 + a.vr * v2 + a.rr * r2) / w.inertia,
+                         r_new)
     vx_new = c * u_new - s * v_new
     vy_new = s * u_new + c * v_new
     if params.load_transfer:
@@ -985,13 +869,15 @@ def _compact(w: _Working) -> _Working:
 
 
 #: Called after every step with the time [s], the state of all N vehicles
-#: (read-only views) and the mask of the vehicles that moved during the step.
-StepCallback = Callable[[float, RunoutState, np.ndarray], None]
+#: (read-only views) and the mask of the vehicles that moved during the step; it may
+#: return new velocities of some vehicles (:class:`Kick`), which then move on from them
+#: (a vehicle at rest starts again).
+StepCallback = Callable[[float, RunoutState, np.ndarray], "Kick | None"]
 
 
 def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake: np.ndarray,
-              params: RunoutParams, wheels: _Wheels, on_step: StepCallback | None = None,
-              record: bool = True) -> RunoutResult:
+              params: RunoutParams, wheels: WheelInputs, on_step: StepCallback | None = None,
+              record: bool = True, compact: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
     Without ``on_step`` the vehicles never interact; on request
@@ -1054,7 +940,8 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     step = 0
     while step < params.max_steps and moving.any():
         size = w.rows.shape[0]
-        if size > _COMPACT_MIN and np.count_nonzero(w.moving) < _COMPACT_SHARE * size:
+        if (compact and size > _COMPACT_MIN
+                and np.count_nonzero(w.moving) < _COMPACT_SHARE * size):
             w = _compact(w)
         moved = moving.copy() if on_step is not None else moving
         _advance(w, params, step == 0, step * params.dt, steered)
@@ -1063,7 +950,18 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
         stop(t)
         if on_step is not None:
             publish()
-            on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            kick = on_step(t, RunoutState(x, y, yaw, vx, vy, r), moved)
+            if kick is not None and kick.rows.size:
+                # compaction is off with kicks: the working rows are the batch rows
+                k = kick.rows
+                for a, b, value in ((w.vx, w.vx_prev, kick.vx), (w.vy, w.vy_prev, kick.vy),
+                                    (w.r, w.r_prev, kick.yaw_rate)):
+                    a[k] = value
+                    b[k] = value  # no predictor across the jump
+                w.moving[k] = True
+                moving[k] = True
+                time_to_rest[k] = np.nan
+                vx[k], vy[k], r[k] = kick.vx, kick.vy, kick.yaw_rate
         if step % per_sample == 0:
             sample()
     if step % per_sample != 0:
@@ -1168,7 +1066,7 @@ def run_out(vehicles: VehicleArrays, state: RunoutState, road_friction: npt.Arra
     vehicles = _check_vehicles(vehicles, n, "vehicles")
     mu = _check_friction(road_friction, n)
     brake = _check_brake(wheel_brake, params, n)
-    wheels = _check_wheels(wheel_drag, steer, steer_onset, n)
+    wheels = check_wheel_inputs(wheel_drag, steer, steer_onset, n)
     if memo is not None and paths:
         raise ParameterError("a RunoutMemo keeps rest poses only: call run_out with paths=False")
     table = row_table(*vehicles, *state, mu, brake, *wheels)
@@ -1274,126 +1172,6 @@ def distinct_rows(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return first[order], rank[np.asarray(inverse).ravel()]
 
 
-#: A corner of one outline this deep [m] inside the other proves an overlap area
-#: above AREA_TOLERANCE: the overlap then contains a quarter disc of this
-#: radius around the corner, pi (1e-4)^2 / 4 = 7.9e-9 m^2 > 1e-9 m^2.
-_CORNER_DEPTH = 1e-4
-
-
-class _SecondaryCollisions:
-    """Tracks separation and renewed overlap of the pairs (k, k + N) of a 2N batch.
-
-    A pair is tested in three phases: the distance of the CGs against the sum
-    of the corner radii (:func:`vfs.physics.vehicle.corner_radius`); for the near pairs the
-    separating-axis test of the two rectangles (disjoint or touching -> no
-    overlap) and the depth of the deepest corner inside the other outline
-    (deeper than :data:`_CORNER_DEPTH` -> overlap); only the remaining pairs go
-    to :func:`vfs.physics.geometry.overlap`, whose area decides against AREA_TOLERANCE.
-    """
-
-    def __init__(self, vehicles: VehicleArrays, x: np.ndarray, y: np.ndarray,
-                 yaw: np.ndarray) -> None:
-        n = x.shape[0] // 2
-        radius = vehicles.corner_radius
-        self.vehicles = vehicles
-        self.n = n
-        self.radius_sum = radius[:n] + radius[n:]
-        self.half_length = 0.5 * vehicles.length
-        self.half_width = 0.5 * vehicles.width
-        self.centre_offset = vehicles.cg_to_front - self.half_length  # CG -> outline centre
-        self.separated = ~self._overlapping(np.arange(n), x, y, yaw)[0]
-        self.secondary = np.zeros(n, bool)
-        self.time = np.full(n, np.nan)
-        self.next_check = np.zeros(n)  # earliest time a pair can touch [s]
-        self.gyration2 = vehicles.yaw_inertia / vehicles.mass  # I / m [m^2]
-        # outline point speed bound per unit CG speed bound: 1 + R / sqrt(I / m)
-        self.reach = 1.0 + radius / np.sqrt(self.gyration2)
-
-    def _overlapping(self, pairs: np.ndarray, x: np.ndarray, y: np.ndarray,
-                     yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Overlap area > AREA_TOLERANCE for the given pair indices.
-
-        Also returns the depth [m] of the deepest corner where it proved the
-        overlap (0 elsewhere).
-        """
-        result = np.zeros(pairs.shape[0], bool)
-        proof = np.zeros(pairs.shape[0])
-        i, j = pairs, pairs + self.n
-        dx = x[j] - x[i]
-        dy = y[j] - y[i]
-        near = np.flatnonzero(dx * dx + dy * dy < self.radius_sum[pairs] ** 2)
-        if near.size == 0:
-            return result, proof
-        i, j = i[near], j[near]
-        c1, s1, c2, s2 = np.cos(yaw[i]), np.sin(yaw[i]), np.cos(yaw[j]), np.sin(yaw[j])
-        l1, w1 = self.half_length[i], self.half_width[i]
-        l2, w2 = self.half_length[j], self.half_width[j]
-        off1, off2 = self.centre_offset[i], self.centre_offset[j]
-        # outline centre of 2 relative to that of 1, in frame 1 and in frame 2
-        gx = dx[near] + off2 * c2 - off1 * c1
-        gy = dy[near] + off2 * s2 - off1 * s1
-        x12, y12 = c1 * gx + s1 * gy, c1 * gy - s1 * gx
-        x21, y21 = -(c2 * gx + s2 * gy), -(c2 * gy - s2 * gx)
-        cos_rel = c1 * c2 + s1 * s2  # heading of 2 relative to 1
-        sin_rel = c1 * s2 - s1 * c2
-        ac, as_ = np.abs(cos_rel), np.abs(sin_rel)
-        # separating axes: the edge normals of both rectangles
-        sat = (np.abs(x12) < l1 + l2 * ac + w2 * as_) & (np.abs(y12) < w1 + l2 * as_ + w2 * ac)
-        sat &= (np.abs(x21) < l2 + l1 * ac + w1 * as_) & (np.abs(y21) < w2 + l1 * as_ + w1 * ac)
-        depth = np.full(near.size, -np.inf)
-        for sl in (1.0, -1.0):
-            for sw in (1.0, -1.0):
-                # corner of 2 in frame 1 (rotate by +rel) and corner of 1 in frame 2 (by -rel)
-                px = x12 + sl * l2 * cos_rel - sw * w2 * sin_rel
-                py = y12 + sl * l2 * sin_rel + sw * w2 * cos_rel
-                depth = np.maximum(depth, np.minimum(l1 - np.abs(px), w1 - np.abs(py)))
-                px = x21 + sl * l1 * cos_rel + sw * w1 * sin_rel
-                py = y21 - sl * l1 * sin_rel + sw * w1 * cos_rel
-                depth = np.maximum(depth, np.minimum(l2 - np.abs(px), w2 - np.abs(py)))
-        deep = sat & (depth > _CORNER_DEPTH)
-        result[near[deep]] = True
-        proof[near[deep]] = depth[deep]
-        unsure = np.flatnonzero(sat & ~deep)
-        if unsure.size:
-            a, b = i[unsure], j[unsure]
-            v = self.vehicles
-            o1 = vehicle_outline(v.take(a), x[a], y[a], yaw[a])
-            o2 = vehicle_outline(v.take(b), x[b], y[b], yaw[b])
-            result[near[unsure]] = overlap(o1, o2).area > AREA_TOLERANCE
-        return result, proof
-
-    def __call__(self, t: float, state: RunoutState, moved: np.ndarray) -> None:
-        n = self.n
-        check = np.flatnonzero(~self.secondary & (moved[:n] | moved[n:]) & (self.next_check <= t))
-        if check.size == 0:
-            return
-        x, y, yaw = state.x, state.y, state.yaw
-        over, depth = self._overlapping(check, x, y, yaw)
-        # Skip pairs whose state cannot change for a while.  Kinetic energy E never
-        # grows, so |v| <= sqrt(2 E / m) = vmax and |r| <= vmax / sqrt(I / m) for good:
-        # corner circles a gap apart cannot touch before gap / (vmax1 + vmax2), and a
-        # corner at depth d inside the other outline cannot get out (to the proof depth)
-        # before (d - _CORNER_DEPTH) / (vmax1 (1 + R1/g1) + vmax2 (1 + R2/g2)).
-        i, j = check, check + n
-        gap = np.hypot(x[j] - x[i], y[j] - y[i]) - self.radius_sum[check]
-        both = np.concatenate([i, j])
-        vx, vy, r = state.vx[both], state.vy[both], state.yaw_rate[both]
-        vmax = np.sqrt(vx * vx + vy * vy + self.gyration2[both] * r * r)
-        closing = vmax[: i.size] + vmax[i.size:]
-        point = vmax * self.reach[both]
-        escape = point[: i.size] + point[i.size:]
-        was_separated = self.separated[check]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            wait = np.where(gap > 0.0, gap / closing, 0.0)
-            wait = np.where(~was_separated & (depth > _CORNER_DEPTH),
-                            (depth - _CORNER_DEPTH) / escape, wait)
-        self.next_check[check] = t + wait
-        hit = check[was_separated & over]
-        self.secondary[hit] = True
-        self.time[hit] = t
-        self.separated[check[~was_separated & ~over]] = True
-
-
 def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: RunoutState,
                  state2: RunoutState, road_friction: npt.ArrayLike,
                  params: RunoutParams | None = None,
@@ -1411,8 +1189,10 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     <= :data:`vfs.physics.geometry.AREA_TOLERANCE` the pair counts as separated, and a
     later overlap is a secondary collision (checked after every step: a circle
     broad phase, a separating-axis test, then :func:`vfs.physics.geometry.overlap`).
-    Secondary collisions are detected, not solved: the vehicles pass through
-    each other.
+    Secondary collisions are detected; they are solved only with
+    ``params.contact`` (impulses of the impact model wherever the overlapping outlines
+    approach each other: a second impact, or moving together until they separate),
+    otherwise the vehicles pass through each other.
 
     Parameters
     ----------
@@ -1445,12 +1225,18 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     mu = _check_friction(road_friction, n)
     b1 = _check_brake(wheel_brake1, params, n, "wheel_brake1")
     b2 = _check_brake(wheel_brake2, params, n, "wheel_brake2")
-    w1 = _check_wheels(wheel_drag1, steer1, steer_onset1, n, "1")
-    w2 = _check_wheels(wheel_drag2, steer2, steer_onset2, n, "2")
-    wheels = _Wheels(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
+    w1 = check_wheel_inputs(wheel_drag1, steer1, steer_onset1, n, "1")
+    w2 = check_wheel_inputs(wheel_drag2, steer2, steer_onset2, n, "2")
+    wheels = WheelInputs(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
-    tracker = _SecondaryCollisions(both, state.x, state.y, state.yaw)
+    if params.contact:
+        contacts = Contacts(both, state.x, state.y, state.yaw, params.contact_restitution)
+        res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]),
+                        params, wheels, on_step=contacts, compact=False)
+        return PairRunoutResult.from_batch(res, contacts.flags.secondary,
+                                           contacts.flags.time)
+    tracker = SecondaryCollisions(both, state.x, state.y, state.yaw)
     res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
                     wheels, on_step=tracker)
     return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

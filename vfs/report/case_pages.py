@@ -43,6 +43,7 @@ from vfs.report.figures import (
     reconstruction_scene,
     save_figure,
 )
+from vfs.report.provenance import database_argument, database_label
 from vfs.report.render import (
     Block,
     BulletList,
@@ -76,6 +77,8 @@ _DEG = math.degrees(1.0)
 def case_file(case_id: Any) -> str:
     """The page of a case relative to the report: ``cases/<id>.html``.
 
+    Examples
+    --------
     >>> case_file(42), case_file("A/7 b")
     ('cases/42.html', 'cases/A_7_b.html')
     """
@@ -85,6 +88,8 @@ def case_file(case_id: Any) -> str:
 def case_link(case_id: Any, pages: Mapping[Any, str] | None = None) -> str:
     """The case id as a table cell: a link to its page when ``pages`` has it, else plain.
 
+    Examples
+    --------
     >>> case_link(42, {42: "cases/42.html"})
     '[42](cases/42.html)'
     """
@@ -607,7 +612,7 @@ def write_effectiveness_case_pages(folder: str | Path, study: Any, case_ids: Seq
     colors = {name: RUN_COLORS[k % len(RUN_COLORS)] for k, name in enumerate(names)}
     meta = table.drop_duplicates("case_id").set_index("case_id")
     pages: dict[Any, str] = {}
-    db = m.get("db", "?")
+    db, db_shown = database_argument(m), database_label(m)
     first_system = next(iter(m.get("system_names", [])), "three-stage")
     for cid, replayed in replays.items():
         runs = []
@@ -624,7 +629,7 @@ def write_effectiveness_case_pages(folder: str | Path, study: Any, case_ids: Seq
         info = {
             "accident_type": meta.loc[cid, "accident_type"] if cid in meta.index else "",
             "weight": f"{float(meta.loc[cid, 'weight']):g}" if cid in meta.index else "1",
-            "study": Path(study.path).name, "db": db, "equip": m.get("equip", "?"),
+            "study": Path(study.path).name, "db": db_shown, "equip": m.get("equip", "?"),
             "animate": (f"vfs run-case --db {db} --case {cid} --system {first_system} "
                         f"--animate case_{cid}.gif"),
         }

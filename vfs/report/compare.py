@@ -34,9 +34,11 @@ from vfs.analysis.compare import (
     TABLE1_OUTCOMES,
     Comparison,
 )
+from vfs.analysis.staged_tests import staged_summary
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.case_pages import case_link, write_comparison_case_pages
 from vfs.report.figures import new_figure, save_figure
+from vfs.report.provenance import database_manifest, provenance_blocks, synthetic_note
 from vfs.report.references import cite
 from vfs.report.render import (
     Block,
@@ -48,6 +50,7 @@ from vfs.report.render import (
     Table,
     write_report,
 )
+from vfs.report.staged_tests import staged_blocks
 from vfs.units import KMH_PER_MS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -540,6 +543,7 @@ def _margins_text(comparison: Comparison) -> str:
 
 def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str], *,
                             database: Database | None = None, top: int = 10,
+                            database_reference: str | None = None,
                             sketches: int = 4, case_pages: bool = True) -> dict[str, Path]:
     """Write every table, figure and the Markdown / HTML report into a folder.
 
@@ -550,7 +554,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
     out : path
         Output folder (created; existing files of the same names are replaced).
     database : Database, optional
-        The compared database, for the top views of the worst cases.
+        The compared database, for the top views of the worst cases and the provenance
+        section (its data hash; a warning when it is synthetic).
+    database_reference : str, optional
+        How the user named the database (``--db``), shown in the provenance section.
     top : int
         Number of worst cases listed in the report.
     sketches : int
@@ -588,6 +595,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         files[f"{name}_parquet"] = write_table(folder / f"{name}.parquet", tables[name])
     files["contingency"] = write_atomic(folder / "contingency.csv",
                                         comparison.contingency.table.to_csv)
+    if comparison.staged is not None and len(comparison.staged):
+        files["staged_tests"] = write_table(folder / "staged_tests.csv", comparison.staged)
+        files["staged_summary"] = write_table(folder / "staged_summary.csv",
+                                              staged_summary(comparison.staged))
     if comparison.measured is None or not len(comparison.measured):
         from vfs.analysis.paper_reference import side_by_side_table1, side_by_side_types
 
@@ -618,6 +629,10 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
             linked = [*comparison.measured["case_id"].tolist(), *linked]
         pages = write_comparison_case_pages(folder, comparison, database, linked)
     blocks = _report_blocks(comparison, top, worst, folder, pages)
+    if database is not None:  # where the numbers come from; synthetic data said so
+        manifest = database_manifest(database, database_reference)
+        blocks = [blocks[0], *synthetic_note(manifest), *blocks[1:],
+                  *provenance_blocks(manifest)]
     files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))
     return files
 
@@ -775,6 +790,7 @@ def _report_blocks(comparison: Comparison, top: int, worst: list[tuple[Path, str
                   f"{cite('momentum-impact-model')} (Figures 4-6, Table 1); formulas "
                   "and conventions: docs/compare.md."),
         *measured_blocks(c, pages),
+        *staged_blocks(c, pages),
         Heading("1 Impact type (the Momentum Based Impact Model paper, Figure 4)", 2),
         Paragraph(f"Rows: reconstruction, columns: VFS ('none': the VFS found no impact). "
                   f"{cont.n_agree} of {cont.n} cases agree (observed agreement "

@@ -21,11 +21,19 @@ import pandas as pd
 
 from vfs.accident_types import accident_type_label
 from vfs.analysis.effectiveness import ALL, BASELINE, Effectiveness, effectiveness
+from vfs.analysis.system_differences import system_differences
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
+from vfs.progress import note
 from vfs.report.case_pages import case_link, write_effectiveness_case_pages
 from vfs.report.euro_ncap import euro_ncap_blocks, study_tables, write_euro_ncap_tables
 from vfs.report.figures import RUN_COLORS, new_figure, save_figure
+from vfs.report.provenance import (
+    database_label,
+    provenance_blocks,
+    synthetic_note,
+    table_of_contents,
+)
 from vfs.report.render import (
     Block,
     BulletList,
@@ -119,17 +127,26 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
     n_bad = int(eff.excluded["case_id"].nunique())
     systems = manifest.get("systems") or [{"name": p.system, "description": ""}
                                           for p in eff.pairs]
-    blocks: list[Block] = [
+    head: list[Block] = [
         Heading(f"AEB effectiveness: {manifest.get('name') or manifest.get('path', 'study')}",
                 1),
+        *synthetic_note(manifest),
         *summary_blocks(eff),
-        Paragraph(f"Database `{manifest.get('db', '?')}` ({manifest.get('n_cases', '?')} cases"
+        # the headline figure, above the fold
+        *_figure_block(figures, "avoided_by_type", "Avoided share of the baseline crashes per "
+                       "accident type and system (the tables below give the intervals)"),
+    ]
+    blocks: list[Block] = [
+        Heading("The study", 2),
+        Paragraph(f"Database `{database_label(manifest)}` ({manifest.get('n_cases', '?')} cases"
                   + (f", selection `{manifest['where']}`" if manifest.get("where") else "")
                   + f"); equipped vehicles: {manifest.get('equip', '?')}; study seed "
                   f"{manifest.get('seed', '?')}. {n_valid} cases compared (total weight "
                   f"{eff.pairs[0].weight.sum():g}); {n_bad} case(s) excluded because a run "
                   "failed."),
-        BulletList(tuple(f"`{s['name']}`: {s.get('description', '')}" for s in systems)),
+        Paragraph("The systems, as they ran (generated from their parameters):"),
+        BulletList(tuple(f"`{s['name']}`: {s.get('parameters') or s.get('description', '')}"
+                         for s in systems)),
         Paragraph(f"Every system is compared case by case with the baseline (the recorded "
                   f"behaviour), weighted by the cases' `weight` (frequency weights). Brackets: "
                   f"{pct} % confidence intervals: Wilson score intervals for shares, BCa "
@@ -151,9 +168,9 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         Paragraph("Avoided share = weighted baseline crashes without a crash in the treatment "
                   "run / weighted baseline crashes. Net crash reduction also subtracts crashes "
                   "that happen only with the system."),
+        *_difference_blocks(eff),
         Heading("Per accident type (avoided share)", 3),
         Table.from_frame(_per_type_table(eff, "avoided_share")),
-        *_figure_block(figures, "avoided_by_type", "Avoided share per accident type"),
         Heading("Per accident type and system", 3),
         Paragraph("Reductions per baseline crash (a run without a crash counts 0); risk: "
                   "relative reduction of the expected injured drivers."),
@@ -235,7 +252,33 @@ def _report_blocks(eff: Effectiveness, manifest: dict[str, Any], figures: dict[s
         blocks.append(Table.from_frame(shown))
         if len(eff.excluded) > 50:
             blocks.append(Paragraph(f"... and {len(eff.excluded) - 50} more failed runs."))
-    return blocks
+    blocks += provenance_blocks(manifest)
+    return [*head, *table_of_contents(blocks), *blocks]
+
+
+def _difference_blocks(eff: Effectiveness) -> list[Block]:
+    """The systems against each other: paired differences with intervals (two or more)."""
+    if len(eff.pairs) < 2 or baseline_crashes(eff) <= 0:
+        return []
+    diff = system_differences(eff)
+    pct = int(round(100 * eff.confidence))
+    rows = []
+    for r in diff.itertuples(index=False):
+        fmt = "{:.1f}"
+        rows.append((f"`{r.system_b}` - `{r.system_a}`", str(r.label),
+                     f"{fmt.format(r.value_a)} / {fmt.format(r.value_b)} {r.unit}",
+                     f"{r.difference:+.1f} [{r.low:+.1f}, {r.high:+.1f}] {r.unit}",
+                     str(r.n_cases)))
+    return [
+        Heading("Systems compared with each other", 3),
+        Paragraph(f"Both systems ran on the same cases, so they are compared case by case on "
+                  f"the baseline crashes: the difference B - A of each outcome with its {pct} % "
+                  f"BCa bootstrap interval over the cases, pairs kept together "
+                  f"({eff.n_boot} resamples; `vfs.analysis.system_differences`). An interval "
+                  "that excludes 0 is a difference the study resolves."),
+        Table(("B - A", "outcome", "A / B", "difference B - A", "baseline crashes"),
+              tuple(rows)),
+    ]
 
 
 def _group_table(eff: Effectiveness, system: str, metrics: Sequence[str],
@@ -505,10 +548,14 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
                                     f"{study}: the study is not complete (status "
                                     f"{result.manifest.get('status')!r}); finish it with "
                                     f"vfs study ... --resume (no {RUNS_FILE} yet)"))
+    note("effectiveness of %d system(s) over %d cases, intervals from %d bootstrap "
+         "resamples", len(result.manifest.get("system_names", [])),
+         result.table["case_id"].nunique(), n_boot)
     eff = effectiveness(result.table, risk_curves=risk_curves, n_boot=n_boot,
                         confidence=confidence, seed=seed)
     folder = Path(out) if out is not None else result.path / "report"
     folder.mkdir(parents=True, exist_ok=True)
+    note("drawing the figures")
     figures = write_figures(eff, folder) if baseline_crashes(eff) > 0 else {}
     manifest = {**result.manifest, "name": result.path.name}
     notable = notable_cases(eff, list_cases)
@@ -523,6 +570,7 @@ def write_effectiveness_report(study: str | os.PathLike[str], *,
     if ncap is not None:
         blocks += euro_ncap_blocks(*ncap)
         write_euro_ncap_tables(folder, *ncap)
+    note("writing the report")
     write_report(folder, Report(f"AEB effectiveness: {result.path.name}", tuple(blocks)))
     write_text(folder / "metrics.csv", eff.metrics.to_csv(index=False))
     cross = [(s, b, t, float(table.loc[b, t])) for s, table in eff.crosstabs.items()

@@ -1,9 +1,11 @@
 """Euro NCAP view of studies: the protocol's scores and the side-by-side table.
 
-* :func:`euro_ncap_blocks`: the report section of a study on the Euro NCAP
-  matrix (``vfs study --db euro-ncap-c2c``): scores per scenario and system,
-  the total, and per scenario the grid of measures (impact speed, relative
-  impact speed or speed reduction, km/h) with their colour bands;
+* :func:`euro_ncap_blocks`: the report section of a study on a Euro NCAP
+  matrix (``vfs study --db euro-ncap-c2c``, or ``euro-ncap-c2c-2023``): scores
+  per scenario and system, the total, and per system and scenario the result
+  grid a test engineer reads (rows VUT speed, columns GVT speed and impact
+  location / overlap / braking; each cell the measure in km/h, coloured by its
+  band in HTML as the rating tool colours its matrices), with the FCW timing;
   :func:`vfs.report.effectiveness.write_effectiveness_report` adds it and
   writes ``euro_ncap_tests.csv`` and ``euro_ncap_scores.csv``.
 * :func:`side_by_side` / :func:`write_side_by_side` (``vfs report side-by-side
@@ -28,13 +30,13 @@ from vfs.analysis.effectiveness import ALL, effectiveness
 from vfs.analysis.euro_ncap import (
     assess_tests,
     is_euro_ncap_cases,
+    protocols_of,
     scenario_scores,
     speed_grid,
 )
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
 from vfs.report.render import Block, BulletList, Heading, Paragraph, Report, Table, write_report
-from vfs.scenarios.euro_ncap import read_protocol
 from vfs.study.manifest import StudyResult
 
 #: Files written next to report.md for a study on the matrix.
@@ -74,9 +76,8 @@ def study_tables(study: str | os.PathLike[str] | StudyResult
     if result.table is None:
         raise DataError(DataProblem("study", "", None, None,
                                     f"{result.path}: the study is not complete"))
-    protocol = read_protocol()
-    tests = assess_tests(result.table, cases, protocol)
-    return tests, scenario_scores(tests, protocol)
+    tests = assess_tests(result.table, cases)
+    return tests, scenario_scores(tests)
 
 
 def score_table(scores: pd.DataFrame) -> pd.DataFrame:
@@ -90,40 +91,65 @@ def score_table(scores: pd.DataFrame) -> pd.DataFrame:
     return table[order].reset_index()
 
 
+def _fcw_text(sub: pd.DataFrame) -> str:
+    warned = sub["fcw_ttc_s"].dropna()
+    if warned.empty:
+        return "no warning"
+    return (f"{len(warned)} of {len(sub)} tests warned, TTC at the warning "
+            f"{warned.min():.2f}-{warned.max():.2f} s (median {warned.median():.2f} s)")
+
+
 def euro_ncap_blocks(tests: pd.DataFrame, scores: pd.DataFrame) -> list[Block]:
-    """Report section of a study on the Euro NCAP matrix."""
-    protocol = read_protocol()
-    info = protocol["protocol"]
-    blocks: list[Block] = [
-        Heading("Euro NCAP AEB Car-to-Car", 2),
-        Paragraph(f"Test matrix: {info['test_protocol']}; assessment: {info['assessment']}. "
-                  "Every test of the matrix is a case (participant 1 the VUT carrying the "
-                  "system, 2 the global vehicle target); each test scores by its colour band "
-                  "(green 1, yellow 0.75, orange 0.5, brown 0.25, red 0 points), a scenario "
-                  "scores its maximum points times the mean of its tests. Values not found in "
-                  "the protocol text read are ASSUMPTIONS listed in "
-                  "scenarios/euro-ncap-c2c/protocol.toml; docs/euro-ncap.md."),
-        Heading("Scores (points / maximum)", 3),
-        _table(score_table(scores)),
-    ]
-    items = []
-    for name, sc in protocol["scenarios"].items():
-        measure = ("VUT speed reduction" if sc["band"] == "mitigation"
-                   else sc["measure"].replace("_", " "))
-        items.append(f"{name}: {sc['description']}; measure: {measure} [km/h]; "
-                     f"bands: {sc['band'].replace('_', ' ')}")
-    blocks.append(BulletList(tuple(items)))
-    for system in [s for s in tests["system"].unique() if s != "baseline"]:
-        blocks.append(Heading(f"Per test: {system}", 3))
-        for name in protocol["scenarios"]:
-            grid = speed_grid(tests, system, name)
-            if grid.empty:
-                continue
-            blocks.append(Paragraph(f"**{name}** (rows: VUT speed [km/h]; cells: colour and "
-                                    "measure [km/h])"))
-            frame = grid.reset_index().rename(columns={"vut": "VUT km/h"})
-            frame["VUT km/h"] = frame["VUT km/h"].map(lambda v: f"{v:g}")
-            blocks.append(_table(frame))
+    """Report section of a study on a Euro NCAP matrix (one protocol version)."""
+    protocols = protocols_of(tests.rename(columns={"protocol": "ncap_protocol"}))
+    blocks: list[Block] = [Heading("Euro NCAP Car-to-Car", 2)]
+    for version, protocol in protocols.items():
+        info = protocol["protocol"]
+        mine = tests[tests["protocol"] == version]
+        blocks += [
+            Paragraph(f"Protocol version {version}. Test matrix: {info['test_protocol']}; "
+                      f"assessment: {info['assessment']}. Every test is a case (participant "
+                      "1 the VUT carrying the system, 2 the global vehicle target); each test "
+                      "scores by its colour band (green 1, yellow 0.75, orange 0.5, brown "
+                      "0.25, red 0 points), a scenario its maximum points times the mean of "
+                      "its tests. Values not read in the protocol texts are ASSUMPTIONS "
+                      "listed in the protocol file (scenarios/euro-ncap-c2c/) and "
+                      "docs/euro-ncap.md."),
+            Heading("Scores (points / maximum)", 3),
+            _table(score_table(scores[scores["protocol"] == version])),
+        ]
+        items = []
+        for name, sc in protocol["scenarios"].items():
+            measure = sc["measure"].replace("_", " ")
+            rule = {"mitigation": "bands of the speed reduction",
+                    "avoidance": "avoidance: any contact red (a VUT hit while standing too)",
+                    "mitigation_or_avoidance": "mitigation-or-avoidance bands, row by VUT "
+                    "speed"}[sc["band"]]
+            items.append(f"{name}: {sc['description']}; measure: {measure} [km/h]; {rule}")
+        blocks.append(BulletList(tuple(items)))
+        scored = "scored" if protocol["assessment"].get("fcw_scored") else "reported, not scored"
+        for system in [s for s in mine["system"].unique() if s != "baseline"]:
+            blocks.append(Heading(f"Result sheet: {system}", 3))
+            for name in protocol["scenarios"]:
+                values, colours = speed_grid(mine, system, name)
+                if values.empty:
+                    continue
+                sub = mine[(mine["system"] == system) & (mine["scenario"] == name)]
+                measure = protocol["scenarios"][name]["measure"].replace("_", " ")
+                own = scores[(scores["system"] == system) & (scores["scenario"] == name)
+                             & (scores["protocol"] == version)].iloc[0]
+                blocks.append(Paragraph(
+                    f"**{name}**: {own['score']:.2f} / {own['max_score']:g} points "
+                    f"({own['score_pct']:.0f} %); rows VUT speed [km/h] (0: start from "
+                    f"stop; with the GVT speed where one per row), cells the {measure} [km/h]"
+                    f" and its colour; FCW ({scored}): {_fcw_text(sub)}."))
+                rows = tuple((str(v), *(f"{c} {k}" if c else "" for c, k in
+                                          zip(values.loc[v], colours.loc[v], strict=True)))
+                             for v in values.index)
+                classes = tuple(("", *(f"band-{k}" if k else "" for k in colours.loc[v]))
+                                for v in values.index)
+                blocks.append(Table(("VUT km/h", *map(str, values.columns)), rows,
+                                    cell_classes=classes))
     return blocks
 
 
@@ -185,6 +211,7 @@ def side_by_side(ncap_study: str | os.PathLike[str], accident_study: str | os.Pa
             continue
         own = scores[scores["system"] == system].set_index("scenario")
         row: dict[str, Any] = {"system": system,
+                               "ncap_protocol": str(own.loc["total", "protocol"]),
                                "ncap_points": float(own.loc["total", "score"]),
                                "ncap_max_points": float(own.loc["total", "max_score"]),
                                "ncap_pct": float(own.loc["total", "score_pct"]),
@@ -256,11 +283,13 @@ def write_side_by_side(ncap_study: str | os.PathLike[str],
                          confidence=confidence)
     write_text(folder / f"{SIDE_BY_SIDE}.csv", table.to_csv(index=False))
     pct = int(round(100 * confidence))
+    versions = ", ".join(sorted(table["ncap_protocol"].astype(str).unique()))
     blocks: list[Block] = [
         Heading("Euro NCAP result and accident-based effectiveness, side by side", 1),
-        Paragraph(f"Euro NCAP: study `{Path(ncap_study).name}` on the AEB Car-to-Car test "
-                  f"matrix (scenarios/euro-ncap-c2c/protocol.toml; points of the 2026 colour "
-                  f"bands). Accidents: study `{Path(accident_study).name}`: share of its "
+        Paragraph(f"Euro NCAP: study `{Path(ncap_study).name}` on the Car-to-Car test "
+                  f"matrix of protocol {versions} "
+                  "(scenarios/euro-ncap-c2c/; colour bands, points and maxima of that "
+                  f"version's file). Accidents: study `{Path(accident_study).name}`: share of its "
                   f"baseline crashes avoided, net crash reduction (avoided minus new) and "
                   f"relative reduction of the expected injured drivers per injury level, with "
                   f"{pct} % intervals ({n_boot} bootstrap resamples, seed {seed}; "

@@ -31,8 +31,10 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Colours of vehicles 1 and 2 in top views.
 COLORS = ("#1f77b4", "#d62728")
 
-#: Colours of the runs in charts: the baseline, then the systems in order.
-RUN_COLORS = ("#444444", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+#: Colours of the runs in charts: the baseline, then the systems in order.  None of them is a
+#: vehicle colour (:data:`COLORS`): a case page shows top views (blue and red: vehicles 1 and
+#: 2) above traces (one colour per run), and a colour means one thing on a page.
+RUN_COLORS = ("#444444", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
 
 #: Resolution of saved report figures [dots per inch].
 DEFAULT_DPI = 110

@@ -83,6 +83,10 @@ class Table:
         numbers, intervals or percentages (:func:`is_numeric_text`), else left.
     empty : str, optional
         Text shown instead of a table without rows; None shows nothing.
+    cell_classes : tuple of tuple of str, optional
+        A CSS class per cell (same shape as ``rows``; ``""`` for none), HTML
+        only: :data:`STYLESHEET`'s ``band-green`` ... ``band-red`` colour a cell
+        as a Euro NCAP result grid.
 
     Cells that hold a number, an interval (``1.2 [0.8, 1.6]``) or a short
     name without spaces (``three-stage``) never wrap in HTML.
@@ -92,12 +96,17 @@ class Table:
     rows: tuple[tuple[str, ...], ...]
     align: tuple[Align, ...] | None = None
     empty: str | None = None
+    cell_classes: tuple[tuple[str, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         width = len(self.columns)
         bad = [k for k, row in enumerate(self.rows) if len(row) != width]
         if bad:
             raise ParameterError(f"table rows {bad[:5]} do not have {width} cells")
+        if self.cell_classes is not None and (
+                len(self.cell_classes) != len(self.rows)
+                or any(len(row) != width for row in self.cell_classes)):
+            raise ParameterError("cell_classes must have the shape of the table's rows")
         if self.align is not None:
             if len(self.align) != width:
                 raise ParameterError(f"align has {len(self.align)} entries for {width} columns")
@@ -200,6 +209,8 @@ _NUMERIC = re.compile(r"(?:[-+<>=~\s\d.,%\[\]()/:]|inf|nan|e(?=[-+]?\d)|\.\.)+")
 def is_numeric_text(text: str) -> bool:
     """True for a number, percentage or interval written as text.
 
+    Examples
+    --------
     >>> [is_numeric_text(t) for t in ("12.5", "< 0.001", "40 % [31, 49]", "full")]
     [True, True, True, False]
     """
@@ -312,6 +323,9 @@ figcaption{color:var(--muted);font-size:.9rem;font-style:italic;margin-top:.35re
 margin:1rem 0}
 .note.warning{border-left-color:var(--warn);background:#fff5eb}
 .empty{color:var(--muted);font-style:italic}
+td.band-green{background:#009933;color:#fff}td.band-yellow{background:#ffdd33}
+td.band-orange{background:#ff9933}td.band-brown{background:#964b00;color:#fff}
+td.band-red{background:#ff3333;color:#fff}
 @media print{
 body{max-width:none;margin:0;font-size:10pt}
 .table-wrap{overflow:visible}
@@ -330,7 +344,7 @@ _LINK = re.compile(r"\[([^\]\[]+)\]\(([^()\s]+)\)")
 
 
 def inline_html(text: object) -> str:
-    """Escape text for HTML, render `backtick` spans as ``<code>`` and [text](url) as links."""
+    """Escape text for HTML, render `backtick` spans as ``<code>`` and ``[text](url)`` as links."""
     parts = html.escape(str(text)).split("`")
     if len(parts) % 2 == 0:  # an unpaired backtick stays a backtick
         parts[-2:] = [parts[-2] + "`" + parts[-1]]
@@ -345,10 +359,11 @@ def _html_table(t: Table) -> str:
     head = "".join(f'<th class="{cls[a]}">{inline_html(c)}</th>'
                    for c, a in zip(t.columns, align, strict=True))
     body = []
-    for row in t.rows:
+    classes = t.cell_classes or tuple(("",) * len(t.columns) for _ in t.rows)
+    for row, extra in zip(t.rows, classes, strict=True):
         cells = []
-        for text, a in zip(row, align, strict=True):
-            c = cls[a]
+        for text, a, more in zip(row, align, extra, strict=True):
+            c = cls[a] + (f" {more}" if more else "")
             if ((a == "right" and is_numeric_text(text)) or _CI.search(text)
                     or (len(text) <= 24 and " " not in text)):  # numbers, intervals, names
                 c += " nw"
@@ -358,9 +373,23 @@ def _html_table(t: Table) -> str:
             + "\n".join(body) + "\n</tbody></table></div>")
 
 
+def heading_anchor(text: str) -> str:
+    """The anchor of a heading as GitHub makes it for Markdown (lower case, punctuation
+    dropped, spaces to hyphens); the HTML renderer gives its headings the same ``id``.
+
+    Examples
+    --------
+    >>> heading_anchor("Crashes avoided (per `system`)")
+    'crashes-avoided-per-system'
+    """
+    text = re.sub(r"[`*]", "", text.strip().lower())
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
 def _html_block(b: Block) -> str:
     if isinstance(b, Heading):
-        return f"<h{b.level}>{inline_html(b.text)}</h{b.level}>"
+        return (f'<h{b.level} id="{heading_anchor(b.text)}">{inline_html(b.text)}'
+                f"</h{b.level}>")
     if isinstance(b, Paragraph):
         return f"<p>{inline_html(b.text)}</p>"
     if isinstance(b, Table):
@@ -412,6 +441,7 @@ def write_report(folder: str | os.PathLike[str], report: Report, *, name: str = 
 
 __all__ = [
     "STYLESHEET",
+    "heading_anchor",
     "Align",
     "Block",
     "BulletList",

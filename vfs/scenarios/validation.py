@@ -20,7 +20,7 @@ def check_range(name: str, value: object, lo: float = -math.inf,
 
 
 def check_share(name: str, value: object) -> None:
-    """ParameterError unless ``value`` is a share in [0, 1] [-]."""
+    """ParameterError unless ``value`` is a share [-] in [0, 1]."""
     if not (isinstance(value, int | float) and 0.0 <= value <= 1.0):
         raise ParameterError(f"{name}={value!r} must be a share in [0, 1]")
 

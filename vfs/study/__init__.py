@@ -11,6 +11,7 @@ reading), :mod:`~vfs.study.spec` (the settings of a study, checked once) and
 :mod:`~vfs.study.run`.  See docs/study.md.
 """
 
+from vfs.adas.contract import System
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count, register_executor
 from vfs.study.layout import (
     BASELINE,
@@ -29,10 +30,11 @@ from vfs.study.manifest import (
     data_hash,
     load_study,
     read_manifest,
+    read_runs,
 )
 from vfs.study.run import run_study
 from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
-from vfs.study.systems import AEBSystem, resolve_system, resolve_systems
+from vfs.study.systems import resolve_system, resolve_systems, split_systems
 from vfs.study.tasks import RunTask, assemble_chunk, normalise_runs, run_task
 
 __all__ = [
@@ -45,7 +47,7 @@ __all__ = [
     "EXECUTORS",
     "MANIFEST_FILE",
     "RUNS_FILE",
-    "AEBSystem",
+    "System",
     "Equip",
     "ExecutorOptions",
     "ImpactParameterSource",
@@ -61,9 +63,11 @@ __all__ = [
     "load_study",
     "normalise_runs",
     "read_manifest",
+    "read_runs",
     "register_executor",
     "resolve_system",
     "resolve_systems",
+    "split_systems",
     "run_study",
     "run_task",
 ]

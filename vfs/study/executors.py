@@ -31,15 +31,19 @@ their ``pyproject.toml``::
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import multiprocessing
 import multiprocessing.forkserver
+import multiprocessing.resource_tracker
 import os
+import signal
 import sys
 import threading
 import uuid
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,7 +53,8 @@ import pandas as pd
 from vfs.blas import single_threaded_workers
 from vfs.errors import ClusterError, ParameterError
 from vfs.registry import Registry
-from vfs.study.orphans import exit_with_parent
+from vfs.study.faults import deferred_signals, raise_if_signalled
+from vfs.study.orphans import STUDY_PID_VARIABLE, exit_with_parent
 from vfs.study.tasks import RunTask, run_task
 from vfs.version import __version__
 
@@ -155,33 +160,89 @@ def _run_serial(tasks: Sequence[RunTask], on_result: OnResult,
         on_result(task, run_task(task))
 
 
+@contextlib.contextmanager
+def _server_environment() -> Iterator[None]:
+    """Start the fork server with SIGINT and SIGTERM blocked and the study's pid in its
+    environment (:mod:`vfs.study.forkserver_guard` ignores, then unblocks them).
+    """
+    signals = (signal.SIGINT, signal.SIGTERM)
+    main = threading.current_thread() is threading.main_thread()
+    had = os.environ.get(STUDY_PID_VARIABLE)
+    if main:
+        os.environ[STUDY_PID_VARIABLE] = str(os.getpid())
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
+    try:
+        with single_threaded_workers():  # the server's environment is the workers'
+            yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)  # a signal that came is raised now
+        if main and had is None:
+            os.environ.pop(STUDY_PID_VARIABLE, None)
+        elif main and had is not None:
+            os.environ[STUDY_PID_VARIABLE] = had
+
+
 def _mp_context() -> Any:
     # not "fork": the parent may hold threads (dask, BLAS); forkserver
     # imports vfs once in its server, workers fork from there
     methods = multiprocessing.get_all_start_methods()
     if "forkserver" in methods:
         ctx = multiprocessing.get_context("forkserver")
-        preload = ["vfs.study.tasks"]
-        if threading.current_thread() is threading.main_thread():
-            preload.append("vfs.study.forkserver_guard")  # the server dies with this process
-        ctx.set_forkserver_preload(preload)
-        with single_threaded_workers():  # the server's environment is the workers'
+        # the guard first: it ignores the signals the study process handles, and the
+        # server dies with this process (vfs.study.forkserver_guard)
+        ctx.set_forkserver_preload(["vfs.study.forkserver_guard", "vfs.study.tasks"])
+        # the resource tracker first: starting it unblocks SIGINT and SIGTERM again
+        multiprocessing.resource_tracker.ensure_running()
+        with _server_environment():
             multiprocessing.forkserver.ensure_running()
         return ctx
     return multiprocessing.get_context("spawn")
 
 
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop a process pool now: cancel what has not started and kill its workers.
+
+    The workers ignore SIGINT and SIGTERM (:func:`vfs.study.orphans.exit_with_parent`;
+    the study process alone handles them), hold nothing worth saving (each result
+    is written by the study process) and may be inside a long batch: they get
+    SIGKILL and are joined, so no worker outlives the study and the interpreter
+    does not wait for them at exit.
+    """
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    # killed and joined before the pool is shut down: shutting it down frees the queues'
+    # semaphores, and a worker still being started would then fail to open them and
+    # print a traceback
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            process.kill()
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AssertionError):
+            process.join(timeout=10)
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _submit(pool: ProcessPoolExecutor, task: RunTask) -> Future[pd.DataFrame]:
+    # a submit may start a worker: Ctrl-C is raised after it, never half-way
+    with deferred_signals():
+        return pool.submit(run_task, task)
+
+
 def _run_processes(tasks: Sequence[RunTask], on_result: OnResult,
                    options: ExecutorOptions) -> None:
-    # exit_with_parent: the workers die with this process, even after kill -9
+    # exit_with_parent: the workers die with this process, even after kill -9; they
+    # ignore SIGINT, so Ctrl-C is handled here once
     pool = ProcessPoolExecutor(max_workers=options.workers, mp_context=_mp_context(),
                                initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
         with single_threaded_workers():  # "spawn" workers take this process's environment
-            run_windowed(lambda task: pool.submit(run_task, task), tasks, on_result,
+            run_windowed(lambda task: _submit(pool, task), tasks, on_result,
                          options.max_in_flight())
+    except BrokenProcessPool as exc:
+        stop_pool(pool)
+        raise_if_signalled(exc)  # the workers died of the signal this process also got
+        raise
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
+        stop_pool(pool)
         raise
     pool.shutdown(wait=True)
 
@@ -345,5 +406,5 @@ def cpu_count() -> int:
 
 __all__ = ["ENTRY_POINT_GROUP", "EXECUTORS", "IN_FLIGHT_PER_SLOT",
            "Executor", "ExecutorOptions", "OnResult", "check_worker_versions", "cpu_count",
-           "dashboard_link", "notify", "register_executor", "run_windowed",
+           "dashboard_link", "notify", "register_executor", "run_windowed", "stop_pool",
            "worker_versions"]

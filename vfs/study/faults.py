@@ -1,9 +1,11 @@
 """What a study does on a fault: SIGTERM, a full disk, cases that failed.
 
-* :func:`terminate_as_interrupt` turns SIGTERM (``kill``, a batch scheduler's
-  time limit) into :class:`Terminated`, a :class:`KeyboardInterrupt`: the study
-  then stops as on Ctrl-C (manifest ``interrupted``, lock released, workers
-  shut down) instead of dying with the manifest saying ``running``.
+* :func:`stop_on_signals` turns SIGTERM (``kill``, a batch scheduler's time
+  limit) into :class:`Terminated`, a :class:`KeyboardInterrupt`, and SIGINT into
+  a :class:`KeyboardInterrupt`, each once: the study then stops (manifest
+  ``interrupted``, lock released, workers killed) instead of dying with the
+  manifest saying ``running``; the workers ignore both (Ctrl-C reaches the whole
+  process group), so the study process alone handles them.
 * :func:`record_fault` writes the ``failed`` / ``interrupted`` manifest even on a
   full disk: when the atomic write (a new file) fails, the manifest file is
   rewritten in place, in the blocks it already holds.
@@ -25,22 +27,45 @@ from types import FrameType
 from typing import Any
 
 from vfs.atomic import json_default, strict_json, write_json
+from vfs.errors import Terminated
 
 #: Exit code of ``vfs study`` when runs failed (and ``--allow-failed`` is not given).
 EXIT_FAILED_CASES = 4
 #: Exit code after SIGTERM (128 + 15, as a shell reports a process killed by it).
-EXIT_TERMINATED = 128 + signal.SIGTERM
+EXIT_TERMINATED = Terminated.exit_status  # 128 + SIGTERM
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM received: the study stops as on Ctrl-C (status ``interrupted``)."""
+#: The signal received inside :func:`stop_on_signals` (0: none yet), read by
+#: :func:`raise_if_signalled`; and the depth of :func:`deferred_signals` blocks.
+_received = {"signal": 0, "defer": 0}
+
+
+def signal_received() -> int:
+    """The signal (SIGINT or SIGTERM) that stopped the study in this block; 0 if none."""
+    return int(_received["signal"])
+
+
+def raise_if_signalled(cause: BaseException | None = None) -> None:
+    """Raise the interrupt of the signal received inside :func:`stop_on_signals`, if any.
+
+    A process pool whose workers died of a group's SIGTERM reports itself
+    broken; the study then stops as interrupted, not as failed.
+    """
+    sig = signal_received()
+    if sig == signal.SIGTERM:
+        raise Terminated(f"signal {sig} (SIGTERM)") from cause
+    if sig:
+        raise KeyboardInterrupt from cause
 
 
 @contextmanager
-def terminate_as_interrupt() -> Iterator[None]:
-    """Inside this block SIGTERM raises :class:`Terminated` (main thread only).
+def stop_on_signals() -> Iterator[None]:
+    """Inside this block SIGINT raises :class:`KeyboardInterrupt` and SIGTERM
+    :class:`Terminated`, once: later signals (Ctrl-C pressed again, a scheduler's
+    second SIGTERM) are ignored while the study stops, writes its manifest and
+    says how to resume, so that the clean-up is not cut short (main thread only).
 
-    The previous handler is restored on exit.  In another thread (where Python
+    The previous handlers are restored on exit.  In another thread (where Python
     cannot install signal handlers) the block does nothing.
     """
     if threading.current_thread() is not threading.main_thread():
@@ -48,13 +73,43 @@ def terminate_as_interrupt() -> Iterator[None]:
         return
 
     def handler(signum: int, frame: FrameType | None) -> None:
-        raise Terminated(f"signal {signum} (SIGTERM)")
+        if _received["signal"]:
+            return  # handled once
+        _received["signal"] = signum
+        if _received["defer"]:
+            return  # raised at the end of the deferred_signals block
+        if signum == signal.SIGTERM:
+            raise Terminated(f"signal {signum} (SIGTERM)")
+        raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, handler)
+    _received["signal"] = _received["defer"] = 0
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+        _received["signal"] = 0
+
+
+@contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Inside :func:`stop_on_signals`, a signal that arrives in this block is raised at its
+    end, not in the middle: e.g. while the process pool starts a worker, which would
+    otherwise be left half started (it prints a traceback when the pool's semaphores are
+    gone).
+    """
+    _received["defer"] += 1
+    try:
+        yield
+    finally:
+        _received["defer"] -= 1
+    if not _received["defer"]:
+        raise_if_signalled()
+
+
+#: The name of :func:`stop_on_signals` before it handled SIGINT too.
+terminate_as_interrupt = stop_on_signals
 
 
 def record_fault(path: str | os.PathLike[str], manifest: Mapping[str, Any]) -> bool:
@@ -95,5 +150,6 @@ def failed_runs(manifest: Mapping[str, Any]) -> int:
     return int(sum(int(row.get("errors", 0)) for row in systems.values()))
 
 
-__all__ = ["EXIT_FAILED_CASES", "EXIT_TERMINATED", "Terminated", "failed_runs",
-           "record_fault", "terminate_as_interrupt"]
+__all__ = ["EXIT_FAILED_CASES", "EXIT_TERMINATED", "Terminated", "deferred_signals",
+           "failed_runs", "raise_if_signalled", "record_fault", "signal_received",
+           "stop_on_signals", "terminate_as_interrupt"]

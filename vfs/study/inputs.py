@@ -172,11 +172,12 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         raise _nothing_selected(where)
     meta, _ = read_meta(location)
     folder = location if is_url(location) else str(Path(location).resolve())
-    chosen = StudyInput(cases, meta, streamed_data_hash(location, ids) if hash else "",
-                        fmt, folder, reference, validated=False)
-    if validate:
+    chosen = StudyInput(cases, meta, "", fmt, folder, reference, validated=False)
+    if validate:  # before the hash reads every row: the data are known to be readable
         validate_selection(chosen, block_cases)
         chosen = dataclasses.replace(chosen, validated=True)
+    if hash:
+        chosen = dataclasses.replace(chosen, data_hash=streamed_data_hash(location, ids))
     return chosen
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
@@ -11,11 +12,19 @@ from vfs.errors import ParameterError
 #: Value of the ``system`` column for the runs without a system (recorded behaviour).
 BASELINE = "baseline"
 
+class Equip(StrEnum):
+    """Which vehicles carry the system in the treatment runs (``--equip``)."""
+
+    ONE = "1"
+    TWO = "2"
+    BOTH = "both"
+
+
 #: Which vehicles carry the system: ``--equip`` value -> equipped flags of (vehicle 1, 2).
 EQUIP_RULES: dict[str, tuple[bool, bool]] = {
-    "1": (True, False),
-    "2": (False, True),
-    "both": (True, True),
+    Equip.ONE: (True, False),
+    Equip.TWO: (False, True),
+    Equip.BOTH: (True, True),
 }
 
 #: Default number of cases per chunk.
@@ -69,6 +78,7 @@ __all__ = [
     "CHUNK_DIR",
     "DEFAULT_CHUNK_SIZE",
     "EQUIP_RULES",
+    "Equip",
     "INT_COLUMNS",
     "KEY_COLUMNS",
     "MANIFEST_FILE",

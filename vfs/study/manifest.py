@@ -25,7 +25,8 @@ import numpy as np
 import pandas as pd
 
 from vfs.database import Database
-from vfs.errors import DataError, DataProblem, ParameterError, SimulationError
+from vfs.database.metadata import read_parquet_with_units
+from vfs.errors import DataError, DataProblem, ParameterError, SimulationError, VfsError
 from vfs.study.layout import (
     BASELINE,
     CHUNK_DIR,
@@ -113,7 +114,9 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         inputs (:data:`RESUME_KEYS`).
     """
     has_study = (out / MANIFEST_FILE).exists()
-    non_empty = out.exists() and (not out.is_dir() or any(out.iterdir()))
+    # a study killed before its manifest was in place leaves at most a temporary file
+    non_empty = out.exists() and (not out.is_dir() or any(
+        not (p.name.startswith(".") and ".tmp-" in p.name) for p in out.iterdir()))
     if out.exists() and not out.is_dir():
         raise ParameterError(f"{out} exists and is not a folder")
     if non_empty and not has_study:
@@ -136,6 +139,8 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         for tmp in [*out.glob(".*.tmp-*"), *(out / CHUNK_DIR).glob(".*.tmp-*")]:
             tmp.unlink(missing_ok=True)  # leftovers of an interrupted write
         return merged
+    if has_study and not overwrite and _nothing_to_keep(out):
+        overwrite = True  # a study stopped before its first chunk: a rerun starts it anew
     if has_study and not overwrite:
         raise ParameterError(f"{out} already holds a study; use --resume to continue it or "
                              "--overwrite to replace it")
@@ -143,6 +148,17 @@ def prepare_folder(out: Path, manifest: dict[str, Any], resume: bool,
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
     return manifest
+
+
+def _nothing_to_keep(out: Path) -> bool:
+    """True for a study folder that ended ``failed`` or ``interrupted`` before writing a
+    chunk (e.g. refused for bad input): a rerun after the fix need not say ``--overwrite``.
+    """
+    try:
+        status = read_manifest(out).get("status")
+    except (OSError, ValueError, VfsError):
+        return False
+    return status in ("failed", "interrupted") and not any((out / CHUNK_DIR).glob("*.parquet"))
 
 
 @dataclass(frozen=True)
@@ -234,13 +250,47 @@ def load_study(folder: str | os.PathLike[str]) -> StudyResult:
     path = Path(folder)
     manifest = read_manifest(path)
     runs = path / RUNS_FILE
-    table = pd.read_parquet(runs) if runs.exists() and manifest.get("status") == "complete" \
-        else None
+    table = read_parquet_with_units(runs) if runs.exists() and \
+        manifest.get("status") == "complete" else None
     return StudyResult(path, table, manifest)
+
+
+def read_runs(source: str | os.PathLike[str]) -> pd.DataFrame:
+    """The runs of a study (``runs.parquet``) with units and descriptions in ``attrs``.
+
+    Parameters
+    ----------
+    source : path
+        A study folder or a runs Parquet file.
+
+    Returns
+    -------
+    DataFrame
+        One row per case and run (the baseline and each system), SI units;
+        ``df.attrs["units"]["impact_speed1"] == "m/s"``, ``df.attrs["descriptions"]``
+        likewise (``vfs db schema runs`` prints them).
+
+    Raises
+    ------
+    DataError
+        The folder is no study or the study is not complete.
+    """
+    path = Path(source)
+    if path.is_dir():
+        manifest = read_manifest(path)
+        if manifest.get("status") != "complete" or not (path / RUNS_FILE).exists():
+            raise DataError(DataProblem("study", "", None, None,
+                                        f"{path}: the study is not complete (status "
+                                        f"{manifest.get('status')!r}); no {RUNS_FILE} yet"))
+        path = path / RUNS_FILE
+    if not path.is_file():
+        raise DataError(DataProblem("runs", "", None, None, f"{path}: no such file"))
+    return read_parquet_with_units(path)
 
 
 __all__ = [
     "StudyResult",
+    "read_runs",
     "case_ids_hash",
     "combine_chunks",
     "counts_summary",

@@ -24,6 +24,8 @@ import sys
 import threading
 import time
 
+from vfs.errors import quiet_numpy_warnings
+
 #: ``PR_SET_PDEATHSIG`` of ``<linux/prctl.h>``.
 PR_SET_PDEATHSIG = 1
 
@@ -32,6 +34,29 @@ ORPHAN_EXIT_STATUS = 70
 
 #: Seconds between two checks of the watchdog thread.
 DEFAULT_POLL_S = 0.5
+
+#: Environment variable through which the executor names the study process to its fork
+#: server (:mod:`vfs.study.forkserver_guard`).
+STUDY_PID_VARIABLE = "VFS_STUDY_PID"
+
+#: Signals that only the study process handles (Ctrl-C reaches the whole process group).
+PARENT_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def ignore_parent_signals(terminate: bool = False) -> None:
+    """Ignore :data:`PARENT_SIGNALS` in this process (a fork server or a worker), then
+    unblock them (the executor starts the fork server with them blocked).
+
+    Parameters
+    ----------
+    terminate : bool
+        Let SIGTERM end this process (its default action, no traceback) instead of
+        ignoring it: a worker, which the pool itself ends with SIGTERM when broken.
+    """
+    for sig in PARENT_SIGNALS:
+        signal.signal(sig, signal.SIG_DFL if terminate and sig == signal.SIGTERM
+                      else signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, PARENT_SIGNALS)
 
 
 def pid_alive(pid: int) -> bool:
@@ -82,6 +107,8 @@ def exit_with_parent(study_pid: int, poll_s: float = DEFAULT_POLL_S) -> None:
     poll_s : float
         Seconds between two checks of the watchdog thread.
     """
+    ignore_parent_signals(terminate=True)  # Ctrl-C is the study process's to handle
+    quiet_numpy_warnings()  # a worker's stderr is the user's terminal
     parent_pid = os.getppid()
     set_parent_death_signal()
     if not pid_alive(study_pid) or not pid_alive(parent_pid):  # died before we were armed
@@ -90,5 +117,6 @@ def exit_with_parent(study_pid: int, poll_s: float = DEFAULT_POLL_S) -> None:
                      name="vfs-exit-with-parent").start()
 
 
-__all__ = ["DEFAULT_POLL_S", "ORPHAN_EXIT_STATUS", "PR_SET_PDEATHSIG", "exit_with_parent",
-           "pid_alive", "set_parent_death_signal"]
+__all__ = ["DEFAULT_POLL_S", "ORPHAN_EXIT_STATUS", "PARENT_SIGNALS", "PR_SET_PDEATHSIG",
+           "STUDY_PID_VARIABLE", "exit_with_parent", "ignore_parent_signals", "pid_alive",
+           "set_parent_death_signal"]

@@ -31,6 +31,7 @@ import pandas as pd
 
 from vfs.database import database_location
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.progress import progress
 from vfs.simulation import CaseBatch, CaseResults, SimulationParams
 from vfs.study.layout import BASELINE, CASES_FILE, DEFAULT_CHUNK_SIZE, equipped_flags
 from vfs.study.manifest import StudyResult, load_study
@@ -179,41 +180,50 @@ def replay_study_cases(study: str | os.PathLike[str] | StudyResult, case_ids: Se
 
     batch = load_chunk(task(wanted))
     out: dict[Any, list[CaseRun]] = {cid: [] for cid in wanted}
-    for j, name in enumerate(names):
-        stored = _stored_rows(res.table, name)
-        try:
-            system = None if name == BASELINE else resolve_system(name, registry)
-        except ParameterError as exc:
-            for cid in wanted:
-                out[cid].append(CaseRun(cid, name, None, None, -1, None, None, None,
-                                        f"cannot replay: {exc}"))
-            continue
-        runs = _replay_system(batch, wanted, system, name, equip, params, seed, j, stored)
-        redo = [cid for cid, run in runs.items() if run.reproduced is False or
-                (run.error and not stored.get(cid, pd.Series(dtype=object)).get("error"))]
-        if redo:
-            chunks: dict[int, list[Any]] = {}
-            for cid in redo:
-                chunks.setdefault(position[cid] // chunk_size, []).append(cid)
-            if say is not None:
-                say(f"  {name}: {len(redo)} case(s) depend on their chunk's random draws; "
-                    f"re-running {len(chunks)} chunk(s)")
-            for k, cids in chunks.items():
-                ids = order[k * chunk_size:(k + 1) * chunk_size]
-                full = load_chunk(task(ids))
-                pos = {cid: p for p, cid in enumerate(ids.tolist())}
+    with progress(len(names), f"re-simulating {len(wanted)} case(s) for their pages",
+                  "system") as shown:
+        for j, name in enumerate(names):
+            try:
+                stored = _stored_rows(res.table, name)
                 try:
-                    table, results, traces = _run(full, system, equip, params, [seed, k, j],
-                                                  np.array([pos[c] for c in cids]))
-                except Exception:  # a failing case in the chunk: keep the small-batch runs
+                    system = None if name == BASELINE else resolve_system(name, registry)
+                except ParameterError as exc:
+                    for cid in wanted:
+                        out[cid].append(CaseRun(cid, name, None, None, -1, None, None, None,
+                                                f"cannot replay: {exc}"))
                     continue
-                for cid in cids:
-                    p = pos[cid]
-                    row = table.iloc[p]
-                    runs[cid] = CaseRun(cid, name, full, results, p, traces[p], row,
-                                        same_outcome(row, stored.get(cid)))
-        for cid in wanted:
-            out[cid].append(runs[cid])
+                runs = _replay_system(batch, wanted, system, name, equip, params, seed, j, stored)
+                redo = [cid for cid, run in runs.items() if run.reproduced is False or
+                        (run.error and not stored.get(cid, pd.Series(dtype=object)).get("error"))]
+                if redo:
+                    chunks: dict[int, list[Any]] = {}
+                    for cid in redo:
+                        chunks.setdefault(position[cid] // chunk_size, []).append(cid)
+                    if say is not None:
+                        # plain words: a case whose sensor noise or driver reaction was drawn
+                        # together with the other cases of its chunk comes out differently alone
+                        say(f"  {name}: {len(redo)} of {len(wanted)} case(s) come out differently "
+                            f"when simulated alone (their random draws, such as sensor noise, were "
+                            f"made together with the other cases of the study's batch); simulating "
+                            f"those {len(chunks)} batch(es) again as the study did")
+                    for k, cids in chunks.items():
+                        ids = order[k * chunk_size:(k + 1) * chunk_size]
+                        full = load_chunk(task(ids))
+                        pos = {cid: p for p, cid in enumerate(ids.tolist())}
+                        try:
+                            table, results, traces = _run(full, system, equip, params, [seed, k, j],
+                                                          np.array([pos[c] for c in cids]))
+                        except Exception:  # a failing case in the chunk: keep the small-batch runs
+                            continue
+                        for cid in cids:
+                            p = pos[cid]
+                            row = table.iloc[p]
+                            runs[cid] = CaseRun(cid, name, full, results, p, traces[p], row,
+                                                same_outcome(row, stored.get(cid)))
+                for cid in wanted:
+                    out[cid].append(runs[cid])
+            finally:
+                shown.update()
     return out
 
 

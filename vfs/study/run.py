@@ -29,7 +29,6 @@ line in docs/study.md.
 from __future__ import annotations
 
 import os
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -40,6 +39,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.adas.contract import System
+from vfs.adas.describe import describe_system
 from vfs.atomic import write_json, write_table
 from vfs.database import Database
 from vfs.database.metadata import field_metadata
@@ -73,6 +74,7 @@ from vfs.study.plan import plan_tasks, runner_cost, task_groups
 from vfs.study.spec import ImpactParameterSource, StudySpec
 from vfs.study.systems import resolve_systems
 from vfs.study.tasks import RunTask, assemble_chunks, error_text
+from vfs.version import source_commit
 
 #: Where restitution and contact friction come from (:meth:`CaseBatch.from_database`).
 IMPACT_PARAMETER_SOURCES: tuple[str, ...] = tuple(m.value for m in ImpactParameterSource)
@@ -90,11 +92,14 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "db": selection.folder if selection.folder is not None else "<in-memory database>",
         "db_reference": selection.reference, "db_format": selection.fmt,
         "db_name": str(selection.meta.get("name", "")),
+        "db_description": str(selection.meta.get("description", "")),
+        "db_created_by": str(selection.meta.get("created_by", "")),
         "where": spec.where, "data_hash": selection.data_hash,
         "case_ids_hash": case_ids_hash(ids),
         "n_cases": int(ids.size), "chunk_size": spec.chunk_size, "n_chunks": len(plan.chunks),
         "system_names": names,
         "systems": [{"name": n, "description": str(getattr(s, "description", "")),
+                     "parameters": describe_system(s),
                      "brake": repr(getattr(s, "brake", None))}
                     for n, s in zip(names, systems, strict=True)],
         "system_definitions": [repr(s) for s in systems],
@@ -102,6 +107,7 @@ def _new_manifest(plan: _Plan) -> dict[str, Any]:
         "rng": "numpy.random.default_rng([seed, chunk, system index]); baseline index 0",
         "impact_parameters": str(spec.impact_parameters), "params": repr(spec.params),
         "engine": spec.engine, "versions": environment_versions(),
+        "commit": source_commit(),
     }
 
 
@@ -203,18 +209,14 @@ def acquire_lock(out: Path) -> Path:
 
 
 def _progress_bar(total: int, show: bool | None) -> Any:
-    from tqdm import tqdm
+    """The study's progress (:mod:`vfs.progress`): a bar on a terminal, lines when piped."""
+    from vfs.progress import progress
 
-    if show is None:
-        show = sys.stderr.isatty() and not os.environ.get("CI")
-    return tqdm(total=total, unit="case", desc="vfs study", disable=not show, smoothing=0.1,
-                file=sys.stderr,
-                bar_format="{l_bar}{bar}| {n:.0f}/{total_fmt} [{elapsed}<{remaining}, "
-                           "{rate_fmt}]")
+    return progress(total, "simulating the cases", "case", bar=show)
 
 
 def run_study(db: str | os.PathLike[str] | Database | StudySpec,
-              systems: Sequence[str | Any] | str | None = None,
+              systems: Sequence[str | System] | str | None = None,
               out: str | os.PathLike[str] | None = None, **options: Any) -> StudyResult:
     """Run (or resume) an AEB effectiveness study and write its folder.
 
@@ -275,8 +277,9 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
         registry : mapping or callable, optional
             System lookup instead of :func:`vfs.adas.get_system`.
         progress : bool, optional
-            Progress bar on stderr; default when stderr is a terminal and the
-            environment variable CI is not set.
+            Progress bar on stderr (True), lines through the ``vfs`` logger (False);
+            default: the bar when stderr is a terminal and the environment variable CI is
+            not set (:func:`vfs.progress.bar_wanted`).
         dask_processes : bool
             Local dask cluster with processes (True) or threads.
         max_chunks : int, optional
@@ -312,12 +315,12 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     else:
         spec = StudySpec.of(db, systems, out, **options)
     system_objs = resolve_systems(list(spec.systems), spec.registry)
-    # with workers, the blocks are validated (and a new study's data hash computed)
-    # while the workers start on the tasks (_Validation); nothing is written before
+    # every input check runs here, before any task is started: a worker never simulates
+    # data that failed validation (a record in milliseconds would run for ever); with
+    # workers only a new study's data hash is computed while they run (_Validation)
     defer = spec.engine != "serial"
     resuming = spec.resume and (spec.out / MANIFEST_FILE).exists()
-    selection = study_input(spec.db, spec.where, validate=not defer,
-                            hash=not defer or resuming)
+    selection = study_input(spec.db, spec.where, validate=True, hash=not defer or resuming)
     ids = selection.case_ids  # never empty (study_input refuses)
     size = spec.chunk_size
     plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
@@ -336,7 +339,7 @@ class _Plan:
     spec: StudySpec
     selection: StudyInput
     chunks: list[np.ndarray]
-    systems: list[Any]
+    systems: list[System]
     names: list[str]
     started: float
 
@@ -358,14 +361,15 @@ def _run_locked(plan: _Plan) -> StudyResult:
 
 
 class _Validation:
-    """:func:`validate_selection` and :func:`selection_hash` in a thread of this
-    process, while the workers run.
+    """:func:`selection_hash` of a new parallel study in a thread of this process,
+    while the workers run.
 
-    The client's validation of a Parquet selection reads and checks every case,
-    its hash reads every row (together about 0.4 ms of CPU per case); run before
-    the tasks, they would keep every worker waiting.  :meth:`wait` joins the
-    thread, raises its :class:`DataError`, and puts the hash into the manifest
-    (written again); the chunk writer calls it before the first chunk file.
+    The selection is validated before any task starts (:func:`run_study`: a
+    worker never simulates data that failed a check; a record in milliseconds
+    would run for ever); only the data hash, which reads every row and decides
+    nothing about the run, is left to this thread.  :meth:`wait` joins the
+    thread, raises what it met, and puts the hash into the manifest (written
+    again); the chunk writer calls it before the first chunk file.
     """
 
     def __init__(self, selection: StudyInput, manifest: dict[str, Any], path: Path) -> None:
@@ -411,8 +415,8 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     spec, selection, chunks = plan.spec, plan.selection, plan.chunks
     out_dir = spec.out
     ids = selection.case_ids
+    write_json(out_dir / MANIFEST_FILE, manifest)  # first: a folder with chunks/ is a study
     (out_dir / CHUNK_DIR).mkdir(exist_ok=True)
-    write_json(out_dir / MANIFEST_FILE, manifest)
     cases_meta = selection.cases.reset_index(drop=True)
     write_table(out_dir / CASES_FILE, cases_meta,
                 field_metadata(cases_meta.columns, table="cases"))
@@ -424,7 +428,7 @@ def _run_chunks(plan: _Plan, manifest: dict[str, Any]) -> StudyResult:
     if selection.database is not None:  # in memory: the tasks carry their cases
         batch_all = CaseBatch.from_database(selection.database,
                                             impact_parameters=spec.impact_parameters)
-    runners: list[Any | None] = [None, *plan.systems]
+    runners: list[System | None] = [None, *plan.systems]
     n_tasks_max = len(todo) * len(runners)
     n_workers = 1 if spec.engine == "serial" else (
         spec.workers if spec.workers else max(1, min(cpu_count(), n_tasks_max)))

@@ -20,26 +20,8 @@ from typing import Any
 import numpy as np
 
 from vfs.errors import ParameterError
-from vfs.simulation import SimulationParams
-from vfs.study.layout import DEFAULT_CHUNK_SIZE
-
-
-class Equip(StrEnum):
-    """Which vehicles carry the system in the treatment runs (``--equip``)."""
-
-    ONE = "1"
-    TWO = "2"
-    BOTH = "both"
-
-
-class ImpactParameterSource(StrEnum):
-    """Where restitution and contact friction come from (``--impact-parameters``;
-    :meth:`vfs.simulation.CaseBatch.from_database`).
-    """
-
-    RECONSTRUCTION = "reconstruction"
-    DEFAULT = "default"
-
+from vfs.simulation import ImpactParameterSource, SimulationParams
+from vfs.study.layout import DEFAULT_CHUNK_SIZE, Equip
 
 #: Cases one task runs as one vectorised batch by default: several chunks of
 #: :data:`DEFAULT_CHUNK_SIZE` together (each keeps its own file and random
@@ -160,10 +142,11 @@ class StudySpec:
         from vfs.study.executors import EXECUTORS
 
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
+        from vfs.study.systems import split_systems
+
         systems = self.systems
-        if isinstance(systems, str):
-            systems = [s.strip() for s in systems.split(",") if s.strip()]
-        set_("systems", tuple(systems) if isinstance(systems, Sequence) else (systems,))
+        set_("systems", tuple(split_systems(systems)) if isinstance(systems, str | Sequence)
+             else (systems,))
         set_("out", Path(self.out))
         for name, (low, high) in RANGES.items():
             value = getattr(self, name)

@@ -1,38 +1,32 @@
-"""AEB systems as a study sees them: the protocol and the lookup by name."""
+"""AEB systems as a study takes them: the ``--systems`` list, looked up and checked.
+
+The contract a system keeps is :class:`vfs.adas.contract.System` (one Protocol for
+the whole way from ``--systems`` to the simulation).
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Protocol
 
-import numpy as np
-
+from vfs.adas.contract import System, require_system
 from vfs.errors import ParameterError
-from vfs.physics.precrash import BrakeController, PrecrashParams
-from vfs.simulation import CaseBatch
 from vfs.study.layout import BASELINE
 
+#: Where a study looks systems up: a ``{name: system}`` mapping or a ``name -> system``
+#: function.
+SystemRegistry = Mapping[str, System] | Callable[[str], System]
 
-class AEBSystem(Protocol):
-    """What a study needs from an AEB system (``vfs.adas.get_system(name)`` returns one).
 
-    It must be picklable (it is sent to the worker processes).
+def split_systems(systems: str | Sequence[str | System]) -> list[str | System]:
+    """The entries of a ``--systems`` list: ``"a, b"`` split on commas (blanks dropped);
+    a sequence of names or system objects as it is.
     """
-
-    name: str
-    description: str
-
-    def controller(self, batch: CaseBatch, equipped: np.ndarray) -> BrakeController | None:
-        """Controller for the cases of ``batch``; ``equipped`` (N, 2) bool."""
-
-    def precrash_params(self, base: PrecrashParams) -> PrecrashParams:
-        """Pre-crash settings with this system's brake actuator."""
+    if isinstance(systems, str):
+        return [s.strip() for s in systems.split(",") if s.strip()]
+    return list(systems)
 
 
-SystemRegistry = Mapping[str, Any] | Callable[[str], Any]
-
-
-def resolve_system(name: str, registry: SystemRegistry | None = None) -> AEBSystem:
+def resolve_system(name: str, registry: SystemRegistry | None = None) -> System:
     """Look up an AEB system by name.
 
     Parameters
@@ -47,12 +41,12 @@ def resolve_system(name: str, registry: SystemRegistry | None = None) -> AEBSyst
 
     Returns
     -------
-    AEBSystem
+    System
 
     Raises
     ------
     ParameterError
-        Unknown name, or the systems package is not installed.
+        Unknown name, or an object that is not a system (naming what it lacks).
     """
     if registry is None:
         from vfs.adas import find_system
@@ -67,14 +61,11 @@ def resolve_system(name: str, registry: SystemRegistry | None = None) -> AEBSyst
             system = registry(name)
         except KeyError:
             raise ParameterError(f"unknown system {name!r}") from None
-    for attr in ("name", "controller", "precrash_params"):
-        if not hasattr(system, attr):
-            raise ParameterError(f"system {name!r} ({type(system).__name__}) has no {attr!r}")
-    return system
+    return require_system(system, f"system {name!r} ({type(system).__name__})")
 
 
-def resolve_systems(systems: Sequence[str | Any] | str,
-                    registry: SystemRegistry | None) -> list[Any]:
+def resolve_systems(systems: Sequence[str | System] | str,
+                    registry: SystemRegistry | None) -> list[System]:
     """System objects for names or objects (``"a,b"`` also works), checked and unique.
 
     Raises
@@ -83,17 +74,10 @@ def resolve_systems(systems: Sequence[str | Any] | str,
         Unknown names, objects that are not systems, duplicates, none at all,
         or the reserved name ``"baseline"``.
     """
-    if isinstance(systems, str):
-        systems = [s.strip() for s in systems.split(",") if s.strip()]
-    resolved = [resolve_system(s, registry) if isinstance(s, str) else s for s in systems]
+    resolved = [resolve_system(s, registry) if isinstance(s, str) else require_system(s)
+                for s in split_systems(systems)]
     if not resolved:
         raise ParameterError("no system given: name at least one, e.g. 'three-stage'")
-    for s in resolved:
-        if not (isinstance(getattr(s, "name", None), str)
-                and callable(getattr(s, "controller", None))
-                and callable(getattr(s, "precrash_params", None))):
-            raise ParameterError(f"{s!r} is not an AEB system: it needs a name, controller() "
-                                 "and precrash_params()")
     names = [s.name for s in resolved]
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
@@ -103,6 +87,4 @@ def resolve_systems(systems: Sequence[str | Any] | str,
     return resolved
 
 
-
-
-__all__ = ["AEBSystem", "SystemRegistry", "resolve_system", "resolve_systems"]
+__all__ = ["SystemRegistry", "resolve_system", "resolve_systems", "split_systems"]

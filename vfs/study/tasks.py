@@ -14,12 +14,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from vfs.adas.contract import ReportsEvents, Segmentable, System
 from vfs.database import Database, database_location, load_any, load_database
 from vfs.errors import ParameterError, SimulationError
 from vfs.physics.precrash import SegmentedRandom
@@ -84,7 +84,7 @@ class RunTask:
     chunk: int
     case_ids: np.ndarray
     system_index: int
-    system: Any | None
+    system: System | None
     db: str | None
     db_format: str
     batch: CaseBatch | None
@@ -140,12 +140,13 @@ def error_text(exc: BaseException) -> str:
 
 
 def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
-    """``controller.events()`` as columns ``<key>1``, ``<key>2`` (NaN where never)."""
-    events = getattr(controller, "events", None)
-    if controller is None or not callable(events):
+    """``controller.events()`` as columns ``<key>1``, ``<key>2`` (NaN where never); none
+    for a controller that does not report events (:class:`vfs.adas.contract.ReportsEvents`).
+    """
+    if not isinstance(controller, ReportsEvents):
         return {}
     cols: dict[str, np.ndarray] = {}
-    for key, values in dict(events()).items():
+    for key, values in dict(controller.events()).items():
         arr = np.asarray(values, dtype=float)
         if arr.shape != (n, 2):
             raise SimulationError(f"controller event {key!r} has shape {arr.shape}, "
@@ -154,7 +155,7 @@ def _events_columns(controller: object, n: int) -> dict[str, np.ndarray]:
     return cols
 
 
-def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+def run_batch(batch: CaseBatch, system: System | None, equipped: np.ndarray,
               params: SimulationParams, rng: np.random.Generator | SegmentedRandom,
               record: npt.ArrayLike | None = None
               ) -> tuple[pd.DataFrame, CaseResults, dict[int, RunTrace]]:
@@ -163,7 +164,7 @@ def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     Parameters
     ----------
     batch : CaseBatch
-    system : AEB system or None
+    system : System or None
     equipped : ndarray of bool (N, 2)
         Vehicles carrying the system.
     params : SimulationParams
@@ -199,7 +200,7 @@ def run_batch(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     return table, res, traces
 
 
-def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
+def _run_guarded(batch: CaseBatch, system: System | None, equipped: np.ndarray,
                  params: SimulationParams, key: list[int]
                  ) -> tuple[list[pd.DataFrame], dict[int, str]]:
     """Run the batch; if it raises, bisect to isolate the failing cases.
@@ -228,12 +229,13 @@ def _run_guarded(batch: CaseBatch, system: Any | None, equipped: np.ndarray,
     return attempt(0, batch.size)
 
 
-def _segmentable(system: Any | None, batch: CaseBatch, equipped: np.ndarray) -> bool:
-    """Whether the system's controller can run several chunks as one batch."""
+def _segmentable(system: System | None, batch: CaseBatch, equipped: np.ndarray) -> bool:
+    """Whether the system's controller can run several chunks as one batch
+    (:class:`vfs.adas.contract.Segmentable`; the baseline can).
+    """
     if system is None:
         return True
-    return callable(getattr(system.controller(batch.take(np.arange(1)), equipped[:1]),
-                            "reset_segments", None))
+    return isinstance(system.controller(batch.take(np.arange(1)), equipped[:1]), Segmentable)
 
 
 def _run_parts(task: RunTask, batch: CaseBatch, equipped: np.ndarray

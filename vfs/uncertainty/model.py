@@ -45,12 +45,15 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vfs.database.post_impact import post_impact_inputs
 from vfs.errors import ParameterError
 from vfs.outcomes import from_results
 from vfs.physics.geometry import contact_geometry, vehicle_outline
 from vfs.physics.impact import IMPACT_SLIDING, ImpactConfig, contact_frame
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.precrash import KinematicState
 from vfs.physics.vehicle import VehicleArrays
+from vfs.progress import progress
 from vfs.simulation import ImpactInputs, SimulationParams, impact_stage, runout_stage
 from vfs.uncertainty.cases import CaseSet
 from vfs.uncertainty.config import INPUT_NAMES, UncertaintyConfig
@@ -94,7 +97,7 @@ class _Cases(NamedTuple):
 
 
 def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
-             chunk: int = CHUNK_ROWS) -> ModelRuns:
+             chunk: int = CHUNK_ROWS, *, show: str = "") -> ModelRuns:
     """Run the impact and run-out model for M sampled input sets (vectorised).
 
     Parameters
@@ -106,6 +109,9 @@ def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
         Model settings (run-out time step, horizon).
     chunk : int
         Runs per vectorised block.
+    show : str
+        What the runs are, for a progress bar or lines (:mod:`vfs.progress`); empty: none
+        (the many small evaluations of a reconstruction).
 
     Returns
     -------
@@ -113,8 +119,18 @@ def evaluate(cases: CaseSet, inputs: SampledInputs, config: UncertaintyConfig,
     """
     m = inputs.rows.shape[0]
     params = SimulationParams(runout=config.runout_params())
-    parts = [_evaluate_block(cases, inputs.rows[s:s + chunk], inputs.values[s:s + chunk],
-                             params) for s in range(0, m, max(1, chunk))]
+    post = post_impact_inputs(cases.reconstruction, cases.case_id)
+    step = max(1, chunk)
+    parts = []
+    shown = progress(m, show, "run") if show else None
+    for s in range(0, m, step):
+        parts.append(_evaluate_block(cases, inputs.rows[s:s + step],
+                                     inputs.values[s:s + step], params, post,
+                                     config.wheel_brake))
+        if shown is not None:
+            shown.update(min(step, m - s))
+    if shown is not None:
+        shown.close()
     if not parts:
         raise ParameterError("no model runs to evaluate")
     outcomes = {k: np.concatenate([p.outcomes[k] for p in parts]) for k in OUTCOME_NAMES}
@@ -144,8 +160,28 @@ def _velocities(c0: ImpactConfig, col: Mapping[str, np.ndarray]
     return vel
 
 
+def _run_brakes(post: PostImpactInputs | None, rows: np.ndarray, sampled: np.ndarray,
+                nominal: float, i: int) -> np.ndarray:
+    """Brake factors (M, 4) [-] of vehicle ``i`` in the runs: the sampled factor on every
+    wheel; where the case's data give the vehicle's post-impact brakes
+    (:class:`vfs.physics.post_impact.PostImpactInputs`), those wheel by wheel, shifted by the
+    sampled deviation from the nominal ``nominal`` and clipped to [0, 1].
+    """
+    plain = np.repeat(sampled[:, None], 4, axis=1)
+    if post is None:
+        return plain
+    sub = post.take(rows)
+    given = ~(np.isnan(sub.brake[:, i - 1]).all(axis=1) & np.isnan(sub.driver_brake[:, i - 1]))
+    if not given.any():
+        return plain
+    data = sub.wheel_brake((nominal,) * 4)[:, i - 1]
+    shifted = np.clip(data + (sampled - nominal)[:, None], 0.0, 1.0)
+    return np.where(given[:, None], shifted, plain)
+
+
 def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
-                    params: SimulationParams) -> ModelRuns:
+                    params: SimulationParams, post: PostImpactInputs | None = None,
+                    nominal_brake: float = 0.8) -> ModelRuns:
     c0 = ImpactConfig(*(a[rows] for a in cases.config))
     v1, v2 = cases.vehicle1.take(rows), cases.vehicle2.take(rows)
     col = {name: x[:, k] for k, name in enumerate(INPUT_NAMES)}
@@ -208,9 +244,10 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                                 col["contact_friction"], params)
     ro = runout_stage(runs.vehicle1, runs.vehicle2, state, res, col["road_friction"],
                       params.runout,
-                      np.repeat(col["wheel_brake1"][:, None], 4, axis=1),
-                      np.repeat(col["wheel_brake2"][:, None], 4, axis=1),
-                      secondary_collisions=False)
+                      _run_brakes(post, rows, col["wheel_brake1"], nominal_brake, 1),
+                      _run_brakes(post, rows, col["wheel_brake2"], nominal_brake, 2),
+                      secondary_collisions=False,
+                      post_impact=None if post is None else post.take(rows))
     columns: dict[str, np.ndarray] = {"energy_loss": res.energy_loss,
                                       "closing_speed": res.closing_speed}
     for i in (1, 2):

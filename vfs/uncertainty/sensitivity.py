@@ -434,7 +434,7 @@ def sensitivity_analysis(cases: CaseSet, config: UncertaintyConfig | None = None
     rows = np.tile(np.arange(n), r)  # design-major: row i N + j is design row i of case j
     u = np.repeat(x[:, :len(varied)], n, axis=0)
     sampled = values_from_unit(resolved, u, rows, varied)
-    runs = evaluate(cases, sampled, config)
+    runs = evaluate(cases, sampled, config, show="running the model for the Sobol samples")
     nom = nominal_runs(cases, config)
     y = np.empty((r, n, len(names_out)))
     for k, name in enumerate(names_out):

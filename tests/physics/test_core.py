@@ -1,0 +1,119 @@
+"""The compiled pre-crash core against the numpy reference (``VFS_COMPILED=0``).
+
+:mod:`vfs.physics.core` repeats the reference's arithmetic operation by operation
+(the same look-ups, interpolations, corner order, clipping stages and the shoelace sum
+in numpy's pairwise order), and the only library functions both evaluate, cos, sin
+and hypot, round alike in numpy's float64 loops and the C library here.  So every
+output must be equal bit for bit (NaN where NaN): the replay (per-case loop) and every
+built-in system (the compiled step under the Python controller), with the impact and
+the run-out after them, on generated cases of every accident type and near misses.
+Should a platform's library round one of those functions differently, an ulp in a CG
+distance could move a tie of the closest approach by one step; these tests would then
+fail and name the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+
+import numpy as np
+import pytest
+
+from vfs.adas.systems import SYSTEM_NAMES, get_system
+from vfs.physics import precrash
+from vfs.physics.precrash import PrecrashParams, ScheduledBraking, simulate_precrash
+from vfs.scenarios.generator import generate_database, get_preset
+from vfs.scenarios.scenes import SCENARIO_TYPES
+from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
+
+
+@pytest.fixture(scope="module")
+def batch() -> CaseBatch:
+    """Cases of every accident type of the generator, a fifth of them near misses."""
+    preset = dataclasses.replace(get_preset("default"),
+                                 type_shares={code: 1.0 for code in SCENARIO_TYPES},
+                                 near_miss_share=0.2, hidden=())
+    db, _ = generate_database(preset, n_cases=4 * len(SCENARIO_TYPES), seed=21)
+    assert set(db.cases["accident_type"]) == set(SCENARIO_TYPES)
+    return CaseBatch.from_database(db)
+
+
+def _differences(ref: tuple, got: tuple, path: str = "") -> list[str]:
+    """Names of the fields (recursively in named tuples) that are not equal bit for bit."""
+    out = []
+    for name, a, b in zip(ref._fields, ref, got, strict=True):
+        if hasattr(a, "_fields"):
+            out += _differences(a, b, f"{path}{name}.")
+            continue
+        x, y = np.asarray(a), np.asarray(b)
+        if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
+            out.append(path + name)
+    return out
+
+
+def _both(monkeypatch: pytest.MonkeyPatch, run):  # noqa: ANN001, ANN202
+    monkeypatch.setenv("VFS_COMPILED", "0")
+    ref = run()
+    monkeypatch.setenv("VFS_COMPILED", "1")
+    return ref, run()
+
+
+def test_replay_equals_the_reference_bit_for_bit(batch: CaseBatch,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    ref, got = _both(monkeypatch, lambda: simulate_precrash(
+        batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction))
+    assert ref.collided.any() and not ref.collided.all()  # contacts and near misses
+    assert _differences(ref, got) == []
+
+
+def test_replay_of_instances_and_late_starts_equals_the_reference(
+        batch: CaseBatch, monkeypatch: pytest.MonkeyPatch) -> None:
+    n = batch.size
+    case_of = np.r_[np.arange(n), np.arange(0, n, 3)]
+    first = np.r_[np.zeros(n, dtype=np.int64), np.arange(0, n, 3) % 7 * 40]
+    params = PrecrashParams(penetration_time=0.0)  # the instant-impact branch as well
+    for kwargs in ({"case_of": case_of}, {"case_of": case_of, "first_step": first},
+                   {"params": params}):
+        ref, got = _both(monkeypatch, lambda kw=kwargs: simulate_precrash(
+            batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction, **kw))
+        assert _differences(ref, got) == [], kwargs
+
+
+@pytest.mark.parametrize("name", [*SYSTEM_NAMES, "ideal-ctra"])
+def test_every_system_equals_the_reference_end_to_end(name: str, batch: CaseBatch,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    system = get_system(name)
+    base = SimulationParams()
+    params = dataclasses.replace(base, precrash=system.precrash_params(base.precrash))
+
+    def run():  # noqa: ANN202
+        controller = system.controller(batch, np.array([True, True]))
+        return simulate_cases(batch, controller=controller, params=params,
+                              rng=np.random.default_rng(4))
+
+    ref, got = _both(monkeypatch, run)
+    assert _differences(ref, got) == []
+
+
+def test_a_python_controller_runs_between_compiled_steps_and_says_so_once(
+        batch: CaseBatch, monkeypatch: pytest.MonkeyPatch,
+        caplog: pytest.LogCaptureFixture) -> None:
+    """A controller the kernel cannot call (any Python object with ``reset`` and
+    ``demand``) still works: it runs in Python between the compiled steps, with one log
+    line per process and kind of controller.
+    """
+    n = batch.size
+    start = np.where(np.arange(n)[:, None] % 2 == 0, 3.0, np.nan) * np.ones((1, 2))
+    controller = ScheduledBraking(start, np.full((n, 2), 6.0))
+    monkeypatch.setattr(precrash, "_REPORTED", set())
+    with caplog.at_level(logging.INFO, logger="vfs.physics.precrash"):
+        ref, got = _both(monkeypatch, lambda: simulate_precrash(
+            batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+            controller=controller))
+        simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                          controller=controller)
+    assert _differences(ref, got) == []
+    assert np.isfinite(got.brake_start[::2]).any()
+    lines = [r.getMessage() for r in caplog.records if "ScheduledBraking" in r.getMessage()]
+    assert len(lines) == 1, lines

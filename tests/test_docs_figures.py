@@ -1,0 +1,279 @@
+"""Docs that stay true: figures quoted in README and docs/ against their committed records.
+
+Every figure the documentation quotes from a measurement must come from a record a script
+wrote (``results/reference/``, ``benchmarks/results/``).  :data:`QUOTES` is the table that binds
+them: a document, a regular expression whose groups are the quoted numbers, the record file and
+a function that reads the same numbers from the record.  A quoted number passes when it equals
+the record's value rounded to the quoted number of decimals (``18 %`` for a record of 18.1 %);
+so a rerun that changes a record, or an edit that changes a quote, fails here until the two
+agree again.  A pattern that no longer matches fails too: rewording a quoted figure means
+updating its row.
+
+The same module checks two lists the docs repeat from the code: the exit codes (README against
+the docstring of :mod:`vfs.cli`) and the ``vfs.*`` names the docs and the unreleased changelog
+mention (each must exist, outside a short list of names that are not Python objects).
+
+``test_a_planted_stale_number_fails`` changes each quoted number of each row in a copy of its
+document and checks that the comparison reports it: every row can fail.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NUMBER = r"(\d[\d,]*(?:\.\d+)?)"
+
+
+@dataclass(frozen=True)
+class Quote:
+    """Figures of one document bound to the record they come from.
+
+    Attributes
+    ----------
+    doc : str
+        The quoting document, relative to the repository root.
+    pattern : str
+        A regular expression (multiline) whose groups are the quoted numbers.
+    record : str
+        The committed record (one file, or several separated by ``,``).
+    values : callable
+        ``values(root) -> list[float]``: the record's numbers in the order of the groups.
+    what : str
+        What the figures are (shown when a check fails).
+    """
+
+    doc: str
+    pattern: str
+    record: str
+    values: Callable[[Path], list[float]]
+    what: str
+
+
+def _md_numbers(record: str, pattern: str) -> Callable[[Path], list[float]]:
+    """The groups of ``pattern`` in a Markdown/text record, as numbers."""
+    def read(root: Path) -> list[float]:
+        m = re.search(pattern, (root / record).read_text(encoding="utf-8"), re.M)
+        if m is None:
+            raise AssertionError(f"{record}: no match for {pattern!r}")
+        return [float(g.replace(",", "")) for g in m.groups()]
+    return read
+
+
+def _jsonl(record: str) -> list[dict]:
+    return [json.loads(line) for line in (ROOT / record).read_text().splitlines() if line]
+
+
+def _battery_sum(label: str, part: str) -> Callable[[Path], list[float]]:
+    """A summary count of the hidden-law battery summed over its three parts."""
+    files = ("battery.md", "battery_held_out.md", "battery_held_out_2.md")
+
+    def read(root: Path) -> list[float]:
+        total = [0.0, 0.0]
+        for name in files:
+            text = (root / "benchmarks/results/battery_400_quick" / name).read_text()
+            m = re.search(rf"^- {re.escape(label)}: (\d+) of (\d+)", text, re.M)
+            assert m is not None, f"{name}: no line '- {label}: ...'"
+            total[0] += float(m.group(1))
+            total[1] += float(m.group(2))
+        return total if part == "both" else [total[0 if part == "count" else 1]]
+    return read
+
+
+BATTERY = "benchmarks/results/battery_400_quick/battery.md"
+REPORT = "results/reference/study-default/report.md"
+COVERAGE = {  # column of the table in docs/diagnosis.md, "Interval coverage" -> record, mode
+    "before": ("benchmarks/results/coverage_before_100.jsonl", "before"),
+    "67fc7c5": ("benchmarks/results/coverage_after_100.jsonl", "after"),
+    "after": ("benchmarks/results/coverage_profile_100.jsonl", "after"),
+}
+
+
+def _coverage(channel: str) -> Callable[[Path], list[float]]:
+    """identifiable, coverage before / 67fc7c5 / after [%] and the after count of a channel."""
+    def read(root: Path) -> list[float]:
+        out: list[float] = []
+        for column, (record, mode) in COVERAGE.items():
+            rows = [r for r in _jsonl(record) if r["channel"] == channel]
+            assert len(rows) == 1, f"{record}: {len(rows)} rows of {channel}"
+            covered, identifiable = rows[0][mode]
+            if column == "before":
+                out.append(float(identifiable))
+            out.append(100.0 * covered / identifiable)
+            if column == "after":
+                out.append(float(covered))
+        return out
+    return read
+
+
+def _coverage_pooled(root: Path) -> list[float]:
+    out: list[float] = []
+    for column, (record, mode) in COVERAGE.items():
+        covered = sum(r[mode][0] for r in _jsonl(record))
+        identifiable = sum(r[mode][1] for r in _jsonl(record))
+        if column == "before":
+            out.append(float(identifiable))
+        out.append(100.0 * covered / identifiable)
+        if column == "after":
+            out.append(float(covered))
+    return out
+
+
+CHANNELS = ("restitution", "contact_friction", "poi_along", "poi_across", "cp_angle",
+            "penetration_time", "ees_stiffness_ratio", "yaw_inertia_factor", "tyre_impulse",
+            "runout_brake1", "runout_brake2")
+
+#: The table: every quoted figure with its record.
+QUOTES: tuple[Quote, ...] = (
+    Quote("docs/getting-started.md",
+          r"`three-stage`\s+avoids " + NUMBER + r" % \[" + NUMBER + r" %, " + NUMBER
+          + r" %\] of the\s+" + NUMBER + r" crashes and `ideal` " + NUMBER + r" % \["
+          + NUMBER + r" %, " + NUMBER + r" %\]",
+          REPORT,
+          lambda root: [
+              *_md_numbers(REPORT, r"`three-stage` avoids ([\d.]+) % \[([\d.]+) %, ([\d.]+) %\]"
+                           r" of the (\d+) baseline")(root),
+              *_md_numbers(REPORT, r"`ideal` avoids ([\d.]+) % \[([\d.]+) %, ([\d.]+) %\]")(root)],
+          "avoided shares of the bundled-database study"),
+    Quote("docs/getting-started.md",
+          r"named the hidden channel in " + NUMBER + r"\s+of " + NUMBER + r" singles",
+          BATTERY, _battery_sum("first sentence right", "both"),
+          "battery: first sentence right, singles"),
+    Quote("docs/getting-started.md",
+          r"named both laws in " + NUMBER + r" of " + NUMBER + r" pairs",
+          BATTERY, _battery_sum("both named", "both"), "battery: pairs named"),
+    Quote("docs/getting-started.md",
+          r"claimed nothing on " + NUMBER + r" null databases",
+          BATTERY, _battery_sum("nulls claiming nothing", "count"), "battery: nulls"),
+    Quote("docs/getting-started.md",
+          r"no absent effect or\s+law in any of the " + NUMBER,
+          BATTERY, _battery_sum("entries with an absent effect or law claimed", "total"),
+          "battery: databases without an absent claim"),
+    *(Quote("docs/diagnosis.md",
+            rf"^\| `{ch}` \| [\d.]+ \| {NUMBER} \| {NUMBER} % \| {NUMBER} % \| {NUMBER} % "
+            rf"\({NUMBER}\) \|$",
+            ",".join(r for r, _ in COVERAGE.values()), _coverage(ch),
+            f"interval coverage of {ch}")
+      for ch in CHANNELS),
+    Quote("docs/diagnosis.md",
+          rf"^\| all, pooled \| \| {NUMBER} \| {NUMBER} % \| {NUMBER} % \| {NUMBER} % "
+          rf"\({NUMBER}\) \|$",
+          ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
+          "interval coverage, pooled"),
+)
+
+
+def _decimals(text: str) -> int:
+    return len(text.split(".")[1]) if "." in text else 0
+
+
+def check(quote: Quote, text: str, root: Path = ROOT) -> list[str]:
+    """The problems of one row of :data:`QUOTES` in a document's ``text`` (empty: true)."""
+    matches = list(re.finditer(quote.pattern, text, re.M))
+    if len(matches) != 1:
+        return [f"{quote.doc}: the quote of {quote.what} is found {len(matches)} times "
+                f"(pattern {quote.pattern!r}); update tests/test_docs_figures.py with the doc"]
+    quoted = matches[0].groups()
+    recorded = quote.values(root)
+    if len(quoted) != len(recorded):
+        return [f"{quote.doc}: {len(quoted)} numbers quoted, {len(recorded)} read from "
+                f"{quote.record}"]
+    problems = []
+    for q, r in zip(quoted, recorded, strict=True):
+        if round(r, _decimals(q)) != float(q.replace(",", "")):
+            problems.append(f"{quote.doc}: {quote.what}: quotes {q}, {quote.record} has "
+                            f"{r:g}")
+    return problems
+
+
+@pytest.mark.parametrize("quote", QUOTES, ids=lambda q: f"{q.doc}:{q.what}")
+def test_quoted_figures_equal_their_records(quote: Quote) -> None:
+    for record in quote.record.split(","):
+        assert (ROOT / record).is_file(), f"{record}: the record is not committed"
+    assert check(quote, (ROOT / quote.doc).read_text(encoding="utf-8")) == []
+
+
+@pytest.mark.parametrize("quote", QUOTES, ids=lambda q: f"{q.doc}:{q.what}")
+def test_a_planted_stale_number_fails(quote: Quote) -> None:
+    text = (ROOT / quote.doc).read_text(encoding="utf-8")
+    m = re.search(quote.pattern, text, re.M)
+    assert m is not None
+    for group in range(1, len(m.groups()) + 1):
+        old = m.group(group)
+        stale = str(int(float(old.replace(",", ""))) + 7)  # a different number, same shape
+        planted = text[:m.start(group)] + stale + text[m.end(group):]
+        problems = check(quote, planted)
+        assert problems and stale in problems[0], (group, problems)
+
+
+def test_a_removed_quote_fails() -> None:
+    quote = QUOTES[0]
+    assert "found 0 times" in check(quote, "")[0]
+
+
+# -- lists the docs repeat from the code ----------------------------------------------------
+
+
+def test_readme_lists_every_exit_code_of_the_cli() -> None:
+    import vfs.cli
+
+    code_codes = {int(c) for c in re.findall(r"(?:^\*|;) (\d+):", vfs.cli.__doc__ or "", re.M)}
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    readme_codes = {int(c) for c in re.findall(r"^\| (\d+) \|", readme, re.M)}
+    assert code_codes >= {0, 1, 2, 3, 4, 130}
+    assert readme_codes == code_codes
+
+
+#: ``vfs.*`` names in the docs that are not Python objects, with the reason.
+NOT_OBJECTS: dict[str, str] = {
+    "vfs.executors": "an entry-point group (docs/study.md)",
+    "vfs.impact_table": "an old module name in docs/api.md, 'Moved modules'",
+    "vfs.plotting": "an old module name in docs/api.md, 'Moved modules'",
+}
+#: Documents whose ``vfs.<name>`` words are OpenSCENARIO property names, not Python objects.
+PROPERTY_DOCS = ("docs/interop.md",)
+
+
+def _resolve(name: str) -> bool | None:
+    """True when the dotted name exists; None when an optional dependency is missing."""
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ModuleNotFoundError as exc:
+            if exc.name and not exc.name.startswith("vfs"):
+                return None  # an optional dependency (stable-baselines3, ...)
+            continue
+        for attr in parts[i:]:
+            if not hasattr(obj, attr):
+                return False
+            obj = getattr(obj, attr)
+        return True
+    return False
+
+
+def _unreleased(text: str) -> str:
+    start = text.index("## [Unreleased]")
+    end = text.find("\n## ", start + 5)
+    return text[start:end if end > 0 else len(text)]
+
+
+def test_named_vfs_objects_exist() -> None:
+    docs = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    texts = {str(p.relative_to(ROOT)): p.read_text(encoding="utf-8") for p in docs
+             if str(p.relative_to(ROOT)) not in PROPERTY_DOCS}
+    texts["CHANGELOG.md (Unreleased)"] = _unreleased(
+        (ROOT / "CHANGELOG.md").read_text(encoding="utf-8"))
+    missing = []
+    for where, text in texts.items():
+        for name in sorted(set(re.findall(r"`(vfs(?:\.[A-Za-z_]\w*)+)(?:\(|`)", text))):
+            if name not in NOT_OBJECTS and _resolve(name) is False:
+                missing.append(f"{where}: `{name}`")
+    assert missing == []

@@ -1,6 +1,7 @@
 """Insert the run-out battery section into docs/diagnosis.md from the committed records."""
-from pathlib import Path
 import json
+from pathlib import Path
+
 R = Path("benchmarks/results/battery_runout_240_quick")
 doc = Path("docs/diagnosis.md")
 s = doc.read_text()
@@ -8,6 +9,7 @@ start, end = "<!-- battery-runout -->", "<!-- /battery-runout -->"
 if start in s:
     s = s[:s.index(start)] + s[s.index(end) + len(end) + 1:]
 def md(part, name):
+    """The table of one part's records (battery.md written by --table-only)."""
     p = R / part / name
     return p.read_text().strip() if p.exists() else "(not run)"
 mimic = R / "mimic_check.json"
@@ -45,8 +47,10 @@ same settings a few databases of the main part were rerun as a regression check 
 changes to the selection (the rule "no output worse", library effects tried on top, two more
 channels): `tyre_friction_speed`, `brake1_logistic`, `null1`.
 
-    PYTHONPATH=. python benchmarks/diagnosis_battery.py --out OUT/runout --cases 240 --quick --runout
-    PYTHONPATH=. python benchmarks/diagnosis_battery.py --out OUT/held3 --cases 240 --quick --held-out-3 --jobs 2
+    PYTHONPATH=. python benchmarks/diagnosis_battery.py --out OUT/runout --cases 240 \\
+        --quick --runout
+    PYTHONPATH=. python benchmarks/diagnosis_battery.py --out OUT/held3 --cases 240 \\
+        --quick --held-out-3 --jobs 2
     PYTHONPATH=. python benchmarks/diagnosis_battery.py --out OUT/main --cases 240 --quick \\
         --only brake1_logistic,tyre_friction_speed,null1
 

@@ -196,13 +196,47 @@ HELD_OUT_2_PAIRS: tuple[tuple[str, str], ...] = (
 )
 
 
+#: The run-out part (issue 36), written on 2026-11-27 before any run of it: laws of what
+#: happens after separation that act on both vehicles or on single wheels, the three kinds
+#: the diagnosis failed on (a brake law of crash severity on both cars; the wheel at the
+#: impact corner locked by damage; the latter paired with a restitution law).  The corner
+#: laws move the wheel nearest the point of impact of each car
+#: (:func:`vfs.effects.learned.impact_corner_wheels`); the other wheels keep the default
+#: run-out's brake factor 0.8.
+RUNOUT: tuple[HiddenLaw, ...] = (
+    HiddenLaw("brake_both_severity", "runout_brake", ("closing_speed",),
+              lambda v: 0.1 + 0.85 * _logistic(v, 14.0, 2.0),
+              "b1 = b2 = 0.1 + 0.85 / (1 + exp(-(v - 14 m/s) / 2 m/s))", _SPEED),
+    HiddenLaw("corner_lock_speed", "corner_brake", ("closing_speed",),
+              lambda v: _logistic(v, 11.0, 1.5),
+              "impact-corner wheels: b = 1 / (1 + exp(-(v - 11 m/s) / 1.5 m/s))", _SPEED),
+)
+RUNOUT_PAIRS: tuple[tuple[str, str], ...] = (
+    ("corner_lock_speed", "eps_bell"),
+)
+
+#: Held out of the run-out part: run once, at the end of the session that wrote them.
+HELD_OUT_3: tuple[HiddenLaw, ...] = (
+    HiddenLaw("brake_both_overlap", "runout_brake", ("overlap",),
+              lambda o: 0.15 + 0.75 * np.exp(-o / 0.3),
+              "b1 = b2 = 0.15 + 0.75 exp(-overlap / 0.3)"),
+    HiddenLaw("corner_lock_angle", "corner_brake", ("impact_angle",),
+              lambda a: 0.1 + 0.9 * _logistic(a, 1.0, 0.15),
+              "impact-corner wheels: b = 0.1 + 0.9 / (1 + exp(-(angle - 1 rad) / 0.15 rad))"),
+)
+HELD_OUT_3_PAIRS: tuple[tuple[str, str], ...] = (
+    ("brake_both_overlap", "mu_overlap_bell"),
+)
+
+
 def law_by_name(name: str) -> HiddenLaw:
     """The single or held-out law named ``name``."""
-    for law in (*SINGLES, *HELD_OUT, *HELD_OUT_2):
+    for law in (*SINGLES, *HELD_OUT, *HELD_OUT_2, *RUNOUT, *HELD_OUT_3):
         if law.name == name:
             return law
     raise KeyError(name)
 
 
-__all__ = ["HELD_OUT", "HELD_OUT_2", "HELD_OUT_2_PAIRS", "HELD_OUT_PAIRS", "PAIRS", "SINGLES",
-           "HiddenLaw", "hidden_effect", "law_by_name"]
+__all__ = ["HELD_OUT", "HELD_OUT_2", "HELD_OUT_2_PAIRS", "HELD_OUT_3", "HELD_OUT_3_PAIRS",
+           "HELD_OUT_PAIRS", "PAIRS", "RUNOUT", "RUNOUT_PAIRS", "SINGLES", "HiddenLaw",
+           "hidden_effect", "law_by_name"]

@@ -27,7 +27,7 @@ Usage::
 
     PYTHONPATH=. python benchmarks/diagnosis_battery.py --out battery_out
         [--cases 400] [--quick] [--jobs 2] [--only eps_bell,null1]
-        [--held-out | --held-out-2]
+        [--held-out | --held-out-2 | --runout | --held-out-3]
 
 ``--quick``: diagnose with 3 folds, a 5-point grid, 2 zoom rounds and 500
 bootstrap samples (the settings of benchmarks/diagnose_builtin_effects.py).
@@ -53,8 +53,12 @@ from battery_laws import (  # noqa: E402
     HELD_OUT,
     HELD_OUT_2,
     HELD_OUT_2_PAIRS,
+    HELD_OUT_3,
+    HELD_OUT_3_PAIRS,
     HELD_OUT_PAIRS,
     PAIRS,
+    RUNOUT,
+    RUNOUT_PAIRS,
     SINGLES,
     HiddenLaw,
     hidden_effect,
@@ -68,7 +72,7 @@ EFFECT_CHANNELS: Mapping[str, tuple[str, ...]] = {
     "body_friction": (),
     "penetration_depth": ("penetration_time",),
     "structure_poi": ("poi_along", "poi_across", "cp_angle"),
-    "wheel_lock": ("runout_brake1", "runout_brake2"),
+    "wheel_lock": ("runout_brake1", "runout_brake2", "corner_brake"),
     "ees_stiffness": ("ees_stiffness_ratio",),
     "yaw_inertia": ("yaw_inertia_factor",),
 }
@@ -78,10 +82,21 @@ NULL_SEEDS = (901, 902, 903)
 
 
 def entries(part: str = "main") -> list[dict[str, Any]]:
-    """The battery: singles, pairs and nulls (``part`` "main"), or a held-out part
-    ("held_out", "held_out_2"), each entry with its seed.
+    """The battery: singles, pairs and nulls (``part`` "main"), a held-out part
+    ("held_out", "held_out_2"), the run-out part ("runout", issue 36) or its held-out part
+    ("held_out_3"), each entry with its seed.
     """
     out: list[dict[str, Any]] = []
+    if part in ("runout", "held_out_3"):
+        singles, pairs, base = ((RUNOUT, RUNOUT_PAIRS, 600) if part == "runout"
+                                else (HELD_OUT_3, HELD_OUT_3_PAIRS, 650))
+        for i, law in enumerate(singles):
+            out.append({"id": law.name, "kind": "single", "laws": [law.name], "seed": base + i})
+        for i, (a, b) in enumerate(pairs):
+            out.append({"id": f"{a}+{b}", "kind": "pair", "laws": [a, b], "seed": base + 25 + i})
+        if part == "held_out_3":
+            out.append({"id": "null5", "kind": "null", "laws": [], "seed": 905})
+        return out
     if part == "held_out_2":
         for i, law in enumerate(HELD_OUT_2):
             out.append({"id": law.name, "kind": "single", "laws": [law.name], "seed": 800 + i})
@@ -338,11 +353,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--held-out", action="store_true", help="run the held-out part only")
     ap.add_argument("--held-out-2", action="store_true",
                     help="run the second held-out part only")
+    ap.add_argument("--runout", action="store_true",
+                    help="run the run-out part only (issue 36)")
+    ap.add_argument("--held-out-3", action="store_true",
+                    help="run the run-out part's held-out laws only")
     ap.add_argument("--table-only", action="store_true", help="rewrite battery.md only")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    part = "held_out_2" if a.held_out_2 else "held_out" if a.held_out else "main"
+    part = ("held_out_3" if a.held_out_3 else "runout" if a.runout else "held_out_2"
+            if a.held_out_2 else "held_out" if a.held_out else "main")
     stem = "battery" if part == "main" else f"battery_{part}"
     jsonl = out / f"{stem}.jsonl"
     done = {}

@@ -139,3 +139,46 @@ def test_a_first_claim_that_absorbed_an_equally_good_rival_is_exchanged():
     ev = _Relearning(half_width=0.02)
     sel = select(["leak", "true"], ev, 0.01)
     assert ev.asked == [] and sel.steps[2].model == ("leak", "true")
+
+
+def test_a_claim_that_worsens_an_output_is_a_mimic_not_a_claim():
+    # the contact-phase tyre impulse explains more of the run-out error than the brake law
+    # of both cars (90 % against 80 % of the component), but makes delta-v worse than the
+    # default model: it is not claimed, the law is, and the impulse is named a mimic
+    explains = {"tyre_impulse": {"rest": 0.9}, "runout_brake law": {"rest": 0.8}}
+    comps = {"rest": 1.0, "noise": 0.3}
+    control = select(list(explains), TableEvaluator(explains, comps), 0.01)
+    assert control.claims == ["tyre_impulse"]  # without the rule the impulse wins
+    ev = TableEvaluator(explains, comps, worsens={"tyre_impulse": {"delta_v": -0.2}})
+    sel = select(list(explains), ev, 0.01)
+    assert sel.claims == ["runout_brake law"]
+    assert sel.reasons["tyre_impulse"].startswith(
+        "mimics a run-out mechanism (worsens delta_v (-20.0 %")
+    assert set(sel.worse) == {"tyre_impulse"}
+    # worsening a run-out output is no mimic of a run-out mechanism, still no claim
+    ev2 = TableEvaluator(explains, comps, worsens={"tyre_impulse": {"rest_yaw": -0.2}})
+    sel2 = select(list(explains), ev2, 0.01)
+    assert sel2.claims == ["runout_brake law"]
+    assert sel2.reasons["tyre_impulse"].startswith("worsens rest_yaw")
+
+
+def test_a_library_effect_masked_alone_is_tried_on_top():
+    # the tutorial's second example: the tyre impulse alone explains nothing (it shortens
+    # run-outs that the released brake makes too long), on top of the brake release it
+    # explains its own component; the selection tries it there only as ``always_try``
+    explains = {"brake_release": {"rest1": 1.0}, "tyre_impulse": {"dv": 1.0}}
+
+    class Masked(TableEvaluator):
+        def on_top(self, names, claimed):
+            out = super().on_top(names, claimed)
+            if not claimed and "tyre_impulse" in out:
+                out["tyre_impulse"] = Reduction(0.0, 0.0, 0.0)
+            return out
+
+    comps = {"rest1": 3.0, "dv": 1.0, "noise": 0.5}
+    skipped = select(list(explains), Masked(explains, comps), 0.01,
+                     worth_trying=lambda r: r.high >= 0.01)
+    assert skipped.claims == ["brake_release"]
+    tried = select(list(explains), Masked(explains, comps), 0.01,
+                   worth_trying=lambda r: r.high >= 0.01, always_try={"tyre_impulse"})
+    assert tried.claims == ["brake_release", "tyre_impulse"]

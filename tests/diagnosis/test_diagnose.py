@@ -436,6 +436,16 @@ def test_tutorial_commands_run(tmp_path, monkeypatch):
             else:
                 raise AssertionError(f"unexpected command {body!r}")
             ran.append(body)
+        # the answers the tutorial promises: the verdicts, not only the ledgers
+        first_verdict = json.loads((tmp_path / "results" / "tutorial" / "diagnosis.json")
+                                   .read_text(encoding="utf-8"))
+        assert first_verdict["significant"][0] == "tyre_impulse"
+        assert first_verdict["verdict"][0].startswith("Most likely missing effect: tyre_impulse")
+        second = json.loads((tmp_path / "results" / "tutorial2" / "diagnose" / "summary.json")
+                            .read_text(encoding="utf-8"))
+        assert second["significant"] == ["brake_release", "tyre_impulse"], second["verdict"]
+        assert not second.get("claimed_laws"), second["verdict"]
+        assert second["verdict"][0].startswith("Most likely missing effect: brake_release")
         chain = ledger_chain(read_ledger(tmp_path / "results" / "tutorial2"))
         assert [c.get("added") for c in chain] == [None, "brake_release", "tyre_impulse"]
         values = [c["cv_rmse_overall"] for c in chain]

@@ -229,3 +229,48 @@ def test_cli_writes_feasible_set_and_report(clean, tmp_path, capsys):
     code = vfs_main(["reconstruct", "--db", str(folder), "--case", cid, "--observe",
                      "skid", "--out", str(tmp_path / "y")])
     assert code == 2 and "skid" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ the run-out's wheel states
+
+
+@pytest.mark.slow
+def test_inverse_mode_recovers_the_wheel_brake_factors_of_the_run_out():
+    """Closed loop (issue 36, item 4): clean generated cases whose run-outs braked each car
+    at its own factor (vehicle 1: 0.1 + 0.02 s/m v, vehicle 2: 0.95 - 0.02 s/m v with the
+    closing speed v, i.e. about 0.2-0.8 and 0.85-0.25), reconstructed from the rest
+    positions and headings with a prior over the whole range (free rolling 0 to locked 1):
+    the feasible band of each car's factor covers the truth, and it is informative (narrower
+    than the prior)."""
+    from vfs.effects.learned import law_effect_class
+
+    def law(channel, a, b):
+        return law_effect_class({"name": f"truth_{channel}", "channel": channel,
+                                 "feature": "closing_speed", "form": "linear",
+                                 "coefficients": [a, b]})()
+
+    db, _ = generate_database("clean", n_cases=20, seed=6, hidden=(
+        law("runout_brake1", 0.1, 0.02), law("runout_brake2", 0.95, -0.02)))
+    cases = CaseSet.from_database(db)
+    v = np.hypot(cases.config.vx[:, 0] - cases.config.vx[:, 1],
+                 cases.config.vy[:, 0] - cases.config.vy[:, 1])
+    truth = np.stack([np.clip(0.1 + 0.02 * v, 0, 1), np.clip(0.95 - 0.02 * v, 0, 1)], 1)
+    from vfs.uncertainty.config import default_config
+
+    flat = Distribution("uniform", "absolute", low=0.0, high=1.0)
+    cfg = default_config().with_inputs(wheel_brake1=flat, wheel_brake2=flat)
+    obs = ObservationSettings(rest_position_sd=0.2, rest_yaw_sd=math.radians(3))
+    n = max(4, int(round(10 * slow_scale())))
+    inside, widths, empty = [], [], 0
+    for j in range(n):
+        rec = reconstruct(cases, cases.case_id[j], config=cfg, observation=obs,
+                          settings=FAST, seed=j)
+        empty += rec.stats["n_feasible"] == 0  # a missed basin: counted as outside below
+        band = rec.band.set_index("quantity")
+        for i in (1, 2):
+            row = band.loc[f"wheel_brake{i}"]
+            inside.append(row["min"] <= truth[j, i - 1] <= row["max"])
+            widths.append(row["p95"] - row["p5"])
+    assert np.mean(inside) >= 0.75, (inside, truth[:n])
+    assert np.nanmedian(widths) < 0.6, widths  # the prior's 5-95 % band is 0.9 wide
+    assert empty <= max(1, n // 8)

@@ -287,6 +287,11 @@ class ModelEvaluator:
         Their reductions against the default model as reported (else bootstrapped here).
     alone_cv : mapping of str to CVResult, optional
         The library candidates' cross-validations alone (a joint model of one effect).
+    group_ci : callable, optional
+        (errors, reference errors, output group index) -> Reduction of that group, for
+        :meth:`worse` (None: no output is ever reported worse).
+    min_worsening : float
+        Smallest worsening that counts (a reduction at or below ``-min_worsening``).
     laws : mapping of str to LawFinding
         The law candidates (key :func:`law_key`) of the first identification.
     ident, learned : callables
@@ -308,8 +313,11 @@ class ModelEvaluator:
                  ci: Callable[[np.ndarray, np.ndarray], Reduction], parameters: str,
                  fit_options: Mapping[str, Any], say: Callable[[str], None],
                  alone_reductions: Mapping[str, Reduction] | None = None,
-                 alone_cv: Mapping[str, CVResult] | None = None) -> None:
+                 alone_cv: Mapping[str, CVResult] | None = None,
+                 group_ci: Callable[[np.ndarray, np.ndarray, int], Reduction] | None = None,
+                 min_worsening: float = 0.0) -> None:
         self.sim, self.held, self.base = sim, list(held), base
+        self.group_ci, self.min_worsening = group_ci, min_worsening
         self.alone_reductions = dict(alone_reductions or {})
         self.alone_cv = dict(alone_cv or {})
         self.effects = dict(effects)
@@ -469,6 +477,23 @@ class ModelEvaluator:
             self.on_top_errors[(n, claimed)] = err
             out[n] = self.laws[n].given_claimed  # type: ignore[assignment]
             self.say(f"  on top of {on}: {r.text()}")
+        return out
+
+    def worse(self, model: tuple[str, ...]) -> dict[str, Reduction]:
+        """The output groups the joint model ``model`` makes worse than the default model: its
+        held-out errors against the default model's, per group, with the CI of ``group_ci``
+        entirely below 0 and the estimate at most ``-min_worsening`` (the mirror of
+        :func:`helps`; a single candidate: its errors alone).
+        """
+        if self.group_ci is None or not model:
+            return {}
+        err = self.alone[model[0]] if len(model) == 1 and model[0] in self.alone \
+            else self.joint(model)[0]
+        out = {}
+        for k, g in enumerate(self.sim.data.group_names):
+            r = self.group_ci(err, self.base.errors, k)
+            if np.isfinite(r.high) and r.high < 0 and r.estimate <= -self.min_worsening:
+                out[g] = r
         return out
 
     def exchange(self, first: str, rival: str, min_reduction: float) -> Reduction | None:

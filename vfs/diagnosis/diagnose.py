@@ -537,12 +537,14 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
         {"grid_points": spec.grid_points, "zoom_rounds": spec.zoom_rounds}, say,
         alone_reductions={**{c.name: c.overall for c in cands},
                           **{k: f.outcome for k, f in findings.items()}},
-        alone_cv={c.name: c.cv for c in cands})
+        alone_cv={c.name: c.cv for c in cands}, group_ci=_group_ci(spec, len(data.groups)),
+        min_worsening=spec.min_reduction)
     t_sel = time.perf_counter()
     sel = select([*names, *findings], ev, spec.min_reduction,
                  max_steps=spec.max_steps if spec.stepwise else 1, reliable=reliable,
                  worth_trying=lambda r: bool(np.isfinite(r.high)
-                                             and r.high >= spec.min_reduction), say=say)
+                                             and r.high >= spec.min_reduction), say=say,
+                 always_try=names)
     say(f"selection: {', '.join(sel.claims) or 'nothing claimed'} "
         f"({time.perf_counter() - t_sel:.1f} s)")
     cands, laws = _apply_selection(sel, cands, ev)
@@ -573,6 +575,22 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
                   "n_cases": data.n, "law_seconds": round(law_seconds, 2),
                   "selection_seconds": round(time.perf_counter() - t_sel, 2)}
     return diag
+
+
+def _group_ci(spec: DiagnoseSpec, n_groups: int
+              ) -> Callable[[np.ndarray, np.ndarray, int], Reduction]:
+    """The per-output reduction CI of the rule "no output worse than the default model"
+    (:meth:`vfs.diagnosis.claims.ModelEvaluator.worse`): Bonferroni over the output groups,
+    its own seeded generator (the other CIs draw as before).
+    """
+    rng = np.random.default_rng([spec.seed, 7])
+    level = 1.0 - (1.0 - spec.confidence) / max(n_groups, 1)
+
+    def group_ci(err: np.ndarray, ref: np.ndarray, k: int) -> Reduction:
+        return Reduction(*reduction_ci(err, ref, rng, group=k, confidence=level,
+                                       n_boot=spec.n_boot))
+
+    return group_ci
 
 
 def _where_it_fails(data: CalibrationData, base: CVResult, features: pd.DataFrame,

@@ -16,6 +16,11 @@ synthetic reductions (the tests).  Each step:
    again from its channel re-identified with the other claims applied, kept where the joint
    model's CV RMSE falls (a law claimed early was identified without the later claims, and a
    missing law leaks into the identification of the others);
+   A candidate is claimed only if the model with it **makes no output worse than the default
+   model does** (:meth:`Evaluator.worse`: an output group whose reduction against the default
+   model has its CI entirely below 0); otherwise the next best is tried, and the candidate's
+   reason names the outputs it worsens ("mimics a run-out mechanism" where it improves the
+   run-out's outputs and worsens those fixed at separation: delta-v, post-impact speeds);
 4. **backward check**: every earlier claim is re-tested given the others (the joint model
    against the joint model without it) and dropped if it no longer helps ("dropped after X
    joined"); a dropped candidate does not come back.
@@ -23,7 +28,9 @@ synthetic reductions (the tests).  Each step:
 The selection stops when no candidate is claimed or after ``max_steps`` claims.  Every
 candidate not claimed gets one reason: "dropped after X joined", "not confirmed on top of
 X" (helps on top, fails the refit), "mimics X" (helps alone, no longer on top of the claims:
-X is the claim after whose joining its reduction vanished) or "not significant".  The claims
+X is the claim after whose joining its reduction vanished), "mimics a run-out mechanism
+(worsens ...)" / "worsens ..." (the last time it was the best candidate, its model made an
+output worse than the default model) or "not significant".  The claims
 are ordered by their share in the final joint model (reduction of the joint model against
 it without the claim), the leading explanation first.
 """
@@ -31,7 +38,7 @@ it without the claim), the leading explanation first.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -64,6 +71,28 @@ class Evaluator(Protocol):
         helps there and that model's :meth:`rmse` is below that of ``first`` alone; its
         reduction against ``first`` alone, or None (nothing changed).
         """
+
+    def worse(self, model: tuple[str, ...]) -> dict[str, Reduction]:
+        """The output groups the joint model ``model`` makes worse than the default model
+        (their reduction against it, its CI entirely below 0); empty: none.
+        """
+
+
+#: Output groups fixed at separation: a mechanism acting only in the run-out leaves them as
+#: the default model has them (:data:`vfs.effects.learned.CHANNEL_OUTPUTS`).
+RUNOUT_GROUPS = ("rest_position", "rest_yaw", "runout_distance")
+
+
+def worse_reason(worse: Mapping[str, Reduction]) -> str:
+    """The reason of a candidate whose model worsens the outputs ``worse``: "mimics a run-out
+    mechanism (worsens delta_v, post_speed against the default model)" where none of them is
+    an output of the run-out (it moved outputs fixed at separation to mimic a run-out
+    mechanism), else "worsens ... against the default model".
+    """
+    names = ", ".join(f"{g} ({_fmt(r)})" for g, r in worse.items())
+    if not any(g in RUNOUT_GROUPS for g in worse):
+        return f"mimics a run-out mechanism (worsens {names} against the default model)"
+    return f"worsens {names} against the default model"
 
 
 #: Sign of each step's action in the ledger's labels (verdict and report figure).
@@ -132,6 +161,9 @@ class Selection:
     removed : dict of float
         Per claim: how much the joint model's CV RMSE rises without it (the order of
         ``claims``).
+    worse : dict of dict of Reduction
+        Per candidate not claimed because its model made outputs worse than the default
+        model (:meth:`Evaluator.worse`): those outputs' reductions.
     """
 
     claims: list[str] = field(default_factory=list)
@@ -143,6 +175,7 @@ class Selection:
     reasons: dict[str, str] = field(default_factory=dict)
     steps: list[Step] = field(default_factory=list)
     removed: dict[str, float] = field(default_factory=dict)
+    worse: dict[str, dict[str, Reduction]] = field(default_factory=dict)
 
     @property
     def rejected(self) -> list[str]:
@@ -157,7 +190,8 @@ def _est(r: Reduction | None) -> float:
 
 def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps: int = 4,
            reliable: bool = True, worth_trying: Callable[[Reduction], bool] | None = None,
-           say: Callable[[str], None] | None = None) -> Selection:
+           say: Callable[[str], None] | None = None,
+           always_try: Collection[str] = ()) -> Selection:
     """Forward stepwise selection with backward checks (module docstring).
 
     Parameters
@@ -173,9 +207,15 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
         False: nothing is claimed (too few cases), the reductions alone are still reported.
     worth_trying : callable, optional
         Which candidates are tried on top of claims, from their reduction alone (default:
-        all; the diagnosis skips those whose CI alone lies entirely at or below 0).
+        all; the diagnosis skips the laws whose CI alone lies entirely below
+        ``min_reduction``).
     say : callable, optional
         Progress lines.
+    always_try : collection of str
+        Candidates tried on top of claims whatever their reduction alone (the diagnosis:
+        the library effects; an effect masked by a missing one of opposite sign, such as a
+        contact-phase tyre impulse that shortens run-outs a released brake lengthens, helps
+        only once that is claimed).
     """
     out = Selection()
     tell = say or (lambda _m: None)
@@ -187,13 +227,15 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
     out.alone = dict(alone)
     try_ = worth_trying or (lambda _r: True)
     capped = False
+    worsens: dict[str, dict[str, Reduction]] = {}
+    check_worse = getattr(ev, "worse", None)
     for step in range(max_steps + 1):
         if step == max_steps:
             capped = True
             break
         pool = [n for n in names if n not in claimed and n not in dropped]
         if step:
-            pool = [n for n in pool if try_(alone[n])]
+            pool = [n for n in pool if n in always_try or try_(alone[n])]
         if not pool:
             break
         gains = alone if not claimed else ev.on_top(pool, tuple(claimed))
@@ -214,6 +256,12 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
                     tell(f"step {step + 1}: {n} helps on top of {', '.join(claimed)} but not "
                          "with them refitted together")
                     continue
+            bad = check_worse((*claimed, n)) if check_worse is not None else {}
+            if bad:
+                worsens[n] = dict(bad)
+                tell(f"step {step + 1}: {n} not claimed: {worse_reason(bad)}")
+                continue
+            worsens.pop(n, None)
             added = n
             break
         if added is None:
@@ -265,12 +313,15 @@ def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps:
     out.claims = sorted(claimed, key=lambda s: (-removed[s], s))
     out.share = {s: share[s] for s in out.claims}
     out.removed = {s: removed[s] for s in out.claims}
+    out.worse = {n: w for n, w in worsens.items() if n not in claimed}
     lead = out.claims[0] if out.claims else ""
     for n in names:
         if n in claimed:
             continue
         if n in dropped:
             out.reasons[n] = f"dropped after {dropped[n]} joined"
+        elif n in worsens and reliable:
+            out.reasons[n] = worse_reason(worsens[n])
         elif capped and reliable and helps(out.on_top.get(n), min_reduction) \
                 and n not in out.refit:
             out.reasons[n] = f"not tried: at most {max_steps} claims"
@@ -304,13 +355,18 @@ class TableEvaluator:
         component the largest share any of its candidates does.
     half_width : float
         Half width of every CI (in reduction units).
+    worsens : mapping of str to mapping of str to float, optional
+        Per candidate, the output groups it makes worse than the default model and by how
+        much (a negative reduction); a model worsens a group when any of its candidates does.
     """
 
     def __init__(self, explains: Mapping[str, Mapping[str, float]],
-                 components: Mapping[str, float], half_width: float = 0.02) -> None:
+                 components: Mapping[str, float], half_width: float = 0.02,
+                 worsens: Mapping[str, Mapping[str, float]] | None = None) -> None:
         self.explains = explains
         self.components = components
         self.half_width = half_width
+        self.worsens = dict(worsens or {})
         self.calls = 0
 
     def _mse(self, model: Sequence[str]) -> float:
@@ -345,6 +401,15 @@ class TableEvaluator:
         """See :class:`Evaluator` (given reductions: nothing to learn again)."""
         return None
 
+    def worse(self, model: tuple[str, ...]) -> dict[str, Reduction]:
+        """See :class:`Evaluator` (the given ``worsens`` of the model's candidates)."""
+        out: dict[str, Reduction] = {}
+        for m in model:
+            for g, v in self.worsens.get(m, {}).items():
+                if g not in out or v < out[g].estimate:
+                    out[g] = Reduction(v, v - self.half_width, v + self.half_width)
+        return {g: r for g, r in out.items() if r.high < 0}
 
-__all__ = ["STEP_SIGNS", "Evaluator", "Selection", "Step", "TableEvaluator", "select",
-           "step_label"]
+
+__all__ = ["RUNOUT_GROUPS", "STEP_SIGNS", "Evaluator", "Selection", "Step", "TableEvaluator",
+           "select", "step_label", "worse_reason"]

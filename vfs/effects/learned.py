@@ -36,6 +36,7 @@ from vfs.effects.library import braking_impulse
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, ImpactResult, contact_frame, energy_split
 from vfs.physics.precrash import PrecrashParams
+from vfs.physics.runout import wheel_positions
 
 
 @dataclass(frozen=True)
@@ -103,7 +104,18 @@ CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
     Channel("runout_brake2", "-", 0.0, 1.0, "set", "post_impact",
             "brake factor of all four wheels of vehicle 2 in the run-out (1 = locked)",
             physical=(True, True)),
+    Channel("runout_brake", "-", 0.0, 1.0, "set", "post_impact",
+            "brake factor of all four wheels of both vehicles in the run-out, one law "
+            "for both (1 = locked)", physical=(True, True)),
+    Channel("corner_brake", "-", 0.0, 1.0, "set", "post_impact",
+            "brake factor of the wheel at the impact corner (the wheel nearest the point "
+            "of impact) of each vehicle in the run-out, the other wheels at the model's "
+            "factor (1 = locked by damage)", physical=(True, True)),
 )}
+
+#: The run-out channels (they act after separation only: :data:`CHANNEL_OUTPUTS`).
+RUNOUT_CHANNELS: tuple[str, ...] = ("runout_brake1", "runout_brake2", "runout_brake",
+                                    "corner_brake")
 
 #: Outcome columns each channel moves (the others stay as the default model has them).
 CHANNEL_OUTPUTS: Mapping[str, tuple[str, ...]] = {
@@ -114,8 +126,8 @@ CHANNEL_OUTPUTS: Mapping[str, tuple[str, ...]] = {
     "ees_stiffness_ratio": ("ees",),
     "tyre_impulse": ("delta_v", "post_speed", "velocity_angle_change", "rest_position",
                      "rest_yaw", "runout_distance"),
-    "runout_brake1": ("rest_position", "rest_yaw", "runout_distance"),
-    "runout_brake2": ("rest_position", "rest_yaw", "runout_distance"),
+    **{name: ("rest_position", "rest_yaw", "runout_distance") for name in (
+        "runout_brake1", "runout_brake2", "runout_brake", "corner_brake")},
 }
 
 
@@ -320,14 +332,49 @@ class ChannelLaw(Effect):
 
     def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
                     brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Brake factor [-] of all wheels of one vehicle in the run-out from the law."""
+        """Brake factors [-] of the run-out from the law: all wheels of one vehicle
+        (``runout_brake1/2``), all wheels of both (``runout_brake``: the law's value,
+        one per case, for each vehicle), or the impact-corner wheel of each vehicle
+        (``corner_brake``, :func:`impact_corner_wheels`).
+        """
         ch = self.law["channel"]
-        if ch not in ("runout_brake1", "runout_brake2"):
+        if ch not in RUNOUT_CHANNELS:
             return brake1, brake2
+        if ch == "runout_brake":
+            b1 = np.asarray(brake1, float)
+            b = self.value(ctx, config, 0.5 * (b1.mean(axis=1) + np.asarray(brake2).mean(axis=1)))
+            new = np.repeat(b[:, None], 4, axis=1)
+            return new, new.copy()
+        if ch == "corner_brake":
+            rows = np.arange(config.size)
+            out = []
+            for w, brake in zip(impact_corner_wheels(ctx, config), (brake1, brake2),
+                                strict=True):
+                b = np.array(brake, float, copy=True)
+                b[rows, w] = self.value(ctx, config, b[rows, w])
+                out.append(b)
+            return out[0], out[1]
         old = brake1 if ch == "runout_brake1" else brake2
         b = self.value(ctx, config, np.asarray(old, float).mean(axis=1))
         new = np.repeat(b[:, None], 4, axis=1)
         return (new, brake2) if ch == "runout_brake1" else (brake1, new)
+
+
+def impact_corner_wheels(ctx: ImpactContext, config: ImpactConfig
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Index (0-3: FL, FR, RL, RR) of the wheel nearest the point of impact of vehicle 1
+    and of vehicle 2 per case: the POI taken into each vehicle's frame (x forward, y
+    left, origin at the CG) against the wheel contact points of
+    :func:`vfs.physics.runout.wheel_positions`.
+    """
+    out = []
+    for j, veh in enumerate((ctx.vehicle1, ctx.vehicle2)):
+        dx, dy = config.poi_x - config.x[:, j], config.poi_y - config.y[:, j]
+        c, s = np.cos(config.yaw[:, j]), np.sin(config.yaw[:, j])
+        local = np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)  # (n, 2)
+        wheels = wheel_positions(veh)  # (n, 4, 2)
+        out.append(np.argmin(np.sum((wheels - local[:, None, :]) ** 2, axis=-1), axis=1))
+    return out[0], out[1]
 
 
 #: Hooks of each channel (the others are dropped from the class so that the simulation
@@ -405,6 +452,6 @@ def finite(x: float) -> bool:
     return math.isfinite(x)
 
 
-__all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "Channel", "ChannelLaw",
-           "check_law", "evaluate_law", "feature_values", "law_effect_class", "law_text",
-           "normal_closing_speed"]
+__all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "RUNOUT_CHANNELS", "Channel",
+           "ChannelLaw", "check_law", "evaluate_law", "feature_values", "impact_corner_wheels",
+           "law_effect_class", "law_text", "normal_closing_speed"]

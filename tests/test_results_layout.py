@@ -36,7 +36,8 @@ def test_study_without_out_writes_below_results_of_the_working_directory(
     a = runs[runs["system"] == "late"][cols].reset_index(drop=True)
     b = other[other["system"] == "ideal"][cols].reset_index(drop=True)
     pd.testing.assert_frame_equal(a, b)
-    assert "output -> results/study-default-late+none" in capsys.readouterr().out
+    printed = capsys.readouterr()  # the output folder is said on stderr, with the log lines
+    assert "output -> results/study-default-late+none" in printed.out + printed.err
 
 
 def test_reference_outputs_named_in_the_readme_exist() -> None:

@@ -1,7 +1,7 @@
 """Numbers and figure of docs/validation.md, "Post-impact wheel states and contacts".
 
 Run from the repository root: ``PYTHONPATH=. python docs/figures/runout_wheel_states.py``.
-Writes ``results/reference/runout-wheel-states.json`` and
+Writes ``benchmarks/results/runout-wheel-states.json`` and
 ``docs/figures/runout_wheel_states.png``:
 
 1. the closed forms of the run-out with post-impact inputs: a locked car's slide against
@@ -31,7 +31,7 @@ from vfs.simulation import CaseBatch, SimulationParams, results_table, simulate_
 from vfs.units import G
 
 ROOT = Path(__file__).resolve().parents[2]
-RECORD = ROOT / "results" / "reference" / "runout-wheel-states.json"
+RECORD = ROOT / "benchmarks" / "results" / "runout-wheel-states.json"
 FIGURE = ROOT / "docs" / "figures" / "runout_wheel_states.png"
 
 

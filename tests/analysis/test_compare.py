@@ -506,6 +506,8 @@ def test_report_states_the_impact_parameters_first(tmp_path):
     out = tmp_path / "c"
     assert main(["compare", "--db", str(folder), "--out", str(out), "--sketches", "0",
                  "--no-case-pages"]) == 0
-    lines = [ln for ln in (out / "report.md").read_text().splitlines() if ln.strip()]
+    # the title, then (after the synthetic-data warning, a block quote) the impact parameters
+    lines = [ln for ln in (out / "report.md").read_text().splitlines()
+             if ln.strip() and not ln.startswith(">")]
     assert lines[1].startswith("Impact parameters: the model's generic defaults")
     assert "restitution 0.1, contact friction 0.6" in lines[1]

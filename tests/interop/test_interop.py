@@ -455,7 +455,7 @@ def test_missing_extra_names_it(db, tmp_path, monkeypatch):
 
     monkeypatch.setitem(sys.modules, "scenariogeneration", None)
     monkeypatch.setitem(sys.modules, "scenariogeneration.xodr", None)
-    with pytest.raises(MissingExtraError, match=r'vfs\[xosc\]'):
+    with pytest.raises(MissingExtraError, match=r'vfs-accident\[xosc\]'):
         export_case(db, 1, tmp_path)
 
 

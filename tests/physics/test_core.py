@@ -107,6 +107,9 @@ def test_a_python_controller_runs_between_compiled_steps_and_says_so_once(
     start = np.where(np.arange(n)[:, None] % 2 == 0, 3.0, np.nan) * np.ones((1, 2))
     controller = ScheduledBraking(start, np.full((n, 2), 6.0))
     monkeypatch.setattr(precrash, "_REPORTED", set())
+    # a command run earlier in this process may have configured the "vfs" logger not to
+    # propagate to the root, where caplog listens
+    monkeypatch.setattr(logging.getLogger("vfs"), "propagate", True)
     with caplog.at_level(logging.INFO, logger="vfs.physics.precrash"):
         ref, got = _both(monkeypatch, lambda: simulate_precrash(
             batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,

@@ -577,8 +577,8 @@ def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
     return diag
 
 
-def _group_ci(spec: DiagnoseSpec, n_groups: int
-              ) -> Callable[[np.ndarray, np.ndarray, int], Reduction]:
+def _group_ci(spec: DiagnoseSpec, n_groups: int) -> Callable[[np.ndarray, np.ndarray, int],
+                                                               Reduction]:
     """The per-output reduction CI of the rule "no output worse than the default model"
     (:meth:`vfs.diagnosis.claims.ModelEvaluator.worse`): Bonferroni over the output groups,
     its own seeded generator (the other CIs draw as before).
@@ -595,9 +595,7 @@ def _group_ci(spec: DiagnoseSpec, n_groups: int
 
 def _where_it_fails(data: CalibrationData, base: CVResult, features: pd.DataFrame,
                     spec: DiagnoseSpec) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """Residuals by stratum, residual-feature associations and worst cases of the default
-    model.
-    """
+    """Residuals by stratum, residual-feature associations and worst cases of the default model."""
     strata = stratified_residuals(data, base.residuals, features)
     assoc = residual_associations(residual_variables(data, base.residuals), features,
                                   str(spec.correction), spec.alpha)

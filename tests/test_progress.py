@@ -29,29 +29,24 @@ def test_every_command_takes_verbose_and_quiet() -> None:
         assert {"-v", "--verbose", "-q", "--quiet"} <= options, name
 
 
-def test_lines_when_piped(caplog: pytest.LogCaptureFixture,
+def test_lines_when_piped(vfs_log: list[logging.LogRecord],
                           monkeypatch: pytest.MonkeyPatch) -> None:
     clock = iter([0.0, 5.0, 12.0, 13.0, 30.0, 31.0, 31.0])
     monkeypatch.setattr(prog.time, "perf_counter", lambda: next(clock))
-    monkeypatch.setattr(prog.LOGGER, "propagate", True)  # a CLI test may have turned it off
-    with caplog.at_level(logging.INFO, logger="vfs"):
-        with prog.progress(4, "simulating the cases", "case", bar=False) as shown:
-            for _ in range(4):
-                shown.update()
-    lines = [r.getMessage() for r in caplog.records]
+    with prog.progress(4, "simulating the cases", "case", bar=False) as shown:
+        for _ in range(4):
+            shown.update()
+    lines = [r.getMessage() for r in vfs_log]
     # one line after the interval (12 s: 2 of 4 done), none at 5 s or 13 s, one at the end
     assert lines[0] == "simulating the cases: 2 of 4 cases (50 %), 12 s so far, about 12 s left"
     assert lines[-1] == "simulating the cases: 4 cases done in 31 s"
     assert len(lines) == 2
 
 
-def test_a_short_step_stays_silent(caplog: pytest.LogCaptureFixture,
-                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(prog.LOGGER, "propagate", True)
-    with caplog.at_level(logging.INFO, logger="vfs"):
-        with prog.progress(3, "quick", "case", bar=False) as shown:
-            shown.update(3)
-    assert caplog.records == []
+def test_a_short_step_stays_silent(vfs_log: list[logging.LogRecord]) -> None:
+    with prog.progress(3, "quick", "case", bar=False) as shown:
+        shown.update(3)
+    assert vfs_log == []
 
 
 def test_quiet_silences_progress_and_verbose_shows_debug(

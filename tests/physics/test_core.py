@@ -98,7 +98,7 @@ def test_every_system_equals_the_reference_end_to_end(name: str, batch: CaseBatc
 
 def test_a_python_controller_runs_between_compiled_steps_and_says_so_once(
         batch: CaseBatch, monkeypatch: pytest.MonkeyPatch,
-        caplog: pytest.LogCaptureFixture) -> None:
+        vfs_log: list[logging.LogRecord]) -> None:
     """A controller the kernel cannot call (any Python object with ``reset`` and
     ``demand``) still works: it runs in Python between the compiled steps, with one log
     line per process and kind of controller.
@@ -107,16 +107,12 @@ def test_a_python_controller_runs_between_compiled_steps_and_says_so_once(
     start = np.where(np.arange(n)[:, None] % 2 == 0, 3.0, np.nan) * np.ones((1, 2))
     controller = ScheduledBraking(start, np.full((n, 2), 6.0))
     monkeypatch.setattr(precrash, "_REPORTED", set())
-    # a command run earlier in this process may have configured the "vfs" logger not to
-    # propagate to the root, where caplog listens
-    monkeypatch.setattr(logging.getLogger("vfs"), "propagate", True)
-    with caplog.at_level(logging.INFO, logger="vfs.physics.precrash"):
-        ref, got = _both(monkeypatch, lambda: simulate_precrash(
-            batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
-            controller=controller))
-        simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
-                          controller=controller)
+    ref, got = _both(monkeypatch, lambda: simulate_precrash(
+        batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+        controller=controller))
+    simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
+                      controller=controller)
     assert _differences(ref, got) == []
     assert np.isfinite(got.brake_start[::2]).any()
-    lines = [r.getMessage() for r in caplog.records if "ScheduledBraking" in r.getMessage()]
+    lines = [r.getMessage() for r in vfs_log if "ScheduledBraking" in r.getMessage()]
     assert len(lines) == 1, lines

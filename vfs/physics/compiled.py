@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.physics.compiled_runout import require_numba
+from vfs.physics.core import clip_stage
 from vfs.physics.geometry import AREA_TOLERANCE, Overlap, Polygons
 
 try:  # pragma: no cover - depends on the environment
@@ -33,60 +34,6 @@ try:  # pragma: no cover - depends on the environment
 except ImportError:  # pragma: no cover
     numba = None  # type: ignore[assignment]
     AVAILABLE = False
-
-
-def _clip_stage(px: np.ndarray, py: np.ndarray, w: int, axis: int, sign: float, bound: float,
-                qx: np.ndarray, qy: np.ndarray, dist: np.ndarray) -> int:
-    """One Sutherland-Hodgman stage on one polygon (first ``w`` slots of px, py) into qx, qy.
-
-    Returns the number of inside vertices (0: nothing left).  Width grows by 1.
-    """
-    n_in = 0
-    for j in range(w):
-        c = px[j] if axis == 0 else py[j]
-        dist[j] = sign * (bound - c)
-        if dist[j] >= 0.0:
-            n_in += 1
-    if n_in == w:
-        for j in range(w):
-            qx[j] = px[j]
-            qy[j] = py[j]
-        qx[w] = px[w - 1]
-        qy[w] = py[w - 1]
-        return n_in
-    if n_in == 0:
-        return 0
-    start = 0
-    for j in range(w):
-        prev = j - 1 if j > 0 else w - 1
-        if dist[j] >= 0.0 and not dist[prev] >= 0.0:
-            start = j
-            break
-    i_in = (start + n_in - 1) % w
-    i_out = (start + n_in) % w
-    i_last = (start + w - 1) % w
-    d_in, d_out = dist[i_in], dist[i_out]
-    d_last, d_first = dist[i_last], dist[start]
-    if axis == 0:
-        o_in, o_out, o_last, o_first = py[i_in], py[i_out], py[i_last], py[start]
-    else:
-        o_in, o_out, o_last, o_first = px[i_in], px[i_out], px[i_last], px[start]
-    exit_other = o_in + d_in / (d_in - d_out) * (o_out - o_in)
-    entry_other = o_last + d_last / (d_last - d_first) * (o_first - o_last)
-    if axis == 0:
-        ex, ey, nx, ny = bound, exit_other, bound, entry_other
-    else:
-        ex, ey, nx, ny = exit_other, bound, entry_other, bound
-    for i in range(n_in):
-        k = (start + i) % w
-        qx[i] = px[k]
-        qy[i] = py[k]
-    qx[n_in] = ex
-    qy[n_in] = ey
-    for i in range(n_in + 1, w + 1):
-        qx[i] = nx
-        qy[i] = ny
-    return n_in
 
 
 def _overlap_loop(o1: np.ndarray, o2: np.ndarray, verts: np.ndarray, nonempty: np.ndarray,
@@ -170,7 +117,8 @@ def _overlap_loop(o1: np.ndarray, o2: np.ndarray, verts: np.ndarray, nonempty: n
 
 _loop: Any = None
 if AVAILABLE:  # pragma: no branch
-    _clip_stage = numba.njit(cache=True, nogil=True, error_model="numpy")(_clip_stage)
+    # the one Sutherland-Hodgman stage of the compiled code (vfs.physics.core)
+    _clip_stage = numba.njit(cache=True, nogil=True, error_model="numpy")(clip_stage)
     _loop = numba.njit(cache=True, nogil=True, error_model="numpy")(_overlap_loop)
 
 

@@ -270,11 +270,12 @@ def _frames_overlap(acx: float, acy: float, ca: float, sa: float, ahl: float, ah
             and (abs(-sb * dx + cb * dy) <= bhw + ahl * as_ + ahw * ac))
 
 
-def _clip_stage(px: np.ndarray, py: np.ndarray, w: int, axis: int, sign: float, bound: float,
-                qx: np.ndarray, qy: np.ndarray, dist: np.ndarray) -> int:
+def clip_stage(px: np.ndarray, py: np.ndarray, w: int, axis: int, sign: float, bound: float,
+               qx: np.ndarray, qy: np.ndarray, dist: np.ndarray) -> int:
     """One Sutherland-Hodgman stage on one polygon (geometry._clip_half_plane, one row):
     the first ``w`` slots of px, py clipped into w + 1 slots of qx, qy.  Returns the
-    number of inside vertices (0: nothing left).
+    number of inside vertices (0: nothing left).  Plain Python, compiled by its callers
+    (this module and :mod:`vfs.physics.compiled`).
     """
     n_in = 0
     for j in range(w):
@@ -325,6 +326,9 @@ def _clip_stage(px: np.ndarray, py: np.ndarray, w: int, axis: int, sign: float, 
         qx[i] = nx
         qy[i] = ny
     return n_in
+
+
+_clip_stage = clip_stage  # the name the compiled kernels call (rebound when compiled)
 
 
 def _overlaps(o1: np.ndarray, o2: np.ndarray, buf: np.ndarray) -> bool:

@@ -74,6 +74,17 @@ OWN_TESTS: dict[str, tuple[str, ...]] = {
     "vfs/effects/learned.py": ("tests/effects/test_learned*.py", "tests/analysis/test_learn*.py"),
 }
 
+#: Environment of the test runs of a module (trace and mutants).  ``precrash.py`` and
+#: ``runout.py`` hold the numpy reference of the pre-crash step and the run-out, whose compiled
+#: twins (:mod:`vfs.physics.core` and the compiled run-out) run by default and are checked bit
+#: for bit against them by their own tests: ``VFS_COMPILED=0`` makes the tests run the code that
+#: is mutated.  (A test that sets the variable itself, e.g. to compare both paths, still can.)
+MODULE_ENV: dict[str, dict[str, str]] = {
+    "vfs/physics/precrash.py": {"VFS_COMPILED": "0"},
+    "vfs/physics/runout.py": {"VFS_COMPILED": "0"},
+}
+_CURRENT: list[str] = []  # the module being run
+
 #: Equivalent mutants: (module, enclosing function, source line (stripped), original
 #: source, mutated source) -> why no input can tell the mutant from the original.  Excluded
 #: from the kill rate.
@@ -98,6 +109,21 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
      "0", "1"):
         "the points are NaN in both coordinates or in neither (the input contract, as "
         ":func:`outline_intersections` writes them): x and y mark the same slots",
+    ("vfs/physics/precrash.py", "PrecrashRun._settle",
+     "if self.active is None or self.active[0].shape[0] != 2 * rows.shape[0]:", "0", "1"):
+        "active is (path rows (2n,), their last knots (2n, fields)) of the same rows "
+        "(precrash_contact.active_rows): both have 2n rows, so [0] and [1] give one count",
+    ("vfs/physics/precrash.py", "PrecrashRun._settle",
+     "w = np.clip((impact_time[r] - prev_tau[due]) / dt, 0.0, 1.0)[:, None]", "1.0", "2.0"):
+        "a row is due only when impact_time <= tau + 1e-12, so w <= 1 + 1e-12 / dt: the upper "
+        "clip 1 -> 2 moves dv at the impact by at most 1e-12 / dt (1e-10) of one step's "
+        "change, an ulp-scale difference (equivalent within rounding, not bit for bit)",
+    ("vfs/physics/precrash.py", "PrecrashRun._end_rows",
+     "expired = ~pending[rows] & (tau >= self.case_horizon[rows] - 1e-9)",
+     "tau >= self.case_horizon[rows] - 1e-9", "(tau > self.case_horizon[rows] - 1e-09)"):
+        "differs only where k dt equals case_horizon - 1e-9 to the last bit; the 1e-9 is "
+        "there to absorb the rounding of k dt, so a horizon on or off the step grid ends at "
+        "the same step either way (equivalent within rounding)",
     ("vfs/physics/impact.py", "<module>",
      '"m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),',
      "1.0", "2.0"):
@@ -480,6 +506,8 @@ def _env(tree: Path) -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(tree), str(tree / "benchmarks")])
     env.pop("VFS_COMPILED_RUNOUT", None)
+    if _CURRENT:
+        env.update(MODULE_ENV.get(_CURRENT[0], {}))
     return env
 
 
@@ -842,6 +870,9 @@ def write_report(out: Path, stem: str, results: dict[str, dict], meta: dict) -> 
            + ("run whole for the mutants the mapped files leave alive" if r.get("run_untraced")
               else "not run (--run-untraced runs them)")
            for mod, r in results.items() if r["untraced"]]
+    md += [f"- {mod}: tests run with "
+           + ", ".join(f"{k}={v}" for k, v in r["env"].items())
+           for mod, r in results.items() if r.get("env")]
     path = out / f"{stem}.md"
     path.write_text("\n".join(md) + "\n")
     return path
@@ -927,6 +958,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             assert tree is not None
             t0 = time.perf_counter()
+            _CURRENT[:] = [module]
             own, others = test_files(module, root)
             if args.own_only:
                 others = []
@@ -947,7 +979,7 @@ def main(argv: list[str] | None = None) -> int:
             results[module] = {
                 "sites": len(all_sites), "own_tests": own, "other_tests": others,
                 "trace_failed": cov.failed, "untraced": cov.untraced,
-                "run_untraced": cov.run_untraced,
+                "run_untraced": cov.run_untraced, "env": MODULE_ENV.get(module, {}),
                 "seconds": time.perf_counter() - t0,
                 "summary": _rates(chosen), "mutants": [asdict(m) for m in chosen],
             }

@@ -728,6 +728,7 @@ class PrecrashRun(PrecrashCases):
             return
         if self.done or not self.open_ended:
             raise ParameterError("start() needs an open-ended run that has not ended")
+        self._check_startable(new)  # before the running rows are set aside
         finished = self.finished
         # set the running rows aside, settle the new ones alone, then put both together
         # (running rows first, as advance(start=...) orders them)
@@ -750,12 +751,16 @@ class PrecrashRun(PrecrashCases):
         self.active = None
         self.finished = np.concatenate([finished, self.finished])
 
+    def _check_startable(self, new: np.ndarray) -> None:
+        """Raise :class:`ParameterError` unless cases ``new`` are distinct and not running."""
+        if np.unique(new).size != new.size or self.running[new].any():
+            raise ParameterError("cases to start must be distinct and not running")
+
     def _start(self, new: np.ndarray) -> None:
         """(Re)start cases ``new`` at the current step with fresh results."""
         if new.size == 0:
             return
-        if np.unique(new).size != new.size or self.running[new].any():
-            raise ParameterError("cases to start must be distinct and not running")
+        self._check_startable(new)
         self.k0[new] = self.k
         self._reset_outcomes(new)
         m = new.size

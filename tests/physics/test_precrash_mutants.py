@@ -130,7 +130,7 @@ def test_braking_in_any_direction_stops_at_the_same_distance(heading: float) -> 
     v1 = v0 - 0.5 * mu * G * t_r
     expected = v0 * t_r - jerk * t_r**3 / 6 + v1**2 / (2 * mu * G)
     assert travelled == pytest.approx(expected, rel=0.01)
-    assert res.speed_reduction[0, 0] >= v0
+    assert res.speed_reduction[0, 0] == v0  # the speed taken off, not the integrated dv
     assert res.speed_reduction[0, 1] == 0.0 and res.brake_start[0, 0] == pytest.approx(t_b)
     ang = np.arctan2(res.end_state.y[0, 0], res.end_state.x[0, 0])
     assert np.cos(ang - heading) == pytest.approx(1.0)

@@ -293,3 +293,24 @@ def test_a_run_that_has_ended_takes_no_step(path: str) -> None:
 def test_segments_of_one_case() -> None:
     g = [np.random.default_rng(1), np.random.default_rng(2)]
     assert SegmentedRandom.of([1, 1], g).sizes == (1, 1)
+
+
+@pytest.mark.parametrize("v0, a", [(20.0, 6.0), (5.0, 7.5)])
+def test_a_stop_takes_off_exactly_the_speed(path: str, v0: float, a: float) -> None:
+    """A braked car that stops has had its recorded speed v0 taken off, no more: the
+    reduction is v_rec - v, whatever the deceleration integrated after the stop."""
+    far = line(5000.0, 0.0, 0.0, 0.0)
+    ctl = ScheduledBraking([[T_B, np.nan]], [[a, 0.0]])
+    res = run([(line(0.0, 0.0, 0.0, v0), far)], ctl, params=PrecrashParams(brake=STEP))
+    assert not res.collided[0] and res.end_state.speed[0, 0] == 0.0
+    assert res.speed_reduction[0].tolist() == [v0, 0.0]
+    # into a standing car: stopped before the impact of a car pushed into it later
+    stopped = (line(0.0, 0.0, 0.0, v0), line(v0**2 / (2 * a) + v0 * T_B + 5.0, 0.0, 0.0, 0.0))
+    pusher = line(-60.0, 0.0, 0.0, 25.0, 8.0)  # hits the stopped car from behind
+    res = run([(stopped[0], pusher)], ScheduledBraking([[T_B, np.nan]], [[a, 0.0]]),
+              params=PrecrashParams(brake=STEP))
+    assert res.collided[0] and res.impact_state.speed[0, 0] == 0.0
+    assert res.speed_reduction[0].tolist() == [v0, 0.0]
+    res = run([(stopped[0], pusher)], ScheduledBraking([[T_B, np.nan]], [[a, 0.0]]),
+              params=PrecrashParams(brake=STEP, penetration_time=0.0))
+    assert res.collided[0] and res.speed_reduction[0].tolist() == [v0, 0.0]

@@ -489,7 +489,7 @@ class PrecrashRun(PrecrashCases):
             st_i = kinematics_at(paths, self._d(r), impact_time[r], dv_i, ds_i)
             put_rows(self.impact_state, r, st_i)
             pending[r] = False
-            self.speed_reduction[r] = dv_i
+            self.speed_reduction[r] = self._taken_off(r, impact_time[r], dv_i)
             ended.append(r)
             keep = ~due
             self._keep(keep)
@@ -621,7 +621,7 @@ class PrecrashRun(PrecrashCases):
             put_rows(self.impact_state, r,
                      KinematicState(*np.ascontiguousarray(ev_state[due].transpose(1, 0, 2))))
             self.pending[r] = False
-            self.speed_reduction[r] = ev_f[due, 1:3]
+            self.speed_reduction[r] = self._taken_off(r, self.impact_time[r], ev_f[due, 1:3])
             ended.append(r)
             self._keep(~due)
             tau = tau[~due]
@@ -651,13 +651,23 @@ class PrecrashRun(PrecrashCases):
             ri = r[instant]
             put_rows(self.impact_state, ri, take_state(self.contact_state, ri))
             self.pending[ri] = False
-            self.speed_reduction[ri] = dv_c[instant]
+            self.speed_reduction[ri] = self._taken_off(ri, t_c[instant], dv_c[instant])
+
+    def _taken_off(self, r: np.ndarray, t: np.ndarray, dv: np.ndarray) -> np.ndarray:
+        """Speed taken off the record [m/s] of rows ``r`` at their times ``t`` [s], where the
+        speed reduction integrated so far is ``dv`` (n, 2): min(dv, v_rec(t)) = v_rec - v.
+
+        dv goes on growing while a stopped vehicle stays braked (the vehicle stays at
+        v = max(v_rec - dv, 0) = 0); the speed taken off cannot exceed the recorded speed.
+        """
+        _, v_rec, _, _ = record_pair(self.paths, self._d(r), t, None)
+        return np.minimum(dv, v_rec)
 
     def _close(self, r: np.ndarray, sel: np.ndarray) -> None:
         """End rows ``r`` (= running rows ``sel``) without a collision at the current step."""
         track = self.track
         put_rows(self.end_state, r, take_state(self.state, sel))
-        self.speed_reduction[r] = track.dv[sel]
+        self.speed_reduction[r] = track.gap[sel]  # min(dv, v_rec): the speed taken off
         self.best_time[r] = track.best_time[sel]
         self.best_pose[0, r], self.best_pose[1, r] = track.best_x[sel], track.best_y[sel]
         self.best_pose[2, r] = track.best_yaw[sel]

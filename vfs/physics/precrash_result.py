@@ -54,7 +54,8 @@ class PrecrashResult(NamedTuple):
     brake_start : ndarray (N, 2)
         First time the actuator delivered deceleration [s], NaN if never.
     speed_reduction : ndarray (N, 2)
-        dv at the end: speed taken off the record by braking [m/s].
+        Speed taken off the record by braking [m/s] at the impact (colliding cases) or
+        at the end: v_rec - v, at most the recorded speed (a stopped vehicle: all of it).
     end_state : KinematicState
         Poses and velocities at the end of the simulated horizon for cases
         without a collision (NaN for colliding cases): where a braked

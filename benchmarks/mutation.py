@@ -479,9 +479,11 @@ def test_files(module: str, root: Path = ROOT) -> tuple[list[str], list[str]]:
 
 
 # -- the temporary tree ---------------------------------------------------------------------
-def make_tree(at: str | None = None) -> Path:
+def make_tree(at: str | None = None, tests_at: str | None = None) -> Path:
     """A temporary copy of vfs/ and tests/ (other top-level entries linked): of the working
-    tree, or of commit ``at`` (``git archive``; e.g. the tests before new ones were added).
+    tree, or of commit ``at`` (``git archive``; e.g. the tests before new ones were added);
+    ``tests_at``: tests/ of that commit with the code of the working tree (the "before" of
+    new tests where the code changed meanwhile: the same mutants, the old tests).
     """
     tmp = Path(tempfile.mkdtemp(prefix="vfs-mutation-"))
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".hypothesis")
@@ -492,6 +494,11 @@ def make_tree(at: str | None = None) -> Path:
     else:
         for name in ("vfs", "tests"):
             shutil.copytree(ROOT / name, tmp / name, ignore=ignore)
+    if tests_at:
+        shutil.rmtree(tmp / "tests")
+        archive = subprocess.run(["git", "archive", tests_at, "tests"], cwd=ROOT,
+                                 capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
     for entry in ROOT.iterdir():
         if entry.name in ("vfs", "tests", ".git") or (tmp / entry.name).exists():
             continue
@@ -897,6 +904,8 @@ def main(argv: list[str] | None = None) -> int:
                          "files leave alive")
     ap.add_argument("--at", default=None,
                     help="mutate and test the tree of this commit (default: the working tree)")
+    ap.add_argument("--tests-at", default=None, metavar="COMMIT",
+                    help="the tests of COMMIT with the code of the working tree")
     ap.add_argument("--survivors-of", action="append", default=None, metavar="JSON",
                     help="an earlier report of the same code: run only its survivors, keep "
                          "its kills (tests were only added)")
@@ -939,10 +948,12 @@ def main(argv: list[str] | None = None) -> int:
                             capture_output=True, text=True).stdout.strip()
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     results: dict[str, dict] = {}
-    tree = None if args.list else make_tree(args.at)
+    tree = None if args.list else make_tree(args.at, args.tests_at)
     root = ROOT if tree is None else tree
     if args.at:
         commit = args.at
+    elif args.tests_at:
+        commit += f" (tests of {args.tests_at})"
     if tree is not None:
         _preload()
     try:

@@ -124,6 +124,16 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
         "differs only where k dt equals case_horizon - 1e-9 to the last bit; the 1e-9 is "
         "there to absorb the rounding of k dt, so a horizon on or off the step grid ends at "
         "the same step either way (equivalent within rounding)",
+    ("vfs/physics/precrash.py", "PrecrashRun._settle",
+     "due = pending[rows] & (impact_time[rows] <= tau + 1e-12)", "tau + 1e-12",
+     "(tau - 1e-12)"):
+        "differs only where the impact time lies on the step grid to within 1e-12 s; the row is "
+        "then due one step later with w = 0, i.e. with the reductions of that same grid time, "
+        "so the impact state is the same (equivalent within rounding)",
+    ("vfs/physics/precrash.py", "PrecrashRun._settle_compiled", "rec = np.empty((2, m, 2))",
+     "2", "3"):
+        "the compiled step fills rec[0] and rec[1] only (recorded speed and acceleration); a "
+        "third plane is never read",
     ("vfs/physics/impact.py", "<module>",
      '"m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),',
      "1.0", "2.0"):

@@ -120,6 +120,7 @@ def test_braking_into_a_standing_car_in_closed_form(path: str) -> None:
     assert res.impact_state.x[0, 0] == pytest.approx(travelled(t_i), abs=2e-4)
     assert res.speed_reduction[0, 0] == pytest.approx(A * (t_i - T_B - DT / 2), abs=1e-9)
     assert res.speed_reduction[0, 1] == 0.0
+    assert res.min_distance[0] == 0.0 and res.time_closest[0] == res.contact_time[0]
 
 
 def test_turning_shifting_and_swapping_a_braking_scene(path: str) -> None:
@@ -314,3 +315,11 @@ def test_a_stop_takes_off_exactly_the_speed(path: str, v0: float, a: float) -> N
     res = run([(stopped[0], pusher)], ScheduledBraking([[T_B, np.nan]], [[a, 0.0]]),
               params=PrecrashParams(brake=STEP, penetration_time=0.0))
     assert res.collided[0] and res.speed_reduction[0].tolist() == [v0, 0.0]
+
+
+def test_first_steps_below_zero_are_refused() -> None:
+    args = two_cases()
+    for steps in ([0, -1], [-1, 0], -1):
+        with pytest.raises(ParameterError, match="first_step"):
+            simulate_precrash(*args, first_step=steps)
+    assert simulate_precrash(*args, first_step=[0, 3]).collided.tolist() == [True, False]

@@ -67,6 +67,22 @@ def _md_numbers(record: str, pattern: str) -> Callable[[Path], list[float]]:
     return read
 
 
+MUTATION = ("benchmarks/results/mutation-2026-11-28-second-before.json,"
+            "benchmarks/results/mutation-2026-11-28-second-after.json")
+
+
+def _mutation_row(module: str) -> Callable[[Path], list[float]]:
+    """Rate [%], killed, scored of the before and after records, then the equivalents."""
+    def read(root: Path) -> list[float]:
+        out: list[float] = []
+        for record in MUTATION.split(","):
+            s = json.loads((root / record).read_text())["modules"][module]["summary"]
+            scored = s["mutants"] - s["equivalent"]
+            out += [100.0 * s["all_rate"], s["killed_all"], scored]
+        return out + [s["equivalent"]]
+    return read
+
+
 def _jsonl(record: str) -> list[dict]:
     return [json.loads(line) for line in (ROOT / record).read_text().splitlines() if line]
 
@@ -167,6 +183,11 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
+    Quote("docs/testing.md",
+          rf"^\| vfs/physics/precrash.py \| {NUMBER} % \({NUMBER}/{NUMBER}\) \| {NUMBER} % "
+          rf"\({NUMBER}/{NUMBER}\) \| {NUMBER} \|",
+          MUTATION, _mutation_row("vfs/physics/precrash.py"),
+          "mutation testing: precrash before/after (second pass)"),
 )
 
 

@@ -44,10 +44,12 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
+from vfs.diagnosis.diagnose_spec import Fixed, Parameters
 from vfs.diagnosis.variants import Model, VariantSimulator, stacked_effect
 from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, OutputGroup, difference, from_reconstruction, from_results
+from vfs.settings import member
 from vfs.simulation import CaseBatch
 
 
@@ -309,7 +311,7 @@ class FitSpace:
 
     @classmethod
     def of(cls, effects: Iterable[Effect | type[Effect] | str],
-           parameters: str = "primary", fixed: str = "default") -> FitSpace:
+           parameters: str = Parameters.PRIMARY, fixed: str = Fixed.DEFAULT) -> FitSpace:
         """Space of effects (instances, classes or names); ``parameters`` "primary"
         (the first parameter of each effect) or "all".
 
@@ -319,15 +321,13 @@ class FitSpace:
         switched off, the diagnosis' choice, so that a candidate is not
         penalised for a nominal strength the data do not have).
         """
-        if parameters not in ("primary", "all"):
-            raise ParameterError(f"parameters={parameters!r}; use 'primary' or 'all'")
-        if fixed not in ("default", "neutral"):
-            raise ParameterError(f"fixed={fixed!r}; use 'default' or 'neutral'")
+        parameters = member(Parameters, parameters, owner="FitSpace", name="parameters")
+        fixed = member(Fixed, fixed, owner="FitSpace", name="fixed")
         inst: list[Effect] = []
         for e in effects:
             if isinstance(e, str):
                 e = get_effect(e)
-            if isinstance(e, type) and fixed == "neutral" and parameters == "primary":
+            if isinstance(e, type) and fixed is Fixed.NEUTRAL and parameters is Parameters.PRIMARY:
                 off = {p.name: p.neutral for p in e.parameters[1:] if p.neutral is not None}
                 inst.append(e(**off))
                 continue
@@ -335,12 +335,13 @@ class FitSpace:
         free = []
         for i, e in enumerate(inst):
             n_par = len(type(e).parameters)
-            free += [(i, j) for j in range(n_par if parameters == "all" else min(n_par, 1))]
+            free += [(i, j) for j in range(n_par if parameters is Parameters.ALL
+                                           else min(n_par, 1))]
         return cls(tuple(inst), tuple(free))
 
     @classmethod
     def alternatives(cls, effects: Iterable[Effect | type[Effect] | str],
-                     parameters: str = "primary") -> tuple[FitSpace, ...]:
+                     parameters: str = Parameters.PRIMARY) -> tuple[FitSpace, ...]:
         """The spaces a diagnosis tries for ``effects``.
 
         With ``parameters="primary"``: the parameters that are not fitted at
@@ -350,10 +351,11 @@ class FitSpace:
         space.
         """
         effects = list(effects)
-        if parameters != "primary":
+        if member(Parameters, parameters, owner="FitSpace", name="parameters") \
+                is not Parameters.PRIMARY:
             return (cls.of(effects, parameters),)
-        off = cls.of(effects, parameters, "neutral")
-        nominal = cls.of(effects, parameters, "default")
+        off = cls.of(effects, parameters, Fixed.NEUTRAL)
+        nominal = cls.of(effects, parameters, Fixed.DEFAULT)
         same = all(np.array_equal(a.vector(), b.vector())
                    for a, b in zip(off.effects, nominal.effects, strict=True))
         return (off,) if same else (off, nominal)
@@ -806,7 +808,7 @@ class Calibration:
 
 
 def calibrate(data: CalibrationData, effects: Sequence[Effect | type[Effect] | str],
-              parameters: str = "primary", folds: int = 5, seed: int = 0,
+              parameters: str = Parameters.PRIMARY, folds: int = 5, seed: int = 0,
               cumulative: bool = True, sim: VariantSimulator | None = None,
               **fit_options: Any) -> Calibration:
     """Fit the parameters of ``effects`` jointly on all cases; cross-validate.

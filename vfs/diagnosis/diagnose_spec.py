@@ -31,6 +31,13 @@ class Parameters(StrEnum):
     ALL = "all"
 
 
+class Fixed(StrEnum):
+    """Where the parameters of a library effect that are not fitted stay."""
+
+    DEFAULT = "default"
+    NEUTRAL = "neutral"
+
+
 class Correction(StrEnum):
     """Multiplicity control of the residual-feature associations."""
 
@@ -186,4 +193,4 @@ class DiagnoseSpec:
 
 
 __all__ = ["MAX_STEPS", "MIN_CASES", "MIN_FOLD_CASES", "RANGES", "Correction", "DiagnoseSpec",
-           "Parameters"]
+           "Fixed", "Parameters"]

@@ -55,6 +55,7 @@ from vfs.physics.runout import (
     run_out_pair,
 )
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, member, setting, validate
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -99,14 +100,21 @@ class SimulationParams:
     impact: ImpactParams = field(default_factory=ImpactParams)
     runout: RunoutParams = field(default_factory=RunoutParams)
     effects: tuple[Effect, ...] = ()
-    secondary_collisions: bool = True
-    runout_paths: bool = True
+    secondary_collisions: bool = setting(True, "bool", "flag pairs that touch again in the "
+                                         "run-out (false: a third less run-out cost, none "
+                                         "reported)")
+    runout_paths: bool = setting(True, "bool", "record the run-out's path samples and "
+                                 "kinetic energies (false: empty, every other result the same)")
+
+    #: Rules between the settings.
+    RULES = (Rule(("secondary_collisions", "runout_paths"),
+                  lambda p: p.runout_paths or not p.secondary_collisions,
+                  "runout_paths=False needs secondary_collisions=False: the "
+                  "secondary-collision check follows the run-out paths"),)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", check_effects(self.effects))
-        if not self.runout_paths and self.secondary_collisions:
-            raise ParameterError("runout_paths=False needs secondary_collisions=False: the "
-                                 "secondary-collision check follows the run-out paths")
+        validate(self)
 
 
 class CaseBatch(NamedTuple):
@@ -187,9 +195,8 @@ class CaseBatch(NamedTuple):
             database has them (the others use :class:`ImpactParams`);
             ``"default"`` uses :class:`ImpactParams` for every case.
         """
-        if impact_parameters not in set(ImpactParameterSource):
-            raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
-                                 f"{', '.join(ImpactParameterSource)}")
+        impact_parameters = member(ImpactParameterSource, impact_parameters,
+                                   owner="CaseBatch.from_database", name="impact_parameters")
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories
@@ -206,7 +213,8 @@ class CaseBatch(NamedTuple):
         eps = np.full(ids.shape[0], np.nan)
         mu = eps.copy()
         rec = getattr(sub, "reconstruction", None)
-        if (impact_parameters == "reconstruction" and rec is not None and not rec.empty
+        if (impact_parameters is ImpactParameterSource.RECONSTRUCTION and rec is not None
+                and not rec.empty
                 and {"restitution", "contact_friction"} <= set(rec.columns)):
             r = rec.drop_duplicates("case_id").set_index("case_id").reindex(ids)
             eps = r["restitution"].to_numpy(float)

@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
-from vfs.diagnosis.diagnose_spec import Fixed, Parameters
+from vfs.diagnosis.choices import Fixed, Parameters
 from vfs.diagnosis.variants import Model, VariantSimulator, stacked_effect
 from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError

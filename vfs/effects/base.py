@@ -50,10 +50,12 @@ from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 
+from vfs.catalog import QUANTITY_UNITS
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, SettingProblem, SettingsError
 from vfs.physics.impact import ImpactConfig, ImpactResult, add_vehicle_aliases
 from vfs.registry import Registry
+from vfs.settings import Setting
 
 #: Simulation stages an effect can hook into, in the order they run.
 STAGES: tuple[str, ...] = (
@@ -63,6 +65,11 @@ STAGES: tuple[str, ...] = (
 
 #: Entry-point group through which other packages register effects.
 ENTRY_POINT_GROUP = "vfs.effects"
+
+
+#: The quantity (:data:`vfs.catalog.QUANTITY_UNITS`) of a parameter's SI unit label.
+_QUANTITY_OF_UNIT = {u.label: q for q, units in QUANTITY_UNITS.items() for u in units
+                     if u.to_si(2.0) == 2.0 and q != "degrees"}
 
 
 @dataclass(frozen=True)
@@ -95,23 +102,32 @@ class EffectParameter:
     neutral: float | None = None
 
     def __post_init__(self) -> None:
-        if not (self.lo <= self.default <= self.hi):
-            raise ParameterError(
-                f"parameter {self.name}: default {self.default} outside [{self.lo}, {self.hi}]")
+        self.check("EffectParameter", self.default)
+
+    @property
+    def setting(self) -> Setting:
+        """The parameter as a declared setting (:mod:`vfs.settings`): its checks, its
+        allowed range and the tables of the documentation come from it.
+        """
+        return Setting(_QUANTITY_OF_UNIT.get(self.unit, "ratio"), self.description,
+                       lo=self.lo, hi=self.hi, name=self.name, default=self.default)
 
     def check(self, effect: str, value: object) -> float:
-        """Validate a value; return it as float or raise :class:`ParameterError`."""
-        try:
-            v = float(value)  # type: ignore[arg-type]
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"effect {effect}: {self.name}={value!r} is not a number "
-                f"(allowed [{self.lo:g}, {self.hi:g}] {self.unit})") from None
-        if not (math.isfinite(v) and self.lo <= v <= self.hi):
-            raise ParameterError(
-                f"effect {effect}: {self.name}={v:g} outside the allowed range "
-                f"[{self.lo:g}, {self.hi:g}] {self.unit}")
-        return v
+        """Validate a value; return it as float or raise :class:`vfs.errors.SettingsError`
+        (``effect.parameter: value is out of range (allowed: [lo, hi] unit)``).
+        """
+        s = self.setting
+        if isinstance(value, str):  # NAME:PARAM=VALUE of a command line
+            try:
+                value = float(value)
+            except ValueError:
+                pass  # reported as not a number
+        problem = s.problem(value)
+        if problem is None and not math.isfinite(float(value)):  # type: ignore[arg-type]
+            problem = "is out of range"
+        if problem is not None:
+            raise SettingsError(SettingProblem(effect, self.name, value, problem, s.allowed()))
+        return float(value)  # type: ignore[arg-type]
 
 
 class VelocityChange(NamedTuple):

@@ -373,3 +373,69 @@ def test_no_cli_default_repeats_a_declared_default() -> None:
         "    p.add_argument('--seed', type=int, default=0)\n"
         "    r.add_argument('--seed', type=int, default=0)\n")}
     assert _cli_default_copies(planted, classes) == ["vfs/cli/planted.py:4: --seed"]
+
+
+# ----------------------------------------------------------------------------
+# Derived forms: the documentation tables and the command line
+# ----------------------------------------------------------------------------
+
+def test_the_docs_tables_are_the_ones_derived_from_the_declarations() -> None:
+    from vfs.cli.settings_docs import BLOCKS, PAGES
+    from vfs.database.docs import stale_blocks
+
+    root = PACKAGE.parent
+    held = set()
+    for page in PAGES:
+        assert stale_blocks(root / page, BLOCKS) == [], \
+            f"run: python -m vfs.cli.settings_docs ({page})"
+        held |= {name for name in BLOCKS if f"BEGIN GENERATED {name}" in
+                 (root / page).read_text(encoding="utf-8")}
+    assert held == set(BLOCKS)
+
+
+def test_a_stale_table_is_found(tmp_path: Path) -> None:
+    from vfs.cli.settings_docs import BLOCKS
+    from vfs.database.docs import stale_blocks
+
+    page = tmp_path / "page.md"
+    page.write_text("<!-- BEGIN GENERATED study-settings -->\n| old |\n"
+                    "<!-- END GENERATED study-settings -->\n", encoding="utf-8")
+    assert stale_blocks(page, BLOCKS) == ["study-settings"]
+
+
+def test_the_flags_are_derived_from_the_declarations() -> None:
+    from vfs.cli import build_parser
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
+    from vfs.study.spec import StudySpec
+
+    parser = build_parser()
+    study = parser.parse_args(["study", "--db", "default", "--systems", "ideal"])
+    spec = declared(StudySpec)
+    assert (study.chunk_size, study.task_cases, study.seed, study.engine) == (
+        spec["chunk_size"].default, spec["task_cases"].default, spec["seed"].default,
+        spec["engine"].default)
+    diagnose = parser.parse_args(["diagnose", "--db", "default"])
+    d = declared(DiagnoseSpec)
+    assert (diagnose.alpha, diagnose.worst, diagnose.correction, diagnose.parameters) == (
+        d["alpha"].default, d["worst"].default, "bh", "primary")
+    with pytest.raises(SystemExit):
+        parser.parse_args(["diagnose", "--db", "default", "--correction", "bonferroni"])
+
+
+@pytest.mark.parametrize("command", ["compare", "study"])
+def test_impact_parameters_one_spelling_the_old_one_with_a_warning(command: str) -> None:
+    from vfs.cli import build_parser
+
+    parser = build_parser()
+    extra = ["--systems", "ideal"] if command == "study" else []
+    args = parser.parse_args([command, "--db", "default", *extra, "--impact-parameters",
+                              "default"])
+    assert args.impact_parameters == "default"
+    with pytest.warns(FutureWarning, match="use --impact-parameters default"):
+        old = parser.parse_args([command, "--db", "default", *extra,
+                                 "--impact-parameters", "defaults"])
+    assert old.impact_parameters == "default"
+    with pytest.raises(SystemExit):
+        parser.parse_args([command, "--db", "default", *extra, "--impact-parameters", "x"])
+    default = parser.parse_args([command, "--db", "default", *extra]).impact_parameters
+    assert default == ("default" if command == "compare" else "reconstruction")

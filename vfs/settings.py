@@ -351,6 +351,8 @@ def _default_text(s: Setting, unit: Unit) -> str:
         return "absent"
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, StrEnum):
+        return repr(value.value)
     if isinstance(value, str):
         return repr(value)
     if isinstance(value, int | float):

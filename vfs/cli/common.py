@@ -273,8 +273,9 @@ def impact_parameter_source(text: str) -> str:
     """
     if text in IMPACT_PARAMETERS_ALIASES:
         new = IMPACT_PARAMETERS_ALIASES[text]
-        warnings.warn(f"--impact-parameters {text} is deprecated and will be removed; "
-                      f"use --impact-parameters {new}", FutureWarning, stacklevel=2)
+        warnings.warn_explicit(f"--impact-parameters {text} is deprecated and will be "
+                               f"removed; use --impact-parameters {new}", FutureWarning,
+                               filename="vfs", lineno=0)
         return new
     return text
 

@@ -11,7 +11,12 @@ Measures, from the syntax trees of ``ROOT/vfs`` (nothing is imported from that t
   statements that write it: statements naming the setting (an attribute, a keyword or a
   string: the attribute name or one of its definition-file keys) together with the bound's
   number in one of the units a file may use.  Counted in the whole package, the declaration
-  included, so 1 is the ideal.
+  included, so 1 is the ideal (0: no such bound in that tree, or one the search misses);
+* the same for the bounds and numeric defaults of the settings declared in the second part
+  (pre-crash parameters, the study and diagnosis specs, the uncertainty model settings): an
+  upper bound, since a statement of another setting of the same name and value counts too
+  (``RunoutParams.dt``, the ``confidence`` of a bootstrap); tests/test_settings.py binds a
+  number to its name (keyword, key, comparison) and finds no copy.
 
 Usage::
 
@@ -33,10 +38,16 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from vfs.adas.params import AEBParams, DriverParams, SensorParams  # noqa: E402
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec  # noqa: E402
 from vfs.physics.braking import BrakeActuatorParams  # noqa: E402
+from vfs.physics.precrash import PrecrashParams  # noqa: E402
 from vfs.settings import declared  # noqa: E402
+from vfs.study.spec import StudySpec  # noqa: E402
+from vfs.uncertainty.config import UncertaintyConfig  # noqa: E402
 
 AEB_CLASSES = (SensorParams, AEBParams, DriverParams, BrakeActuatorParams)
+#: The settings declared in the second part of the issue (bounds and numeric defaults).
+OTHER_CLASSES = (PrecrashParams, StudySpec, DiagnoseSpec, UncertaintyConfig)
 #: Numbers too common to identify a bound.
 TRIVIAL = {0.0, 1.0, -1.0}
 
@@ -148,20 +159,6 @@ def census(root: Path) -> dict[str, Any]:
     constants = _constants(trees)
     statements = [_names_numbers(s, constants, f"{path}:{s.lineno}")
                   for path, (tree, _) in trees.items() for s in _statements(tree)]
-    bounds = {}
-    for cls in AEB_CLASSES:
-        for name, s in declared(cls).items():
-            field = s.field()
-            keys = {name, *field.keys()}
-            for label, value in (("lo", s.lo), ("hi", s.hi)):
-                if not math.isfinite(value):
-                    continue
-                forms = {round(u.from_si(value), 9) for u in field.units()} - TRIVIAL
-                if not forms:
-                    continue
-                places = sorted({w for names, numbers in statements if names & keys
-                                 for x in forms & numbers.keys() for w in numbers[x]})
-                bounds[f"{cls.__name__}.{name}.{label}={value:g}"] = places
     return {"root": str(root), "modules": len(trees),
             "largest_module": {"path": largest[0], "lines": largest[1][1]},
             "longest_parameter_lists": [{"function": f, "parameters": n}
@@ -169,8 +166,33 @@ def census(root: Path) -> dict[str, Any]:
             "longest_public_parameter_lists": [
                 {"function": f, "parameters": n}
                 for n, f in [p for p in params if not p[1].split()[-1].startswith("_")][:3]],
-            "aeb_bound_places": {k: len(v) for k, v in bounds.items()},
-            "aeb_bound_where": bounds}
+            **_places(statements, AEB_CLASSES, "aeb_bound", defaults=False),
+            **_places(statements, OTHER_CLASSES, "other_setting", defaults=True)}
+
+
+def _places(statements: list[tuple[set[str], dict[float, set[str]]]], classes: tuple[Any, ...],
+            label: str, *, defaults: bool) -> dict[str, Any]:
+    """Where each bound (and numeric default) of the settings of ``classes`` is written."""
+    bounds = {}
+    for cls in classes:
+        for name, s in declared(cls).items():
+            field = s.field()
+            keys = {name, *field.keys()}
+            values = [("lo", s.lo), ("hi", s.hi)]
+            if defaults and isinstance(s.default, int | float) \
+                    and not isinstance(s.default, bool):
+                values.append(("default", float(s.default)))
+            for label_, value in values:
+                if not math.isfinite(value):
+                    continue
+                forms = {round(u.from_si(value), 9) for u in field.units()} - TRIVIAL
+                if not forms:
+                    continue
+                places = sorted({w for names, numbers in statements if names & keys
+                                 for x in forms & numbers.keys() for w in numbers[x]})
+                bounds[f"{cls.__name__}.{name}.{label_}={value:g}"] = places
+    return {f"{label}_places": {k: len(v) for k, v in bounds.items()},
+            f"{label}_where": bounds}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -184,10 +206,6 @@ def main(argv: list[str] | None = None) -> int:
     labels = args.label + [str(r) for r in args.roots[len(args.label):]]
     results = [census(r) | {"label": lab} for r, lab in zip(args.roots, labels, strict=True)]
     for r in results:
-        counts = r["aeb_bound_places"]
-        hist: dict[int, int] = {}
-        for c in counts.values():
-            hist[c] = hist.get(c, 0) + 1
         print(f"== {r['label']}")
         print(f"largest module: {r['largest_module']['path']} "
               f"({r['largest_module']['lines']} lines)")
@@ -195,11 +213,17 @@ def main(argv: list[str] | None = None) -> int:
             print(f"parameters: {p['parameters']:3d}  {p['function']}")
         for p in r["longest_public_parameter_lists"]:
             print(f"parameters (public): {p['parameters']:3d}  {p['function']}")
-        print(f"AEB bounds: {len(counts)}; places per bound: "
-              + ", ".join(f"{n} place(s): {k} bounds" for n, k in sorted(hist.items()))
-              + f"; most: {max(counts.values())}; total {sum(counts.values())}")
-        for k, c in counts.items():
-            print(f"  {c}  {k}")
+        for what, key in (("AEB bounds", "aeb_bound"),
+                          ("other settings' bounds and defaults", "other_setting")):
+            counts = r[f"{key}_places"]
+            hist: dict[int, int] = {}
+            for c in counts.values():
+                hist[c] = hist.get(c, 0) + 1
+            print(f"{what}: {len(counts)}; places per value: "
+                  + ", ".join(f"{n} place(s): {k}" for n, k in sorted(hist.items()))
+                  + f"; most: {max(counts.values())}; total {sum(counts.values())}")
+            for k, c in counts.items():
+                print(f"  {c}  {k}")
     if args.json:
         args.json.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     return 0

@@ -247,6 +247,41 @@ def _bound_copies(trees: dict[str, ast.Module], declarations: list[Declaration])
     return sorted(set(found))
 
 
+def _function_default_copies(trees: dict[str, ast.Module], classes: list[type]) -> list[str]:
+    """Functions of a module that holds or imports a declaring class, in its subpackage
+    (``vfs/diagnosis`` for :class:`DiagnoseSpec`), whose parameter of a setting's name has
+    its declared default written as a number (``grid_points: int = 9``;
+    ``= DiagnoseSpec.grid_points`` is derived).  Parameters of the same name elsewhere
+    (a bootstrap's ``confidence=0.95``, the law learning's own ``folds``) are other
+    settings.
+    """
+    found = []
+    for cls in classes:
+        package = "/".join(cls.__module__.split(".")[:2])  # vfs/diagnosis, vfs/simulation
+        defaults = {name: float(s.default) for name, s in declared(cls).items()
+                    if isinstance(s.default, int | float) and not isinstance(s.default, bool)
+                    and float(s.default) not in _TRIVIAL}
+        for path, tree in trees.items():
+            knows = any(isinstance(n, ast.ImportFrom | ast.ClassDef) and cls.__name__ in (
+                [a.name for a in n.names] if isinstance(n, ast.ImportFrom) else [n.name])
+                for n in ast.walk(tree))
+            if not path.removesuffix(".py").startswith(package) or not knows:
+                continue
+            for f in ast.walk(tree):
+                if not isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef):
+                    continue
+                a = f.args
+                pos = a.posonlyargs + a.args
+                pairs = [*zip(pos[len(pos) - len(a.defaults):], a.defaults, strict=True),
+                         *((k, d) for k, d in zip(a.kwonlyargs, a.kw_defaults, strict=True)
+                           if d is not None)]
+                for arg, d in pairs:
+                    if arg.arg in defaults and defaults[arg.arg] in _numbers(d):
+                        found.append(f"{path}:{f.lineno}: {f.name}({arg.arg}=...) "
+                                     f"{cls.__name__}.{arg.arg}")
+    return sorted(found)
+
+
 def _choice_copies(trees: dict[str, ast.Module], enums: dict[str, set[str]]) -> list[str]:
     found = []
     for path, tree in trees.items():
@@ -269,6 +304,7 @@ def test_no_bound_or_default_of_a_setting_stands_in_two_places() -> None:
     assert {"SensorParams", "PrecrashParams", "StudySpec", "DiagnoseSpec", "Channel",
             "restitution_speed"} <= owners
     found = _bound_copies(trees, declarations)
+    found += _function_default_copies(trees, _declaring_classes(trees))
     assert not found, "bounds/defaults written again:\n" + "\n".join(found)
 
 

@@ -45,11 +45,12 @@ import pandas as pd
 
 from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
 from vfs.diagnosis.choices import Fixed, Parameters
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.diagnosis.variants import Model, VariantSimulator, stacked_effect
 from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, OutputGroup, difference, from_reconstruction, from_results
-from vfs.settings import member
+from vfs.settings import declared, member
 from vfs.simulation import CaseBatch
 
 
@@ -419,7 +420,8 @@ FitGenerator = Generator[list[Model], list[np.ndarray], FitResult]
 
 
 def fit_steps(data: CalibrationData, space: FitSpace, train: Sequence[np.ndarray],
-              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              grid_points: int = DiagnoseSpec.grid_points,
+              zoom_rounds: int = DiagnoseSpec.zoom_rounds, passes: int | None = None,
               polish: bool = True, weights: np.ndarray | None = None) -> FitGenerator:
     """The search of :func:`fit_folds` as a generator.
 
@@ -428,8 +430,9 @@ def fit_steps(data: CalibrationData, space: FitSpace, train: Sequence[np.ndarray
     (``StopIteration.value``) is the :class:`FitResult`.  :func:`run_fits`
     drives several of them so that their requests share simulation calls.
     """
-    if grid_points < 3:
-        raise ParameterError("grid_points must be >= 3")
+    low = declared(DiagnoseSpec)["grid_points"].lo
+    if grid_points < low:
+        raise ParameterError(f"grid_points must be >= {low:g}")
     n_free = len(space.free)
     folds = len(train)
     x = np.tile(space.start(), (folds, 1))
@@ -540,7 +543,8 @@ def run_fits(sim: VariantSimulator, gens: Sequence[FitGenerator]) -> list[FitRes
 
 
 def fit_folds(sim: VariantSimulator, space: FitSpace, train: Sequence[np.ndarray],
-              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              grid_points: int = DiagnoseSpec.grid_points,
+              zoom_rounds: int = DiagnoseSpec.zoom_rounds, passes: int | None = None,
               polish: bool = True, weights: np.ndarray | None = None) -> FitResult:
     """Fit the free parameters of ``space`` for each set of training rows.
 
@@ -754,7 +758,8 @@ def _reduction_statistic(group: int | None, weights: np.ndarray | None
 
 
 def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
-                 group: int | None = None, confidence: float = 0.95, n_boot: int = 2000,
+                 group: int | None = None, confidence: float = DiagnoseSpec.confidence,
+                 n_boot: int = DiagnoseSpec.n_boot,
                  weights: np.ndarray | None = None) -> tuple[float, float, float]:
     """RMSE reduction with a percentile bootstrap CI over cases (paired).
 
@@ -808,7 +813,8 @@ class Calibration:
 
 
 def calibrate(data: CalibrationData, effects: Sequence[Effect | type[Effect] | str],
-              parameters: str = Parameters.PRIMARY, folds: int = 5, seed: int = 0,
+              parameters: str = Parameters.PRIMARY, folds: int = DiagnoseSpec.folds,
+              seed: int = DiagnoseSpec.seed,
               cumulative: bool = True, sim: VariantSimulator | None = None,
               **fit_options: Any) -> Calibration:
     """Fit the parameters of ``effects`` jointly on all cases; cross-validate.

@@ -177,7 +177,7 @@ def residual_variables(data: CalibrationData, residuals: np.ndarray) -> pd.DataF
 
 
 def residual_associations(variables: pd.DataFrame, features: pd.DataFrame,
-                          correction: str = Correction.BH, alpha: float = 0.05,
+                          correction: str = Correction.BH, alpha: float = DiagnoseSpec.alpha,
                           min_cases: int = 10) -> pd.DataFrame:
     """Association of each residual with each case feature, with multiplicity control.
 

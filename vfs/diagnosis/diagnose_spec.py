@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from vfs.diagnosis.choices import Correction, Fixed, Parameters
+from vfs.diagnosis.choices import Correction, Fixed, Parameters, parse_channels
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.settings import setting, validate
 
@@ -42,10 +42,8 @@ def _names(value: str | Iterable[str] | None) -> tuple[str, ...] | None:
 
 def _channels(value: str | Iterable[str] | None) -> tuple[str, ...]:
     """Channels to learn: None / "" / "none" none; "all" the channels
-    :func:`vfs.diagnosis.identify.parse_channels` identifies by default.
+    :func:`vfs.diagnosis.choices.parse_channels` identifies by default.
     """
-    from vfs.diagnosis.identify import parse_channels
-
     if value is None or (isinstance(value, str) and value.strip() in ("", "none")):
         return ()
     return parse_channels(value)

@@ -23,7 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
 #: New channels and a constant value to hide (inside the range, away from the model's).
 NEW_CHANNELS = {"yaw_inertia_factor": 0.7, "tyre_impulse": 1.0, "runout_brake1": 0.4,
-                "runout_brake2": 0.55, "runout_brake": 0.3, "corner_brake": 0.1}
+                "runout_brake2": 0.55, "runout_brake": 0.3, "corner_brake": 0.1,
+                "runout_steer1": 0.3, "runout_steer2": -0.3, "runout_steer": 0.25}
 
 #: Probability that a one-sigma interval covers the truth.
 ONE_SIGMA = math.erf(1.0 / math.sqrt(2.0))
@@ -59,7 +60,8 @@ def test_neutral_value_leaves_results_bit_identical(channel):
     db, _ = generate_database("default", n_cases=12, seed=4, hidden=())
     batch = CaseBatch.from_database(db)
     neutral = {"yaw_inertia_factor": 1.0, "tyre_impulse": 0.0, "runout_brake1": 0.8,
-               "runout_brake2": 0.8, "runout_brake": 0.8, "corner_brake": 0.8}[channel]
+               "runout_brake2": 0.8, "runout_brake": 0.8, "corner_brake": 0.8,
+               "runout_steer1": 0.0, "runout_steer2": 0.0, "runout_steer": 0.0}[channel]
     base = results_table(batch, simulate_cases(batch))
     law = SimulationParams(effects=(constant_law(channel, neutral),))
     other = results_table(batch, simulate_cases(batch, params=law))

@@ -179,6 +179,19 @@ def _run_brakes(post: PostImpactInputs | None, rows: np.ndarray, sampled: np.nda
     return np.where(given[:, None], shifted, plain)
 
 
+def _run_wheels(post: PostImpactInputs | None, rows: np.ndarray, steer1: np.ndarray,
+                steer2: np.ndarray) -> PostImpactInputs | None:
+    """The run-out inputs beyond the brakes of the runs: the case's drag per wheel and
+    steering onset (where the data give them) and the sampled steer angles [rad] (their
+    nominal value is the data's, :func:`vfs.uncertainty.sampling.nominal_inputs`); None
+    when nothing steers or drags (the run-out without wheel inputs, bit for bit the same).
+    """
+    if post is None and not (np.any(steer1 != 0.0) or np.any(steer2 != 0.0)):
+        return None
+    sub = PostImpactInputs.unknown(rows.shape[0]) if post is None else post.take(rows)
+    return sub.with_steer(1, steer1).with_steer(2, steer2)
+
+
 def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                     params: SimulationParams, post: PostImpactInputs | None = None,
                     nominal_brake: float = 0.8) -> ModelRuns:
@@ -247,7 +260,7 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                       _run_brakes(post, rows, col["wheel_brake1"], nominal_brake, 1),
                       _run_brakes(post, rows, col["wheel_brake2"], nominal_brake, 2),
                       secondary_collisions=False,
-                      post_impact=None if post is None else post.take(rows))
+                      post_impact=_run_wheels(post, rows, col["steer1"], col["steer2"]))
     columns: dict[str, np.ndarray] = {"energy_loss": res.energy_loss,
                                       "closing_speed": res.closing_speed}
     for i in (1, 2):

@@ -97,3 +97,52 @@ def test_steer_bands_cover_the_truth_under_the_default_uncertainties():
             widths.append(row["p95"] - row["p5"])
     assert np.mean(inside) >= 0.75, (inside, truth[:n])
     assert np.median(widths) < 0.75, widths
+
+
+def test_the_impact_corner_wheel_is_recovered_with_the_other_inputs_known():
+    # clean cases whose impact-corner wheels rolled free-ish at 0.2 (the other wheels at
+    # 0.8): the corner input (the corner wheel's factor over its car's) is -0.6 for both
+    # cars; its band holds it and the optimum is near it.  With the input at 0 (the default)
+    # the model is the one without it: the rest poses of a run at the nominal inputs do not
+    # change when the input is listed but fixed
+    from vfs.uncertainty.model import evaluate
+    from vfs.uncertainty.sampling import nominal_inputs
+
+    truth_law = law_effect_class({"name": "truth_corner", "channel": "corner_brake",
+                                  "feature": "closing_speed", "form": "constant",
+                                  "coefficients": [0.2]})()
+    db, _ = generate_database("clean", n_cases=5, seed=6, hidden=(truth_law,))
+    cases = CaseSet.from_database(db)
+    known = Distribution("fixed", "offset")
+    prior = Distribution("uniform", "absolute", low=-0.8, high=0.2)
+    cfg = default_config().with_inputs(
+        **{n: known for n in INPUT_NAMES if n not in ("corner_brake1", "corner_brake2",
+                                                       "wheel_brake1", "wheel_brake2")},
+        wheel_brake1=Distribution("fixed", "absolute", value=0.8),
+        wheel_brake2=Distribution("fixed", "absolute", value=0.8),
+        corner_brake1=prior, corner_brake2=prior)
+    near = Distribution("uniform", "factor", low=0.99, high=1.01)
+    settings = dataclasses.replace(FAST, speed1=near, speed2=near)
+    errors = []
+    for j in range(3):
+        rec = reconstruct(cases, cases.case_id[j], config=cfg, observation=OBS,
+                          settings=settings, seed=j)
+        band = rec.band.set_index("quantity")
+        for i in (1, 2):
+            row = band.loc[f"corner_brake{i}"]
+            assert row["min"] <= -0.6 <= row["max"], (j, i, dict(row))
+            errors.append(abs(rec.optimum.inputs[f"corner_brake{i}"] + 0.6))
+    assert np.median(errors) < 0.1, errors
+    # the default (0) leaves the model as it was: a run with a corner value differs
+    x = nominal_inputs(cases, default_config()).T
+    rows = np.arange(cases.size)
+    from vfs.uncertainty.sampling import SampledInputs
+
+    none = np.zeros(len(INPUT_NAMES), dtype=int)
+    base = evaluate(cases, SampledInputs(rows, x, none), default_config())
+    k = INPUT_NAMES.index("corner_brake1")
+    x2 = x.copy()
+    x2[:, k] = 0.2
+    moved = evaluate(cases, SampledInputs(rows, x2, none), default_config())
+    assert np.abs(moved.outcomes["rest_x1"] - base.outcomes["rest_x1"]).max() > 0.01
+    np.testing.assert_array_equal(moved.outcomes["rest_x2"], base.outcomes["rest_x2"])

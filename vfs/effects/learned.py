@@ -38,6 +38,7 @@ from vfs.physics.impact import ImpactConfig, ImpactResult, contact_frame, energy
 from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.precrash import PrecrashParams
 from vfs.physics.runout import wheel_positions
+from vfs.physics.vehicle import VehicleArrays
 
 
 @dataclass(frozen=True)
@@ -421,13 +422,21 @@ def poi_in_vehicle_frames(config: ImpactConfig) -> np.ndarray:
 def impact_corner_wheels(ctx: ImpactContext, config: ImpactConfig
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Index (0-3: FL, FR, RL, RR) of the wheel nearest the point of impact of vehicle 1
+    and of vehicle 2 per case (:func:`corner_wheels` of the context's vehicles).
+    """
+    return corner_wheels(ctx.vehicle1, ctx.vehicle2, config)
+
+
+def corner_wheels(vehicle1: VehicleArrays, vehicle2: VehicleArrays, config: ImpactConfig
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Index (0-3: FL, FR, RL, RR) of the wheel nearest the point of impact of vehicle 1
     and of vehicle 2 per case: the POI taken into each vehicle's frame (x forward, y
     left, origin at the CG) against the wheel contact points of
     :func:`vfs.physics.runout.wheel_positions`.
     """
     out = []
     poi = poi_in_vehicle_frames(config)
-    for j, veh in enumerate((ctx.vehicle1, ctx.vehicle2)):
+    for j, veh in enumerate((vehicle1, vehicle2)):
         local = poi[:, j]  # (n, 2)
         wheels = wheel_positions(veh)  # (n, 4, 2)
         out.append(np.argmin(np.sum((wheels - local[:, None, :]) ** 2, axis=-1), axis=1))
@@ -511,5 +520,6 @@ def finite(x: float) -> bool:
 
 __all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "MAX_LAW_STEER",
            "RUNOUT_CHANNELS", "STEER_CHANNELS", "Channel", "ChannelLaw", "check_law",
-           "evaluate_law", "feature_values", "impact_corner_wheels", "impact_sides",
-           "law_effect_class", "law_text", "normal_closing_speed", "poi_in_vehicle_frames"]
+           "corner_wheels", "evaluate_law", "feature_values", "impact_corner_wheels",
+           "impact_sides", "law_effect_class", "law_text", "normal_closing_speed",
+           "poi_in_vehicle_frames"]

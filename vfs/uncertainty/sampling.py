@@ -159,6 +159,7 @@ def nominal_inputs(cases: CaseSet, config: UncertaintyConfig) -> np.ndarray:
         "mass1": c.m[:, 0], "mass2": c.m[:, 1],
         "wheel_brake1": np.full(n, config.wheel_brake),
         "wheel_brake2": np.full(n, config.wheel_brake),
+        "corner_brake1": np.zeros(n), "corner_brake2": np.zeros(n),
         "steer1": steer[:, 0], "steer2": steer[:, 1],
     }
     return np.stack([np.asarray(rows[name], float) for name in INPUT_NAMES])

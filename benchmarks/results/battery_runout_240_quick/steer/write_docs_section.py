@@ -30,19 +30,57 @@ rec_text = ""
 if REC.exists():
     m = json.loads(REC.read_text())["summary"]
     k, d = m["known"], m["default"]
+    rows = json.loads(REC.read_text())["rows"]
+    flat = [r for r in rows if r["setting"] == "known" and r["p95"] - r["p5"] > 0.9]
+    flat_text = "".join(
+        f"; the largest error is case {r['case']}, car {r['vehicle']}, whose 5-95 % band spans "
+        f"{r['p5']:.2f} to {r['p95']:.2f} rad, the prior: that car's rest pose does not tell "
+        "its steer angle, and the band says so" for r in flat[:1])
     rec_text = (
         "**Reconstructing the steer angles** (`benchmarks/reconstruct_steer.py`, record "
         "`benchmarks/results/reconstruct_steer/`): clean cases steered by 0.3 rad towards each "
         f"car's impact side.  Every other input known: the feasible range holds the truth in "
         f"{k['range_covers']} of {k['pairs']} (case, car) pairs, the median error of the "
         f"optimum is {k['median_abs_error_rad']:.3f} rad (largest {k['max_abs_error_rad']:.3f}), "
-        f"the median 5-95 % band {k['median_band_width_rad']:.2f} rad wide.  Under the default "
+        f"the median 5-95 % band {k['median_band_width_rad']:.2f} rad wide{flat_text}.  "
+        "Under the default "
         f"uncertainties (the brakes known): the range holds it in {d['range_covers']} of "
         f"{d['pairs']}, the 5-95 % band in {d['band_5_95_covers']}; median error "
         f"{d['median_abs_error_rad']:.3f} rad (largest {d['max_abs_error_rad']:.3f}), median "
         f"band {d['median_band_width_rad']:.2f} rad (the prior's: 1.08 rad): with the speeds and "
         "the friction free, a rest pose is reached by more than one steer angle.\n\n")
-NOTES = (R / "notes.md").read_text().strip() + "\n\n" if (R / "notes.md").exists() else ""
+
+
+def records(part, name):
+    """The judged records of one part by entry id."""
+    p = R / part / name
+    return {r["id"]: r for r in (json.loads(x) for x in p.read_text().splitlines()
+                                 if x.strip())} if p.exists() else {}
+
+
+steer = records(".", "battery_steer.jsonl")
+held = records("held4", "battery_held_out_4.jsonl")
+NOTES = ""
+if steer and held:
+    bell = steer["steer_both_side_bell"]
+    h = held["steer1_overlap_sat"]
+    law = h["first_sentence"].split(": ", 2)[-1].split(" (learned")[0]
+    NOTES = (
+        "Every target holds on the steer part and its held-out law: the first sentence names "
+        "the hidden steer law in each single and in the pair, both hidden laws of the pair "
+        "are claimed, nothing absent is claimed, the null claims nothing, and each claimed "
+        "answer reaches, rounded, "
+        f"{min(r['share_of_truth'] for r in [*steer.values(), h]) * 100:.0f} % of the "
+        "truth's own reduction.  The shared law `steer_both_side_bell` is the weakest: "
+        f"the truth itself removes {bell['truth_reduction'] * 100:.0f} % of the default "
+        "model's cross-validated error (it acts in side impacts only; the rest is the "
+        "database's measurement noise, which the truth keeps).  The held-out law was "
+        f"learned in closed form: `{law}` against the hidden "
+        "-0.3 rad (1 - exp(-overlap / 0.25)).  The regression check gives the run-out "
+        "singles the same verdicts, claims and reductions with the three steer channels "
+        "present as without them.  Not tested: a steering onset as a channel (a steer law "
+        "sets the angle from the separation on), steer laws of a feature that is itself "
+        "signed.\n\n")
 sec = f"""{start}
 ### The steer part (issue 36, "steering after impact")
 
@@ -53,8 +91,8 @@ harder crashes (`runout_steer2`), both cars' wheels turned towards their impact 
 side impacts (`runout_steer`, a bell of the impact angle at 90 deg), the first paired with
 the restitution law `eps_bell`; held out, vehicle 1's wheels turned away by up to 0.3 rad
 with the overlap.  240 cases drawn per database, `--quick`, every library effect and all
-sixteen channels, on the project's shared 2-core machine under load (load average 9-14:
-the wall times are several times the CPU times; diagnose CPU {lo:.0f}-{hi:.0f} s per
+sixteen channels, on the project's shared 2-core machine with other sessions running (the
+wall times are several times the CPU times; diagnose CPU {lo:.0f}-{hi:.0f} s per
 database).  The held-out part was started once, after the singles had finished and while the
 pair ran, with no change to the diagnosis in between.  Records:
 `benchmarks/results/battery_runout_240_quick/steer/`.

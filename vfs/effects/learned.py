@@ -4,9 +4,11 @@ A *channel* is a quantity of the model that an effect can move
 (:data:`CHANNELS`): the restitution, the contact friction, the POI shift
 along / across the contact plane, the turn of the contact plane, the
 penetration time, the EES stiffness ratio, a factor on the yaw inertias,
-the speed the tyres take from each vehicle during the contact phase, and
-the run-out brake factor of each vehicle (:data:`CHANNEL_OUTPUTS`: the
-outcomes each moves).  A *law* sets a channel per
+the speed the tyres take from each vehicle during the contact phase, the
+run-out brake factors (per vehicle, both vehicles, the impact-corner wheel) and
+the run-out front-wheel steer angle (per vehicle or both, signed towards the
+impact side: :func:`impact_sides`) (:data:`CHANNEL_OUTPUTS`: the outcomes each
+moves).  A *law* sets a channel per
 case from a *feature* of the case at impact (:data:`LAW_FEATURES`) by a
 closed form (:data:`FORMS`) or a tabulated curve (linear interpolation,
 held constant outside the table).

@@ -35,13 +35,21 @@ contact_impulse       ``contact_impulse(ctx, config, result) -> VelocityChange``
                       arrays, vehicle axis 1)
 energy_split          ``energy_split(ctx, config, result, e1, e2) -> (e1, e2)``:
                       deformation energies [J] behind the EES
-post_impact           ``post_impact(ctx, config, result, b1, b2) -> (b1, b2)``:
-                      wheel brake factors (N, 4) for the run-out
+post_impact           ``post_impact(ctx, config, result, inputs) -> inputs``:
+                      the run-out inputs of the colliding cases
+                      (:class:`vfs.physics.post_impact.PostImpactInputs`: brake
+                      factors per wheel, all given; steer angle and onset,
+                      extra drag per wheel, NaN = default)
 ====================  ============================================================
+
+A ``post_impact`` hook of the earlier form ``post_impact(ctx, config, result, b1, b2)
+-> (b1, b2)`` (brake factors (N, 4) per vehicle) is still run (:func:`apply_post_impact`
+tells the two forms apart by the number of parameters); it cannot steer.
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -54,6 +62,7 @@ from vfs.catalog import QUANTITY_UNITS
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError, SettingProblem, SettingsError
 from vfs.physics.impact import ImpactConfig, ImpactResult, add_vehicle_aliases
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.registry import Registry
 from vfs.settings import Setting
 
@@ -300,9 +309,12 @@ class Effect:
         return e1, e2
 
     def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
-                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Stage ``post_impact``: wheel brake factors (n, 4) FL, FR, RL, RR for the run-out."""
-        return brake1, brake2
+                    inputs: PostImpactInputs) -> PostImpactInputs:
+        """Stage ``post_impact``: the run-out inputs of the n colliding cases (brake factors
+        (n, 2, 4) [-] of the wheels FL, FR, RL, RR, every one given; front-wheel steer
+        angles (n, 2) [rad] and onsets [s], extra drag (n, 2, 4) [-], NaN = default).
+        """
+        return inputs
 
 
 # ----------------------------------------------------------------------------
@@ -413,6 +425,42 @@ def check_effects(effects: Iterable[Effect]) -> tuple[Effect, ...]:
             raise ParameterError(f"effect {e.name} listed twice")
         seen.add(e.name)
     return out
+
+
+def call_post_impact(hook: Callable[..., Any], ctx: ImpactContext, config: ImpactConfig,
+                     result: ImpactResult, inputs: PostImpactInputs) -> PostImpactInputs:
+    """Run one ``post_impact`` hook on the run-out inputs of the colliding cases.
+
+    A hook of the earlier form ``(ctx, config, result, brake1, brake2) -> (brake1,
+    brake2)`` (five parameters) gets the brake factors (n, 4) [-] of each vehicle and
+    sets them; one of the present form gets and returns the
+    :class:`vfs.physics.post_impact.PostImpactInputs`.
+
+    Raises
+    ------
+    ParameterError
+        If the hook returns something else.
+    """
+    if len(inspect.signature(hook).parameters) == 5:
+        b1, b2 = hook(ctx, config, result, np.array(inputs.brake[:, 0]),
+                      np.array(inputs.brake[:, 1]))
+        return inputs.with_brakes(b1, b2)
+    out = hook(ctx, config, result, inputs)
+    if not isinstance(out, PostImpactInputs) or out.size != inputs.size:
+        raise ParameterError(f"post_impact hook {getattr(hook, '__qualname__', hook)!r} "
+                             f"returned {type(out).__name__}, expected PostImpactInputs of "
+                             f"{inputs.size} cases")
+    return out
+
+
+def apply_post_impact(effects: Iterable[Effect], ctx: ImpactContext, config: ImpactConfig,
+                      result: ImpactResult, inputs: PostImpactInputs) -> PostImpactInputs:
+    """The run-out inputs after every ``post_impact`` hook of ``effects``, in order
+    (:func:`call_post_impact`).
+    """
+    for hook in hooks(effects, "post_impact"):
+        inputs = call_post_impact(hook, ctx, config, result, inputs)
+    return inputs
 
 
 def hooks(effects: Iterable[Effect], stage: str) -> list[Callable[..., Any]]:

@@ -25,6 +25,7 @@ from types import MappingProxyType
 from typing import Any
 
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.physics.post_impact import MAX_STEER
 from vfs.physics.runout import RunoutParams
 from vfs.settings import (
     Rule,
@@ -126,6 +127,20 @@ INPUTS: tuple[InputInfo, ...] = (
               (0.0, 1.0), (), "post-crash brake factor of the four wheels of vehicle 1"),
     InputInfo("wheel_brake2", "wheel brake 2", "dimensionless", ("absolute", "offset"),
               (0.0, 1.0), (), "post-crash brake factor of the four wheels of vehicle 2"),
+    InputInfo("corner_brake1", "corner brake 1", "dimensionless", ("absolute", "offset"),
+              (-1.0, 1.0), (),
+              "post-crash brake factor of the impact-corner wheel of vehicle 1 over its "
+              "vehicle's factor (its wheel = clip(wheel brake 1 + this, 0, 1))"),
+    InputInfo("corner_brake2", "corner brake 2", "dimensionless", ("absolute", "offset"),
+              (-1.0, 1.0), (),
+              "post-crash brake factor of the impact-corner wheel of vehicle 2 over its "
+              "vehicle's factor (its wheel = clip(wheel brake 2 + this, 0, 1))"),
+    InputInfo("steer1", "steer angle 1", "angle", ("absolute", "offset"),
+              (-MAX_STEER, MAX_STEER), (),
+              "post-crash front-wheel steer angle of vehicle 1, positive to the left [rad]"),
+    InputInfo("steer2", "steer angle 2", "angle", ("absolute", "offset"),
+              (-MAX_STEER, MAX_STEER), (),
+              "post-crash front-wheel steer angle of vehicle 2, positive to the left [rad]"),
 )
 
 #: Input names in column order.

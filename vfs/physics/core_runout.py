@@ -582,7 +582,7 @@ def run_to_rest(par: np.ndarray, state: tuple[np.ndarray, ...], consts: tuple[fl
     full = max_steps // per_sample + 1
     cap = min(full, max(64, _FIRST_PASS_SAMPLES // max(n, 1))) if record else 0
 
-    def run(rows: np.ndarray | None, cap: int) -> tuple[np.ndarray, ...]:
+    def run(rows: np.ndarray | None, cap: int) -> tuple[Any, ...]:
         p, s = (par, st0.copy()) if rows is None else (par[rows], st0[rows])
         m = p.shape[0]
         out = (s, np.zeros(m, np.int64), np.zeros(m, np.bool_), np.zeros(m, np.int64),

@@ -203,6 +203,9 @@ def bench_runout(quick: bool) -> dict[str, Any]:
            for f in ("rest_x", "rest_y", "rest_yaw")]
     got = [np.concatenate([getattr(r, f).ravel() for r in by_path["compiled"]])
            for f in ("rest_x", "rest_y", "rest_yaw")]
+    steps = sum(float(np.nansum(r.time_to_rest)) for r in by_path["numpy"]) / 0.005
+    for name in ("numpy", "compiled"):  # time steps of the vehicles to rest (default dt)
+        out[f"{name}_ns_per_vehicle_step"] = 1e9 * out[f"{name}_cpu_s"] / steps
     out["max_difference_m"] = float(max(np.max(np.abs(a - b)) for a, b in zip(ref[:2], got[:2],
                                                                               strict=True)))
     out["bit_identical"] = float(np.mean(np.concatenate([a == b for a, b in zip(ref, got,
@@ -215,9 +218,12 @@ def bench_runout(quick: bool) -> dict[str, Any]:
     cars = type(v1)(*(np.concatenate([a, b])[pick] for a, b in zip(v1, v2, strict=True)))
     params = RunoutParams(dt=0.02, path_interval=30.0)
     mc: dict[str, Any] = {"vehicles": m}
-    _both_paths(lambda: run_out(cars, RunoutState(*jitter), np.concatenate([mu, mu])[pick],
-                                params, np.concatenate([brake[:, 0], brake[:, 1]])[pick],
-                                paths=False), mc, m, "vehicles")
+    rest = _both_paths(lambda: run_out(cars, RunoutState(*jitter), np.concatenate([mu, mu])[pick],
+                                       params, np.concatenate([brake[:, 0], brake[:, 1]])[pick],
+                                       paths=False), mc, m, "vehicles")["numpy"]
+    steps = float(np.nansum(rest.time_to_rest)) / params.dt
+    for name in ("numpy", "compiled"):
+        mc[f"{name}_ns_per_vehicle_step"] = 1e9 * mc[f"{name}_cpu_s"] / steps
     out.update({f"mc_{k}": v for k, v in mc.items()})
     return out
 

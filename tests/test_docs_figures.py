@@ -130,6 +130,22 @@ CHANNELS = ("restitution", "contact_friction", "poi_along", "poi_across", "cp_an
             "penetration_time", "ees_stiffness_ratio", "yaw_inertia_factor", "tyre_impulse",
             "runout_brake1", "runout_brake2")
 
+RUNOUT_MICRO = "benchmarks/results/core_37_runout_micro.json"
+
+
+def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]:
+    """Figures of one benchmark of a ``vfs bench --json`` record; ``key*100``: in %,
+    ``key*1e13``: in units of 1e-13."""
+    def read(root: Path) -> list[float]:
+        data = json.loads((root / record).read_text(encoding="utf-8"))[bench]
+        out = []
+        for key in keys:
+            name, _, scale = key.partition("*")
+            out.append(float(data[name]) * (float(scale) if scale else 1.0))
+        return out
+    return read
+
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -167,6 +183,32 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
+    Quote("docs/performance-kernels.md",
+          r"path samples and secondary-collision check \| " + NUMBER + r" pairs/s \(" + NUMBER
+          + r" ns per vehicle-step\) \| \*\*" + NUMBER + r" pairs/s\*\* \(" + NUMBER
+          + r" ns\) \| " + NUMBER + r"x \|",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "numpy_pairs_per_cpu_s",
+                               "numpy_ns_per_vehicle_step", "compiled_pairs_per_cpu_s",
+                               "compiled_ns_per_vehicle_step", "speed_up"),
+          "compiled run-out, the study's pairs"),
+    Quote("docs/performance-kernels.md",
+          r"rest poses only \| " + NUMBER + r" vehicles/s \(" + NUMBER
+          + r" ns per vehicle-step\) \| " + NUMBER + r" vehicles/s \(" + NUMBER
+          + r" ns\) \| " + NUMBER + r"x \|",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "mc_numpy_vehicles_per_cpu_s",
+                               "mc_numpy_ns_per_vehicle_step", "mc_compiled_vehicles_per_cpu_s",
+                               "mc_compiled_ns_per_vehicle_step", "mc_speed_up"),
+          "compiled run-out, the Monte-Carlo's vehicles"),
+    Quote("docs/performance-kernels.md",
+          r"at most " + NUMBER + r"e-13 m; " + NUMBER + r" % of the rest",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "max_difference_m*1e13",
+                               "bit_identical*100"),
+          "compiled run-out: difference and bit-identical share"),
+    Quote("docs/performance-kernels.md",
+          r"the compiled loop wins " + NUMBER + r"x\. The Monte-Carlo's batch is 200,000 "
+          r"vehicles, where numpy's\s+fixed cost vanishes: " + NUMBER + r"x",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "speed_up", "mc_speed_up"),
+          "compiled run-out: speed-ups in the text"),
 )
 
 

@@ -191,11 +191,13 @@ def bench_runout(quick: bool) -> dict[str, Any]:
     size = 256
 
     def pairs() -> list[Any]:
-        return [run_out_pair(v1.take(np.arange(lo, min(lo + size, hit.size))),
-                             v2.take(np.arange(lo, min(lo + size, hit.size))),
-                             *(RunoutState(*(a[lo:lo + size] for a in s)) for s in states),
-                             mu[lo:lo + size], None, brake[lo:lo + size, 0],
-                             brake[lo:lo + size, 1]) for lo in range(0, hit.size, size)]
+        out = []
+        for lo in range(0, hit.size, size):
+            rows = np.arange(lo, min(lo + size, hit.size))
+            s1, s2 = (RunoutState(*(a[rows] for a in s)) for s in states)
+            out.append(run_out_pair(v1.take(rows), v2.take(rows), s1, s2, mu[rows], None,
+                                    brake[rows, 0], brake[rows, 1]))
+        return out
 
     out: dict[str, Any] = {"pairs": int(hit.size), "pair_batch": size}
     by_path = _both_paths(pairs, out, int(hit.size), "pairs")

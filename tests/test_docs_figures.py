@@ -146,6 +146,27 @@ def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]
     return read
 
 
+RUNOUT_STUDY = tuple(f"benchmarks/results/core_37_runout_study_{w}.json"
+                     for w in ("before", "before2", "after", "after2"))
+RUNOUT_UNC = tuple(f"benchmarks/results/core_37_runout_uncertainty_{w}.json"
+                   for w in ("before", "before2", "after", "after2"))
+
+
+def _runs(records: tuple[str, ...], bench: str, *keys: str) -> Callable[[Path], list[float]]:
+    """``keys`` of one benchmark over several records: for the quoted layout "before1 and
+    before2 (k1, k2) | after1 and after2 (k1, k2)", the first key of the two befores, the
+    second key of them, then the same for the two afters.
+    """
+    def read(root: Path) -> list[float]:
+        data = [json.loads((root / r).read_text(encoding="utf-8"))[bench] for r in records]
+        out = []
+        for pair in (data[:2], data[2:]):
+            for key in keys:
+                out += [float(d[key]) for d in pair]
+        return out
+    return read
+
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -183,6 +204,28 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
+    Quote("docs/performance.md",
+          r"`vfs bench study`\) \| " + NUMBER + r" and " + NUMBER + r" case-runs/s \("
+          + NUMBER + r" s, " + NUMBER + r" s\) \| \*\*" + NUMBER + r" and " + NUMBER
+          + r" case-runs/s\*\* \(" + NUMBER + r" s, " + NUMBER + r" s\)",
+          ",".join(RUNOUT_STUDY), _runs(RUNOUT_STUDY, "study", "case_runs_per_s_cpu", "cpu_s"),
+          "compiled run-out round: study before and after"),
+    Quote("docs/performance.md",
+          r"resume of the last 1,600 cases \| " + NUMBER + r" and " + NUMBER
+          + r" case-runs/s \| " + NUMBER + r" and " + NUMBER + r" case-runs/s \|",
+          ",".join(RUNOUT_STUDY), _runs(RUNOUT_STUDY, "study", "resume_case_runs_per_s_cpu"),
+          "compiled run-out round: study resume before and after"),
+    Quote("docs/performance.md",
+          r"\(`vfs bench uncertainty`\) \| " + NUMBER + r" s and " + NUMBER + r" s \| \*\*"
+          + NUMBER + r" s and " + NUMBER + r" s\*\*",
+          ",".join(RUNOUT_UNC), _runs(RUNOUT_UNC, "uncertainty", "uncertainty_cpu_seconds"),
+          "compiled run-out round: Monte-Carlo before and after"),
+    Quote("docs/performance.md",
+          r"4,000 pairs\) \| " + NUMBER + r" pairs/s \| \*\*" + NUMBER + r" pairs/s\*\*: "
+          + NUMBER + r"x",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "numpy_pairs_per_cpu_s",
+                               "compiled_pairs_per_cpu_s", "speed_up"),
+          "compiled run-out round: the run-out alone"),
     Quote("docs/performance-kernels.md",
           r"path samples and secondary-collision check \| " + NUMBER + r" pairs/s \(" + NUMBER
           + r" ns per vehicle-step\) \| \*\*" + NUMBER + r" pairs/s\*\* \(" + NUMBER

@@ -167,6 +167,25 @@ def _runs(records: tuple[str, ...], bench: str, *keys: str) -> Callable[[Path], 
     return read
 
 
+RUNOUT_PROFILE = "benchmarks/results/core_37_runout_study_profile.txt"
+
+
+def _profile(record: str, *functions: str) -> Callable[[Path], list[float]]:
+    """Cumulative times [s] of functions (``file.py:function``) in a pstats listing."""
+    def read(root: Path) -> list[float]:
+        text = (root / record).read_text(encoding="utf-8")
+        out = []
+        for fn in functions:
+            module, name = fn.split(":")
+            m = re.search(rf"^\s*[\d/]+\s+[\d.]+\s+[\d.]+\s+([\d.]+)\s+[\d.]+\s+\S*"
+                          rf"{re.escape(module)}:\d+\({re.escape(name)}\)$", text, re.M)
+            if m is None:
+                raise AssertionError(f"{record}: no line of {fn}")
+            out.append(float(m.group(1)))
+        return out
+    return read
+
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -226,6 +245,25 @@ QUOTES: tuple[Quote, ...] = (
           RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "numpy_pairs_per_cpu_s",
                                "compiled_pairs_per_cpu_s", "speed_up"),
           "compiled run-out round: the run-out alone"),
+    Quote("docs/performance.md",
+          r"`simulate_cases` " + NUMBER + r" s, the generic AEB controller in Python takes "
+          r"`demand` " + NUMBER + r" s, two\s+thirds: the ideal system's last-moment rule "
+          r"`_last_moment` " + NUMBER + r" s \(its braked-contact sweep\s+`braked_contact` "
+          + NUMBER + r" s\), the sampled CTRV/CTRA predictions `sampled_contact` " + NUMBER
+          + r" s; the\s+compiled step with its Python bookkeeping \(`advance`\) " + NUMBER
+          + r" s; the replay " + NUMBER + r" s; the run-out\s+`run_out_pair` " + NUMBER + r" s",
+          RUNOUT_PROFILE, _profile(RUNOUT_PROFILE, "simulation.py:simulate_cases",
+                                   "controller.py:demand", "controller.py:_last_moment",
+                                   "threat.py:braked_contact", "threat.py:sampled_contact",
+                                   "precrash.py:advance", "core.py:replay_precrash",
+                                   "runout.py:run_out_pair"),
+          "compiled run-out round: the study's profile after"),
+    Quote("docs/performance.md",
+          r"\(" + NUMBER + r" s of " + NUMBER + r" s in the profile before\)",
+          "benchmarks/results/core_37_study_profile.txt",
+          _profile("benchmarks/results/core_37_study_profile.txt", "runout.py:run_out_pair",
+                   "simulation.py:simulate_cases"),
+          "compiled run-out round: the run-out in the study's profile before"),
     Quote("docs/performance-kernels.md",
           r"path samples and secondary-collision check \| " + NUMBER + r" pairs/s \(" + NUMBER
           + r" ns per vehicle-step\) \| \*\*" + NUMBER + r" pairs/s\*\* \(" + NUMBER

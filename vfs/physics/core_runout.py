@@ -36,7 +36,10 @@ the share of bit-identical values.
 The kernels run in one thread (``parallel=False``): the studies run cases in processes, and
 a process that has started numba's threads must not fork.  numba compiles them at the first
 call (``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`
-says when it compiled).
+says when it compiled).  numba's cache is keyed on this file alone: the pair kernel compiles
+:func:`vfs.physics.core.clipped_overlap` and :func:`vfs.physics.core.pose_corners` into
+itself, so after an edit of those, delete ``vfs/physics/__pycache__/core_runout*`` (the
+tests would show the stale copy as a disagreement with the reference).
 """
 
 from __future__ import annotations

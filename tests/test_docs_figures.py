@@ -155,6 +155,8 @@ def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]
 
 RUNOUT_STUDY = tuple(f"benchmarks/results/core_37_runout_study_{w}.json"
                      for w in ("before", "before2", "after", "after2"))
+RUNOUT_DIAG = tuple(f"benchmarks/results/core_37_runout_diagnose_quick_{w}.json"
+                    for w in ("before", "before2", "after", "after2"))
 RUNOUT_UNC = tuple(f"benchmarks/results/core_37_runout_uncertainty_{w}.json"
                    for w in ("before", "before2", "after", "after2"))
 
@@ -292,6 +294,14 @@ QUOTES: tuple[Quote, ...] = (
           lambda root: sorted(_runs(RUNOUT_UNC, "uncertainty",
                                     "uncertainty_cpu_seconds")(root)[2:]),
           "compiled run-out: the Monte-Carlo after"),
+    Quote("docs/performance.md",
+          r"compiled impact\) \| " + NUMBER + r" s and " + NUMBER + r" s \| \*\*" + NUMBER
+          + r" s and " + NUMBER + r" s\*\* \(the same " + NUMBER + r" variants, " + NUMBER
+          + r" case-runs\)",
+          ",".join(RUNOUT_DIAG),
+          lambda root: [*_runs(RUNOUT_DIAG, "diagnose", "cpu_s")(root),
+                        *_bench(RUNOUT_DIAG[2], "diagnose", "variants", "case_runs")(root)],
+          "compiled run-out round: diagnose --quick before and after"),
     Quote("docs/performance.md",
           r"\(" + NUMBER + r" s of " + NUMBER + r" s in the profile before\)",
           "benchmarks/results/core_37_study_profile.txt",

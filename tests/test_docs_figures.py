@@ -303,6 +303,16 @@ QUOTES: tuple[Quote, ...] = (
                         *_bench(RUNOUT_DIAG[2], "diagnose", "variants", "case_runs")(root)],
           "compiled run-out round: diagnose --quick before and after"),
     Quote("docs/performance.md",
+          r"main 2c4ada4\) \| " + NUMBER + r" s CPU \| \*\*" + NUMBER + r" s CPU\*\* \(the "
+          r"same " + NUMBER + r" variants; load " + NUMBER + r"\)",
+          "benchmarks/results/core_37_runout_diagnose_before.json,"
+          "benchmarks/results/core_37_runout_diagnose_after.json",
+          lambda root: [*_bench("benchmarks/results/core_37_runout_diagnose_before.json",
+                                "diagnose", "cpu_s")(root),
+                        *_bench("benchmarks/results/core_37_runout_diagnose_after.json",
+                                "diagnose", "cpu_s", "variants", "load_average_1min")(root)],
+          "compiled run-out round: full diagnose before and after"),
+    Quote("docs/performance.md",
           r"\(" + NUMBER + r" s of " + NUMBER + r" s in the profile before\)",
           "benchmarks/results/core_37_study_profile.txt",
           _profile("benchmarks/results/core_37_study_profile.txt", "runout.py:run_out_pair",

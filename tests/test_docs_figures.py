@@ -313,6 +313,15 @@ QUOTES: tuple[Quote, ...] = (
                                 "diagnose", "cpu_s", "variants", "load_average_1min")(root)],
           "compiled run-out round: full diagnose before and after"),
     Quote("docs/performance.md",
+          NUMBER + r" s under the profiler\) the compiled loop `_vehicle_loop` takes " + NUMBER
+          + r" s, the learning of\s+the laws `learn` " + NUMBER + r" s, the identification "
+          r"`identify` " + NUMBER + r" s",
+          "benchmarks/results/core_37_runout_diagnose_profile.txt",
+          _profile("benchmarks/results/core_37_runout_diagnose_profile.txt",
+                   "diagnose.py:diagnose", "core_runout.py:_vehicle_loop", "learn.py:learn",
+                   "identify.py:identify"),
+          "compiled run-out round: the diagnosis profile"),
+    Quote("docs/performance.md",
           r"\(" + NUMBER + r" s of " + NUMBER + r" s in the profile before\)",
           "benchmarks/results/core_37_study_profile.txt",
           _profile("benchmarks/results/core_37_study_profile.txt", "runout.py:run_out_pair",

@@ -67,6 +67,13 @@ def _md_numbers(record: str, pattern: str) -> Callable[[Path], list[float]]:
     return read
 
 
+IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
+
+
+def _json(record: str, root: Path) -> dict:
+    return json.loads((root / record).read_text(encoding="utf-8"))
+
+
 def _jsonl(record: str) -> list[dict]:
     return [json.loads(line) for line in (ROOT / record).read_text().splitlines() if line]
 
@@ -199,6 +206,14 @@ QUOTES: tuple[Quote, ...] = (
                           "peak_jerk", "harsh_time", "score")),
             f"gym benchmark: braking, comfort and score of {p}")
       for p in GYM_POLICIES),
+    Quote("docs/performance.md",
+          r"numpy\s+reference: " + NUMBER + r" M/s \(load " + NUMBER + r"\) \| \*\*" + NUMBER
+          + r" M/s\*\* compiled",
+          IMPACT_BENCH,
+          lambda root: [_json(IMPACT_BENCH, root)["impact"]["numpy_reference_impacts_per_s"] / 1e6,
+                        _json(IMPACT_BENCH, root)["impact"]["load_average"],
+                        _json(IMPACT_BENCH, root)["impact"]["impacts_per_s"] / 1e6],
+          "impacts per second, compiled and numpy reference"),
 )
 
 

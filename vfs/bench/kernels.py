@@ -35,13 +35,31 @@ def best_time(fn: Callable[[], object], repeats: int) -> float:
 
 
 def bench_impact(quick: bool) -> dict[str, Any]:
-    """Impacts solved per second for one batch of N = 1e5 (2e4 with --quick)."""
+    """Impacts solved per second for one batch of N = 1e5 (2e4 with --quick): the product
+    path (the compiled kernel of :mod:`vfs.physics.core_impact`) and its numpy reference
+    (``VFS_COMPILED=0``), best wall time of several calls in this one process.
+    """
+    import os
+
+    from vfs.physics.core import ENV_SWITCH
     from vfs.physics.impact import solve_impact
 
     n = 20_000 if quick else 100_000
+    repeats = 3 if quick else 7
     config = random_impact_configs(np.random.default_rng(0), n)
-    t = best_time(lambda: solve_impact(config), 3 if quick else 7)
-    return {"batch": n, "seconds": t, "impacts_per_s": n / t}
+    t = best_time(lambda: solve_impact(config), repeats)
+    before = os.environ.get(ENV_SWITCH)
+    os.environ[ENV_SWITCH] = "0"
+    try:
+        t_ref = best_time(lambda: solve_impact(config), repeats)
+    finally:
+        if before is None:
+            del os.environ[ENV_SWITCH]
+        else:
+            os.environ[ENV_SWITCH] = before
+    return {"batch": n, "seconds": t, "impacts_per_s": n / t,
+            "numpy_reference_seconds": t_ref, "numpy_reference_impacts_per_s": n / t_ref,
+            "load_average": os.getloadavg()[0]}
 
 
 def bench_overlap(quick: bool) -> dict[str, Any]:

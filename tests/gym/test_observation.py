@@ -148,7 +148,7 @@ def test_leaderboard_counts_braking_in_near_misses(tmp_path, capsys):
     assert main(["evaluate-policy", "never-brake", "always-brake", "--db", "default",
                  "--split", "test", "--where", "case_id <= 100", "--out", str(out),
                  "--engine", "serial", "--bootstrap", "50"]) == 0
-    assert "brakes in near misses" in capsys.readouterr().out
+    assert "brakes in no-crash cases" in capsys.readouterr().out
     board = pd.read_csv(out / "leaderboard.csv").set_index("policy")
     runs = pd.read_parquet(out / "runs.parquet")
     base = runs[runs["system"] == "baseline"].set_index("case_id")

@@ -167,7 +167,7 @@ def leaderboard_markdown(table: Any) -> str:
         return (f"{row[key]:{fmt}} [{row[key + '_low']:{fmt}}, {row[key + '_high']:{fmt}}]")
 
     lines = ["| policy | crashes avoided [%] | MAIS3+ risk reduction [%] | "
-             "delta-v reduction [km/h] | new crashes | brakes in near misses |",
+             "delta-v reduction [km/h] | new crashes | brakes in no-crash cases |",
              "|---|---|---|---|---|---|"]
     for _, row in table.iterrows():
         lines.append(f"| {row['policy']} | {cell(row, 'avoided', '.1f')} | "

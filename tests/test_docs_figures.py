@@ -195,6 +195,23 @@ def _profile(record: str, *functions: str) -> Callable[[Path], list[float]]:
     return read
 
 
+GYM = "benchmarks/results/gym-benchmark.json"
+GYM_POLICIES = ("ppo-reference", "ppo-quick", "three-stage", "openpass-like", "ideal",
+                "never-brake", "always-brake")
+SIGNED = r"(-?\d[\d,]*(?:\.\d+)?)"
+
+
+def _gym(policy: str, keys: tuple[str, ...]) -> Callable[[Path], list[float]]:
+    """Numbers of one policy of the gym benchmark's record (shares in %)."""
+    def read(root: Path) -> list[float]:
+        rows = [r for r in json.loads((root / GYM).read_text())["policies"]
+                if r["policy"] == policy]
+        assert len(rows) == 1, f"{GYM}: {len(rows)} rows of {policy}"
+        return [100.0 * rows[0][k[1:]] if k.startswith("%") else float(rows[0][k])
+                for k in keys]
+    return read
+
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -232,6 +249,21 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
+    *(Quote("docs/gym.md",
+            rf"^\| {p} \| {NUMBER} \[{NUMBER}, {NUMBER}\] \| .* \| {NUMBER} \| "
+            rf"{NUMBER} / {NUMBER} \|$",
+            GYM, _gym(p, ("avoided", "avoided_low", "avoided_high", "new_crashes",
+                          "near_miss_brakes", "near_misses")),
+            f"gym benchmark: crashes avoided by {p}")
+      for p in GYM_POLICIES),
+    *(Quote("docs/gym.md",
+            rf"^\| {p} \| {NUMBER} / {NUMBER} \| {NUMBER} \({NUMBER} %\) \| {NUMBER} \| "
+            rf"{NUMBER} \| {NUMBER} \| {NUMBER} \| {SIGNED} \|$",
+            GYM, _gym(p, ("unnecessary", "near_misses", "unnecessary_speed_loss_kmh",
+                          "%unnecessary_speed_share", "unnecessary_brake_time", "peak_decel",
+                          "peak_jerk", "harsh_time", "score")),
+            f"gym benchmark: braking, comfort and score of {p}")
+      for p in GYM_POLICIES),
     Quote("docs/performance.md",
           r"`vfs bench study`\) \| " + NUMBER + r" and " + NUMBER + r" case-runs/s \("
           + NUMBER + r" s, " + NUMBER + r" s\) \| \*\*" + NUMBER + r" and " + NUMBER

@@ -703,6 +703,12 @@ def solve_impact(config: ImpactConfig,
     ratio = None if stiffness_ratio is None else np.broadcast_to(
         np.asarray(stiffness_ratio, float), (n,))
     normal = restitution_mode == "normal"
+    from vfs.physics import core  # the switch of the compiled kernels
+
+    if core.enabled():  # the compiled kernel; the numpy blocks below are its reference
+        from vfs.physics.core_impact import solve_compiled
+
+        return ImpactResult(**solve_compiled(config, ratio, normal))
     if n <= CHUNK:
         return _solve_block(config, ratio, normal)
     parts = [

@@ -21,6 +21,7 @@ from vfs.accident_types import accident_type_label
 from vfs.atomic import write_json, write_table
 from vfs.diagnosis.claims import LawFinding
 from vfs.diagnosis.diagnose import Diagnosis, claim_label, summary_dict
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.diagnosis.selection import step_label
 from vfs.report.figures import (
     new_figure,
@@ -28,6 +29,7 @@ from vfs.report.figures import (
     reconstruction_scene,
     save_figure,
 )
+from vfs.report.provenance import with_provenance
 from vfs.report.render import (
     Block,
     BulletList,
@@ -42,6 +44,9 @@ from vfs.simulation import SimulationParams
 
 #: Format of the floating-point cells of the report tables.
 FLOAT_FORMAT = "{:.3g}"
+#: The confidence level of a summary written before it recorded its own (the declared
+#: default of :attr:`DiagnoseSpec.confidence`).
+CONFIDENCE = DiagnoseSpec().confidence
 
 
 def _pct(x: float) -> str:
@@ -49,14 +54,17 @@ def _pct(x: float) -> str:
 
 
 def write_diagnosis_report(diag: Diagnosis, out: str | Path, json_path: str | Path | None = None,
-                 plots: bool = True, params: SimulationParams | None = None
+                 plots: bool = True, params: SimulationParams | None = None,
+                 database: Any = None, database_reference: str | None = None
                  ) -> dict[str, Path]:
     """Write the diagnosis into the folder ``out``.
 
     Files: ``ranking.csv`` (ranked candidates), ``residuals_by_stratum.csv``,
     ``associations.csv`` (default model), ``associations_after_best.csv``,
     ``worst_cases.csv``, ``summary.json`` (and ``json_path`` if given),
-    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).
+    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).  With the
+    diagnosed ``database`` (``database_reference``: how the user named it) the report
+    says where its numbers come from (:func:`vfs.report.provenance.with_provenance`).
     Returns the paths by name.
     """
     folder = Path(out)
@@ -75,7 +83,10 @@ def write_diagnosis_report(diag: Diagnosis, out: str | Path, json_path: str | Pa
     figures: dict[str, str] = {}
     if plots:
         figures = diagnosis_figures(diag, folder / "figures", params=params)
-    written = write_report(folder, Report("Model diagnosis", tuple(report_blocks(diag, figures))))
+    blocks = report_blocks(diag, figures)
+    if database is not None:
+        blocks = with_provenance(blocks, database, database_reference)
+    written = write_report(folder, Report("Model diagnosis", tuple(blocks)))
     paths["markdown"] = written["report_md"]
     paths["html"] = written["report_html"]
     return paths
@@ -252,7 +263,7 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
     its cross-validated RMSE reduction and simultaneous interval.
     """
     s = diag.settings
-    level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', 0.95)):.1f} %"
+    level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', CONFIDENCE)):.1f} %"
     items: list[str] = []
     cands = diag.candidates
 

@@ -323,3 +323,16 @@ def test_first_steps_below_zero_are_refused() -> None:
         with pytest.raises(ParameterError, match="first_step"):
             simulate_precrash(*args, first_step=steps)
     assert simulate_precrash(*args, first_step=[0, 3]).collided.tolist() == [True, False]
+
+
+def test_a_shorter_case_ends_at_its_own_horizon_in_a_batch(path: str) -> None:
+    """Records of 5 s and 7 s (3 s extra time): the first case ends at 8 s, batched or alone,
+    where a car at constant speed keeps going past the end of its record."""
+    def case(duration: float):
+        return (line(0.0, 0.0, 0.0, 10.0, duration), line(0.0, 100.0, 0.0, 0.0, duration))
+
+    ctl = ScheduledBraking([[np.nan, np.nan]] * 2, [[0.0, 0.0]] * 2)
+    both = run([case(5.0), case(7.0)], ctl)
+    alone = run([case(5.0)], ScheduledBraking([[np.nan, np.nan]], [[0.0, 0.0]]))
+    assert both.end_state.x[0, 0] == alone.end_state.x[0, 0]
+    assert both.end_state.x[:, 0].tolist() == pytest.approx([80.0, 100.0], abs=1e-9)

@@ -213,6 +213,9 @@ def test_instant_impact_from_a_penetration_rule(path: str) -> None:
     res = run(cases, ctl, params=PrecrashParams(brake=STEP), penetration=zero)
     assert [r.tolist() for r in seen] == [[0]]
     assert res.impact_time[0] == res.contact_time[0]
+    # the speed taken off at the contact itself (dv linear in time, module doc)
+    assert res.speed_reduction[0, 0] == pytest.approx(A * (res.contact_time[0] - T_B - DT / 2),
+                                                      abs=1e-9)
     for a, b in zip(res.impact_state, res.contact_state, strict=True):
         np.testing.assert_array_equal(a, b)
     res0 = run(cases, ctl, params=PrecrashParams(brake=STEP, penetration_time=0.0))

@@ -106,3 +106,21 @@ def test_the_kinetic_energy_never_rises_and_starts_at_the_state() -> None:
         np.testing.assert_allclose(e[:, 0], kinetic_energy(v, st), rtol=1e-12)
         assert (np.diff(e, axis=1) <= 1e-9 * e[:, :1]).all()
         assert res.at_rest.all() and (e[:, -1] == 0.0).all()
+
+
+def test_a_cg_half_a_metre_before_the_rear_axle_runs() -> None:
+    """The CG must lie between the axles (cg_to_rear_axle > 0), at any distance from them:
+    locked, the car slides v^2 / (2 mu g) whatever the load split."""
+    import dataclasses
+
+    from vfs.errors import ParameterError
+    from vfs.physics.vehicle import VehicleArrays
+
+    rear_heavy = dataclasses.replace(CAR, cg_to_front_axle=CAR.wheelbase - 0.5)
+    res = run_out(stack_vehicles([rear_heavy]), state(vx=10.0), MU, wheel_brake=[1.0] * 4)
+    assert res.distance[0] == pytest.approx(100.0 / (2 * MU * G), abs=0.02)
+    v = stack_vehicles([CAR])
+    on_axle = VehicleArrays(*(np.asarray(a, float).copy() for a in v))
+    on_axle.cg_to_front_axle[:] = on_axle.wheelbase
+    with pytest.raises(ParameterError, match="between the axles"):
+        run_out(on_axle, state(vx=10.0), MU)

@@ -134,6 +134,10 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
      "2", "3"):
         "the compiled step fills rec[0] and rec[1] only (recorded speed and acceleration); a "
         "third plane is never read",
+    ("vfs/physics/runout.py", "_wheel_limits",
+     "s[2] + lon - lat_r, s[3] + lon + lat_r])", "2", "3"):
+        "the static loads of the two rear wheels are equal (static_wheel_loads: m g L1 / (2 L) "
+        "each), so s[2] and s[3] are the same numbers",
     ("vfs/physics/impact.py", "<module>",
      '"m1": (np.nextafter(0.0, 1.0), 2.0e5), "m2": (np.nextafter(0.0, 1.0), 2.0e5),',
      "1.0", "2.0"):

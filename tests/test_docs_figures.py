@@ -263,11 +263,11 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
-    Quote("docs/testing.md",
-          rf"^\| vfs/physics/precrash.py \| {NUMBER} % \({NUMBER}/{NUMBER}\) \| {NUMBER} % "
-          rf"\({NUMBER}/{NUMBER}\) \| {NUMBER} \|",
-          MUTATION, _mutation_row("vfs/physics/precrash.py"),
-          "mutation testing: precrash before/after (second pass)"),
+    *(Quote("docs/testing.md",
+            rf"^\| {module} \| {NUMBER} % \({NUMBER}/{NUMBER}\) \| {NUMBER} % "
+            rf"\({NUMBER}/{NUMBER}\) \| {NUMBER} \|",
+            MUTATION, _mutation_row(module), f"mutation testing: {module} (second pass)")
+      for module in ("vfs/physics/precrash.py", "vfs/physics/runout.py")),
     *(Quote("docs/gym.md",
             rf"^\| {p} \| {NUMBER} \[{NUMBER}, {NUMBER}\] \| .* \| {NUMBER} \| "
             rf"{NUMBER} / {NUMBER} \|$",

@@ -339,3 +339,12 @@ def test_a_shorter_case_ends_at_its_own_horizon_in_a_batch(path: str) -> None:
     alone = run([case(5.0)], ScheduledBraking([[np.nan, np.nan]], [[0.0, 0.0]]))
     assert both.end_state.x[0, 0] == alone.end_state.x[0, 0]
     assert both.end_state.x[:, 0].tolist() == pytest.approx([80.0, 100.0], abs=1e-9)
+
+
+def test_case_instances_within_the_cases_only() -> None:
+    args = two_cases()
+    res = simulate_precrash(*args, case_of=[1, 0, 0])
+    assert res.collided.tolist() == [False, True, True]
+    for bad in ([0, 2], [-1, 1]):
+        with pytest.raises(ParameterError, match="case_of"):
+            simulate_precrash(*args, case_of=bad)

@@ -229,14 +229,47 @@ HELD_OUT_3_PAIRS: tuple[tuple[str, str], ...] = (
 )
 
 
+#: The run-out steer part (issue 36, "steering after impact"), written on 2026-11-28 before
+#: any run of it, from the physics: a blow on a car's front axle turns its front wheels about
+#: the kingpins; the angle is signed towards the side of each car the point of impact lies on
+#: (:func:`vfs.effects.learned.impact_sides`: positive towards the impact side, so that a
+#: mirrored scene steers mirrored).  The first: vehicle 2's front wheels pushed away from the
+#: impact side (the wheel struck from the side turns its leading edge inwards) by up to
+#: 0.4 rad, more in the harder crashes; the second: both cars' wheels turned towards the impact
+#: side in side impacts (an impact angle about 90 deg; a frontal or rear blow turns no wheel).
+STEER: tuple[HiddenLaw, ...] = (
+    HiddenLaw("steer2_away_speed", "runout_steer2", ("closing_speed",),
+              lambda v: -0.4 * _logistic(v, 12.0, 2.0),
+              "delta2 = -0.4 rad / (1 + exp(-(v - 12 m/s) / 2 m/s)) (towards the impact side)",
+              _SPEED),
+    HiddenLaw("steer_both_side_bell", "runout_steer", ("impact_angle",),
+              lambda a: 0.35 * _bell(a, 0.5 * np.pi, 0.45),
+              "delta1 = delta2 = 0.35 rad exp(-((angle - pi/2) / 0.45 rad)^2) (towards the "
+              "impact side)"),
+)
+STEER_PAIRS: tuple[tuple[str, str], ...] = (
+    ("steer2_away_speed", "eps_bell"),
+)
+
+#: Held out of the steer part: run once, after the steer part, with no change in between.
+HELD_OUT_4: tuple[HiddenLaw, ...] = (
+    HiddenLaw("steer1_overlap_sat", "runout_steer1", ("overlap",),
+              lambda o: -0.3 * (1.0 - np.exp(-o / 0.25)),
+              "delta1 = -0.3 rad (1 - exp(-overlap / 0.25)) (towards the impact side)"),
+)
+HELD_OUT_4_PAIRS: tuple[tuple[str, str], ...] = ()
+
+
 def law_by_name(name: str) -> HiddenLaw:
     """The single or held-out law named ``name``."""
-    for law in (*SINGLES, *HELD_OUT, *HELD_OUT_2, *RUNOUT, *HELD_OUT_3):
+    for law in (*SINGLES, *HELD_OUT, *HELD_OUT_2, *RUNOUT, *HELD_OUT_3, *STEER,
+                *HELD_OUT_4):
         if law.name == name:
             return law
     raise KeyError(name)
 
 
 __all__ = ["HELD_OUT", "HELD_OUT_2", "HELD_OUT_2_PAIRS", "HELD_OUT_3", "HELD_OUT_3_PAIRS",
-           "HELD_OUT_PAIRS", "PAIRS", "RUNOUT", "RUNOUT_PAIRS", "SINGLES", "HiddenLaw",
-           "hidden_effect", "law_by_name"]
+           "HELD_OUT_4", "HELD_OUT_4_PAIRS", "HELD_OUT_PAIRS", "PAIRS", "RUNOUT",
+           "RUNOUT_PAIRS", "SINGLES", "STEER", "STEER_PAIRS", "HiddenLaw", "hidden_effect",
+           "law_by_name"]

@@ -27,7 +27,7 @@ Usage::
 
     PYTHONPATH=. python benchmarks/diagnosis_battery.py --out battery_out
         [--cases 400] [--quick] [--jobs 2] [--only eps_bell,null1]
-        [--held-out | --held-out-2 | --runout | --held-out-3]
+        [--held-out | --held-out-2 | --runout | --held-out-3 | --steer | --held-out-4]
 
 ``--quick``: diagnose with 3 folds, a 5-point grid, 2 zoom rounds and 500
 bootstrap samples (the settings of benchmarks/diagnose_builtin_effects.py).
@@ -55,11 +55,15 @@ from battery_laws import (  # noqa: E402
     HELD_OUT_2_PAIRS,
     HELD_OUT_3,
     HELD_OUT_3_PAIRS,
+    HELD_OUT_4,
+    HELD_OUT_4_PAIRS,
     HELD_OUT_PAIRS,
     PAIRS,
     RUNOUT,
     RUNOUT_PAIRS,
     SINGLES,
+    STEER,
+    STEER_PAIRS,
     HiddenLaw,
     hidden_effect,
     law_by_name,
@@ -87,15 +91,19 @@ def entries(part: str = "main") -> list[dict[str, Any]]:
     ("held_out_3"), each entry with its seed.
     """
     out: list[dict[str, Any]] = []
-    if part in ("runout", "held_out_3"):
-        singles, pairs, base = ((RUNOUT, RUNOUT_PAIRS, 600) if part == "runout"
-                                else (HELD_OUT_3, HELD_OUT_3_PAIRS, 650))
+    if part in ("runout", "held_out_3", "steer", "held_out_4"):
+        singles, pairs, base = {"runout": (RUNOUT, RUNOUT_PAIRS, 600),
+                                "held_out_3": (HELD_OUT_3, HELD_OUT_3_PAIRS, 650),
+                                "steer": (STEER, STEER_PAIRS, 1000),
+                                "held_out_4": (HELD_OUT_4, HELD_OUT_4_PAIRS, 1050)}[part]
         for i, law in enumerate(singles):
             out.append({"id": law.name, "kind": "single", "laws": [law.name], "seed": base + i})
         for i, (a, b) in enumerate(pairs):
             out.append({"id": f"{a}+{b}", "kind": "pair", "laws": [a, b], "seed": base + 25 + i})
         if part == "held_out_3":
             out.append({"id": "null5", "kind": "null", "laws": [], "seed": 905})
+        if part == "held_out_4":
+            out.append({"id": "null6", "kind": "null", "laws": [], "seed": 906})
         return out
     if part == "held_out_2":
         for i, law in enumerate(HELD_OUT_2):
@@ -357,11 +365,16 @@ def main(argv: Sequence[str] | None = None) -> None:
                     help="run the run-out part only (issue 36)")
     ap.add_argument("--held-out-3", action="store_true",
                     help="run the run-out part's held-out laws only")
+    ap.add_argument("--steer", action="store_true",
+                    help="run the run-out steer part only (issue 36)")
+    ap.add_argument("--held-out-4", action="store_true",
+                    help="run the steer part's held-out law and its null only")
     ap.add_argument("--table-only", action="store_true", help="rewrite battery.md only")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    part = ("held_out_3" if a.held_out_3 else "runout" if a.runout else "held_out_2"
+    part = ("held_out_4" if a.held_out_4 else "steer" if a.steer else
+            "held_out_3" if a.held_out_3 else "runout" if a.runout else "held_out_2"
             if a.held_out_2 else "held_out" if a.held_out else "main")
     stem = "battery" if part == "main" else f"battery_{part}"
     jsonl = out / f"{stem}.jsonl"

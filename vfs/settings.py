@@ -228,6 +228,23 @@ def validate(obj: Any) -> None:
         raise SettingsError(problems)
 
 
+def member(enum: type[StrEnum], value: Any, *, owner: str, name: str) -> Any:
+    """``value`` as a member of ``enum`` (the choices of a setting of a function, which has
+    no dataclass to declare it on).
+
+    Raises
+    ------
+    SettingsError
+        ``owner.name='x' is not allowed (allowed: one of ...)``.
+    """
+    try:
+        return enum(value)
+    except ValueError:
+        allowed = "one of " + ", ".join(repr(m.value) for m in enum)
+        raise SettingsError([SettingProblem(owner, name, value, "is not allowed",
+                                            allowed)]) from None
+
+
 # ----------------------------------------------------------------------------
 # Definition files
 # ----------------------------------------------------------------------------
@@ -334,6 +351,8 @@ def _default_text(s: Setting, unit: Unit) -> str:
         return "absent"
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, StrEnum):
+        return repr(value.value)
     if isinstance(value, str):
         return repr(value)
     if isinstance(value, int | float):
@@ -378,6 +397,7 @@ __all__ = [
     "declared",
     "fields_of",
     "markdown_table",
+    "member",
     "problems_of",
     "raise_problems",
     "read_table",

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, NamedTuple, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from vfs.effects.base import Effect, VelocityChange, check_effects, hooks
+from vfs.effects.base import Effect, VelocityChange, apply_post_impact, check_effects, hooks
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.errors import ParameterError, SimulationError
 from vfs.physics.impact import (
@@ -55,6 +55,7 @@ from vfs.physics.runout import (
     run_out_pair,
 )
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, member, setting, validate
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
@@ -99,14 +100,21 @@ class SimulationParams:
     impact: ImpactParams = field(default_factory=ImpactParams)
     runout: RunoutParams = field(default_factory=RunoutParams)
     effects: tuple[Effect, ...] = ()
-    secondary_collisions: bool = True
-    runout_paths: bool = True
+    secondary_collisions: bool = setting(True, "bool", "flag pairs that touch again in the "
+                                         "run-out (false: a third less run-out cost, none "
+                                         "reported)")
+    runout_paths: bool = setting(True, "bool", "record the run-out's path samples and "
+                                 "kinetic energies (false: empty, every other result the same)")
+
+    #: Rules between the settings.
+    RULES = (Rule(("secondary_collisions", "runout_paths"),
+                  lambda p: p.runout_paths or not p.secondary_collisions,
+                  "runout_paths=False needs secondary_collisions=False: the "
+                  "secondary-collision check follows the run-out paths"),)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", check_effects(self.effects))
-        if not self.runout_paths and self.secondary_collisions:
-            raise ParameterError("runout_paths=False needs secondary_collisions=False: the "
-                                 "secondary-collision check follows the run-out paths")
+        validate(self)
 
 
 class CaseBatch(NamedTuple):
@@ -187,9 +195,8 @@ class CaseBatch(NamedTuple):
             database has them (the others use :class:`ImpactParams`);
             ``"default"`` uses :class:`ImpactParams` for every case.
         """
-        if impact_parameters not in set(ImpactParameterSource):
-            raise ParameterError(f"impact_parameters={impact_parameters!r}; use one of "
-                                 f"{', '.join(ImpactParameterSource)}")
+        impact_parameters = member(ImpactParameterSource, impact_parameters,
+                                   owner="CaseBatch.from_database", name="impact_parameters")
         import pandas as pd  # the database's tables; imported here to keep the core light
 
         from vfs.database.paths import paths_from_trajectories
@@ -206,7 +213,8 @@ class CaseBatch(NamedTuple):
         eps = np.full(ids.shape[0], np.nan)
         mu = eps.copy()
         rec = getattr(sub, "reconstruction", None)
-        if (impact_parameters == "reconstruction" and rec is not None and not rec.empty
+        if (impact_parameters is ImpactParameterSource.RECONSTRUCTION and rec is not None
+                and not rec.empty
                 and {"restitution", "contact_friction"} <= set(rec.columns)):
             r = rec.drop_duplicates("case_id").set_index("case_id").reindex(ids)
             eps = r["restitution"].to_numpy(float)
@@ -394,6 +402,18 @@ class ImpactCases(Protocol):
 def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np.ndarray,
                  eps: np.ndarray, mu: np.ndarray, params: SimulationParams
                  ) -> tuple[ImpactConfig, ImpactResult, np.ndarray, np.ndarray]:
+    """Impact configuration, solution and run-out brakes of the colliding rows ``hit``:
+    :func:`impact_stage_inputs` with the run-out inputs cut to the brake factors
+    ``wheel_brake1``, ``wheel_brake2`` (M, 4) [-] (for callers that steer no wheel).
+    """
+    config, result, inputs = impact_stage_inputs(batch, pre, hit, eps, mu, params)
+    return config, result, np.array(inputs.brake[:, 0]), np.array(inputs.brake[:, 1])
+
+
+def impact_stage_inputs(batch: ImpactCases, pre: ImpactInputs | PrecrashResult,
+                        hit: np.ndarray, eps: np.ndarray, mu: np.ndarray,
+                        params: SimulationParams
+                        ) -> tuple[ImpactConfig, ImpactResult, PostImpactInputs]:
     """Impact configuration, solution and run-out inputs of the colliding rows ``hit``.
 
     Every effect hook of ``params.effects`` acts at its stage: impact
@@ -419,10 +439,11 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
         The M impact configurations as solved (after effects).
     result : ImpactResult
         Their solution (with the contact-phase impulses and energy split).
-    wheel_brake1, wheel_brake2 : ndarray (M, 4)
-        Brake factors of the wheels FL, FR, RL, RR in the run-out: the cases' post-impact
-        inputs (``batch.post_impact``, where it has them), else ``params.runout``, then
-        the effects' ``post_impact`` hooks.
+    inputs : PostImpactInputs
+        The M collisions' run-out inputs: the cases' post-impact inputs
+        (``batch.post_impact``, where it has them), the brake factors of the wheels FL, FR,
+        RL, RR [-] all given (else ``params.runout``'s), then the effects' ``post_impact``
+        hooks (brakes, steer angles [rad]; :func:`vfs.effects.base.apply_post_impact`).
     """
     effects = params.effects
     st = _take_rows(pre.impact_state, hit)
@@ -463,15 +484,11 @@ def impact_stage(batch: ImpactCases, pre: ImpactInputs | PrecrashResult, hit: np
                               yaw_rate=result.yaw_rate_post + change.dw,
                               energy=np.stack([e1, e2], axis=1))
     post = getattr(batch, "post_impact", None)  # a CaseBatch may give them; others have none
-    if post is None:
-        b1 = np.tile(np.asarray(params.runout.wheel_brake, float), (hit.shape[0], 1))
-        b2 = b1.copy()
-    else:
-        brake = post.take(hit).wheel_brake(params.runout.wheel_brake)
-        b1, b2 = brake[:, 0].copy(), brake[:, 1].copy()
-    for hook in hooks(effects, "post_impact"):
-        b1, b2 = hook(ctx, config, result, b1, b2)
-    return config, result, b1, b2
+    post = PostImpactInputs.unknown(hit.shape[0]) if post is None else post.take(hit)
+    brake = post.wheel_brake(params.runout.wheel_brake)
+    inputs = apply_post_impact(effects, ctx, config, result,
+                               post.with_brakes(brake[:, 0], brake[:, 1]))
+    return config, result, inputs
 
 
 class OpenedCases(NamedTuple):
@@ -640,7 +657,8 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
     brakes = np.full((n, 2, 4), np.nan)
     st = pre.impact_state
     if hit.size:
-        config, part, b1, b2 = impact_stage(batch, pre, hit, eps, mu, params)
+        config, part, inputs = impact_stage_inputs(batch, pre, hit, eps, mu, params)
+        b1, b2 = inputs.brake[:, 0], inputs.brake[:, 1]
         eps, mu = eps.copy(), mu.copy()
         eps[hit], mu[hit] = config.restitution, config.contact_friction
         poi[hit, 0], poi[hit, 1], cp[hit] = config.poi_x, config.poi_y, config.cp_angle
@@ -661,8 +679,7 @@ def simulate_cases(batch: CaseBatch, controller: BrakeController | None = None,
                      _take_rows(st, hit), part, batch.road_friction[hit], params.runout, b1, b2,
                      secondary_collisions=params.secondary_collisions,
                      paths=params.runout_paths, memo=runout_memo,
-                     post_impact=None if batch.post_impact is None
-                     else batch.post_impact.take(hit))
+                     post_impact=inputs if inputs.wheels_given else None)
         if hit.size else None,
     )
     return CaseResults(pre, impact, runout, eps, mu, poi, cp, brakes)

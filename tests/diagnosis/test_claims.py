@@ -101,10 +101,14 @@ def test_too_few_cases_for_the_folds_says_so():
 
 
 def test_spec_validates_ranges_and_choices_once():
-    with pytest.raises(ParameterError, match=r"folds .* must be in \[2"):
+    with pytest.raises(ParameterError, match=r"DiagnoseSpec.folds: 1 is out of range "
+                       r"\(allowed: an integer in \[2, inf\]\)"):
         DiagnoseSpec(folds=1)
-    with pytest.raises(ParameterError, match="parameters='some'"):
+    with pytest.raises(ParameterError, match="DiagnoseSpec.parameters: 'some' is not allowed"):
         DiagnoseSpec(parameters="some")
+    with pytest.raises(ParameterError) as info:  # every bad setting at once
+        DiagnoseSpec(folds=1, alpha=0.7, correction="x")
+    assert [p.name for p in info.value.problems] == ["folds", "correction", "alpha"]
     with pytest.raises(ParameterError, match="unknown diagnose setting"):
         DiagnoseSpec.from_kwargs(fold=3)
     spec = DiagnoseSpec(effects="a,b", laws="none", correction="holm")

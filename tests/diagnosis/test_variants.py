@@ -95,3 +95,26 @@ def test_variants_skip_the_secondary_collision_check_without_changing_residuals(
     full = simulate_cases(data.batch, params=SimulationParams(effects=(WheelLock(),)))
     assert full.runout.secondary_collision.any()  # the check has something to find here
     np.testing.assert_array_equal(got, data.residuals(full))
+
+
+def test_stacked_steer_and_brake_variants_equal_their_own_runs(data):
+    """Variants with run-out steer and brake laws stacked in one batch (their
+    ``post_impact`` hooks merged row by row, :func:`variants.merge_rows` on the run-out
+    inputs) give each variant's residuals as a run of that variant alone, and a steer law
+    moves them."""
+    from vfs.effects.learned import law_effect_class
+
+    def law(channel, value):
+        return law_effect_class({"name": f"v_{channel}", "channel": channel,
+                                 "feature": "closing_speed", "form": "constant",
+                                 "coefficients": [value]})()
+
+    models = [(), (law("runout_steer1", 0.3),), (law("runout_steer", -0.2), WheelLock()),
+              (law("runout_brake2", 0.4),)]
+    sim = VariantSimulator(data)
+    stacked = sim.residuals(models)
+    for model, got in zip(models, stacked, strict=True):
+        alone = VariantSimulator(data).residuals([model])[0]
+        np.testing.assert_array_equal(got, alone)
+    assert not np.array_equal(stacked[1], stacked[0], equal_nan=True)
+    assert not np.array_equal(stacked[2], stacked[1], equal_nan=True)

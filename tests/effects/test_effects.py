@@ -77,7 +77,7 @@ def test_parse_effect_forms_and_errors():
     assert (e["overlap_factor"], e["depth"], e["speed_exponent"]) == (0.5, 0.7, 1.3)
     with pytest.raises(ParameterError, match="known: .*restitution_speed"):
         parse_effect("no_such_effect")
-    with pytest.raises(ParameterError, match=r"outside the allowed range \[0, 3\]"):
+    with pytest.raises(ParameterError, match=r"is out of range \(allowed: \[0, 3\]\)"):
         parse_effect("restitution_speed=7")
     with pytest.raises(ParameterError, match="unknown parameter"):
         parse_effect("tyre_impulse:speed=3")

@@ -26,6 +26,7 @@ from vfs.effects.learned import (
 )
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, contact_frame, solve_impact
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.precrash import PrecrashParams
 
 X = np.array([-1.0, 0.0, 0.5, 2.0, 10.0])
@@ -249,14 +250,14 @@ def test_each_hook_applies_its_channel() -> None:
     assert ChannelLawCall(same, "energy_split", ctx, config, res, e1, e2) == (e1, e2)
     # brake factors of one vehicle's four wheels
     brake1, brake2 = np.full((n, 4), 0.2), np.full((n, 4), 0.3)
-    n1, n2 = law_of("runout_brake1", "constant", [0.9])().post_impact(ctx, config, res, brake1,
-                                                                        brake2)
-    np.testing.assert_allclose(n1, 0.9)
-    assert n2 is brake2 and n1.shape == (n, 4)
-    n1, n2 = law_of("runout_brake2", "constant", [0.7])().post_impact(ctx, config, res, brake1,
-                                                                        brake2)
-    assert n1 is brake1
-    np.testing.assert_allclose(n2, 0.7)
+    inputs = PostImpactInputs.unknown(n).with_brakes(brake1, brake2)
+    out = law_of("runout_brake1", "constant", [0.9])().post_impact(ctx, config, res, inputs)
+    np.testing.assert_allclose(out.brake[:, 0], 0.9)
+    np.testing.assert_array_equal(out.brake[:, 1], brake2)
+    out = law_of("runout_brake2", "constant", [0.7])().post_impact(ctx, config, res, inputs)
+    np.testing.assert_array_equal(out.brake[:, 0], brake1)
+    np.testing.assert_allclose(out.brake[:, 1], 0.7)
+    assert np.isnan(out.steer_angle).all()  # a brake law steers no wheel
     # a linear brake law of the mean old factor is not needed: constant suffices above
     zero = ChannelLawCall(same, "contact_impulse", ctx, config, res)
     np.testing.assert_array_equal(np.asarray(zero), 0.0)

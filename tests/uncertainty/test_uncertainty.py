@@ -71,9 +71,16 @@ def _fixed_config(base=None):
 def test_default_config_lists_every_input_with_a_distribution():
     cfg = default_config()
     assert set(cfg.inputs) == set(INPUT_NAMES)
+    # the run-out's steer angles and impact-corner wheels (issue 36) keep the case's values
+    # unless a reconstruction gives them a prior: varying them by default would steer every
+    # run-out (the compiled run-out has no steered wheels) and change every band
+    at_data = {"steer1", "steer2", "corner_brake1", "corner_brake2"}
     for name, spec in cfg.inputs.items():
         assert spec.distribution.family in FAMILIES, name
-        assert spec.distribution.family != "fixed", f"{name} should vary by default"
+        if name in at_data:
+            assert (spec.distribution.family, spec.distribution.mode) == ("fixed", "offset")
+        else:
+            assert spec.distribution.family != "fixed", f"{name} should vary by default"
     assert cfg.runout_dt == pytest.approx(0.02)
     # units converted to SI: cp angle sd 5 deg, penetration +-15 ms
     assert cfg.inputs["cp_angle"].distribution.sd == pytest.approx(math.radians(5.0))
@@ -323,7 +330,10 @@ def test_result_tables_are_complete(clean):
     inband = res.bands.dropna(subset=["recorded_in_band"]).groupby("outcome")[
         "recorded_in_band"].mean()
     np.testing.assert_allclose(cov.loc[inband.index, "coverage"], inband)
-    assert res.inputs["varied"].all()
+    # every input varies but the run-out wheel inputs kept at the data's values by default
+    at_data = res.inputs["input"].isin(["steer1", "steer2", "corner_brake1", "corner_brake2"])
+    assert res.inputs.loc[~at_data, "varied"].all() and not res.inputs.loc[at_data,
+                                                                            "varied"].any()
 
 
 def test_errors_for_missing_reconstruction_and_unknown_cases(clean):
@@ -473,7 +483,7 @@ def test_model_equals_the_hand_built_oracle(clean):
     cases = CaseSet.from_database(db)
     cfg = dataclasses.replace(default_config(), runout_dt=0.005)
     res = resolve_inputs(cases, cfg)
-    x = values_from_unit(res, np.random.default_rng(4).random((cases.size, 13)),
+    x = values_from_unit(res, np.random.default_rng(4).random((cases.size, len(INPUT_NAMES))),
                          np.arange(cases.size))
     runs = evaluate(cases, x, cfg)
     want = _oracle(cases, x.values)
@@ -507,7 +517,7 @@ def test_band_covers_a_truth_drawn_from_the_inputs_at_the_nominal_rate():
     cases = CaseSet.from_database(db)
     cfg = config_from_dict({"inputs": COVERAGE_INPUTS}, base=default_config())
     res_in = resolve_inputs(cases, cfg)
-    x = values_from_unit(res_in, np.random.default_rng(99).random((cases.size, 13)),
+    x = values_from_unit(res_in, np.random.default_rng(99).random((cases.size, len(INPUT_NAMES))),
                          np.arange(cases.size)).values
     truth = _oracle(cases, x)
     res = run_uncertainty(cases, cfg, n_samples=300, seed=3)

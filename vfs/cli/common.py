@@ -262,6 +262,37 @@ def load_plugins(specs: Sequence[str] | None) -> list[str]:
     return loaded
 
 
+#: Spellings of ``--impact-parameters`` of earlier versions -> the declared one
+#: (:class:`vfs.simulation.ImpactParameterSource`).
+IMPACT_PARAMETERS_ALIASES = {"defaults": "default"}
+
+
+def impact_parameter_source(text: str) -> str:
+    """The value of ``--impact-parameters``; an earlier spelling is accepted with a
+    :class:`FutureWarning` naming the one to use (argparse checks the choices after).
+    """
+    if text in IMPACT_PARAMETERS_ALIASES:
+        new = IMPACT_PARAMETERS_ALIASES[text]
+        warnings.warn_explicit(f"--impact-parameters {text} is deprecated and will be "
+                               f"removed; use --impact-parameters {new}", FutureWarning,
+                               filename="vfs", lineno=0)
+        return new
+    return text
+
+
+def add_impact_parameters_option(p: argparse.ArgumentParser, default: str, note: str) -> None:
+    """``--impact-parameters``: choices and help from the declaration of
+    :attr:`vfs.study.spec.StudySpec.impact_parameters`, the command's own ``default``
+    and ``note`` (what the choice means for it).
+    """
+    from vfs.settings import cli_kwargs, declared
+    from vfs.study.spec import StudySpec
+
+    kwargs = cli_kwargs(declared(StudySpec)["impact_parameters"], default=default)
+    p.add_argument("--impact-parameters", type=impact_parameter_source,
+                   **kwargs | {"help": f"{kwargs['help']}; {note}"})
+
+
 def add_figure_options(p: argparse.ArgumentParser) -> None:
     """Declare that command ``p`` draws figures: ``--figure-format`` and ``--dpi``.
 

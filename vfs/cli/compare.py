@@ -4,12 +4,18 @@ from __future__ import annotations
 
 import argparse
 
-from vfs.cli.common import add_figure_options, add_input_option, out_option
+from vfs.cli.common import (
+    add_figure_options,
+    add_impact_parameters_option,
+    add_input_option,
+    out_option,
+)
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     """Register ``vfs compare``."""
     from vfs.analysis.compare import OUTCOMES
+    from vfs.simulation import ImpactParameterSource
 
     names = ", ".join(f"{o.name} [{o.display_unit}]" for o in OUTCOMES)
     p = subparsers.add_parser(
@@ -46,12 +52,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--top", type=int, default=10, help="worst cases listed (default 10)")
     p.add_argument("--sketches", type=int, default=4,
                    help="worst cases re-simulated and drawn as top views (default 4)")
-    p.add_argument("--impact-parameters", choices=("defaults", "reconstruction"),
-                   default="defaults",
-                   help="restitution and contact friction of the simulation: the model's "
-                   "generic defaults for every case (default; the prospective protocol of the "
-                   "frontal-collision paper) or each case's reconstructed values (not used "
-                   "with --run)")
+    add_impact_parameters_option(
+        p, ImpactParameterSource.DEFAULT, "compare's default is the model's generic values "
+        "for every case (the prospective protocol of the frontal-collision paper); not used "
+        "with --run ('defaults' of earlier versions is accepted with a warning)")
     p.add_argument("--case-pages", action=argparse.BooleanOptionalAction, default=True,
                    help="write a page per case in the report's tables (OUT/cases/<id>.html: "
                    "the simulation beside the reconstruction, top views, impact table, speed "
@@ -71,10 +75,9 @@ def run_compare(args: argparse.Namespace) -> int:
     out_folder(args, "compare", args.db)
     db = open_db(args)
     params = load_model_config(args.model) if args.model else None
-    setting = "default" if args.impact_parameters == "defaults" else "reconstruction"
     comparison = compare_database(db, run=args.run, params=params,
                                   margins=parse_margins(args.margins), alpha=args.alpha,
-                                  impact_parameters=setting)
+                                  impact_parameters=args.impact_parameters)
     from vfs.progress import note
 
     note("writing the report, its figures and case pages")

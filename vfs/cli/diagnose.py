@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from vfs.cli.common import (
     add_figure_options,
@@ -16,16 +16,28 @@ from vfs.cli.common import (
     out_folder,
     out_option,
 )
-from vfs.diagnosis.diagnose_spec import Correction, Parameters
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.errors import ParameterError
+from vfs.settings import cli_kwargs, declared
 
 if TYPE_CHECKING:  # pragma: no cover
     from vfs.database import Database
     from vfs.diagnosis.diagnose import Diagnosis
-    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 
 #: Settings of ``--quick`` (small grids, 3 folds, fewer bootstrap samples).
 QUICK = {"folds": 3, "grid": 5, "zoom": 2, "n_boot": 500}
+#: Flag -> the :class:`DiagnoseSpec` setting it sets (where the names differ).
+FLAGS = {"grid": "grid_points", "zoom": "zoom_rounds"}
+
+
+def _option(name: str, **kwargs: Any) -> dict[str, Any]:
+    """Argparse keywords of the declared setting ``name`` of :class:`DiagnoseSpec`."""
+    return cli_kwargs(declared(DiagnoseSpec)[FLAGS.get(name, name)]) | kwargs
+
+
+def _later(name: str, **kwargs: Any) -> dict[str, Any]:
+    """:func:`_option` with default None: the flag's default is set later (``--quick``)."""
+    return _option(name, default=None, **kwargs)
 
 
 def _load_db(text: str) -> tuple[Database, str]:
@@ -40,13 +52,13 @@ def _settings(args: argparse.Namespace) -> dict[str, int]:
         for k, v in QUICK.items():
             if getattr(args, k) is None:
                 s[k] = v
-    defaults = {"folds": 5, "grid": 9, "zoom": 3, "n_boot": 2000}
-    return {k: (defaults[k] if v is None else int(v)) for k, v in s.items()}
+    specs = declared(DiagnoseSpec)
+    return {k: (specs[FLAGS.get(k, k)].default if v is None else int(v)) for k, v in s.items()}
 
 
 def diagnose_spec(args: argparse.Namespace, database: str = "") -> DiagnoseSpec:
     """The :class:`vfs.diagnosis.diagnose_spec.DiagnoseSpec` of the flags of ``vfs diagnose``."""
-    from vfs.diagnosis.diagnose_spec import MAX_STEPS, DiagnoseSpec
+    from vfs.diagnosis.diagnose_spec import MAX_STEPS
 
     s = _settings(args)
     steps = args.max_steps if args.max_steps is not None else (
@@ -228,15 +240,11 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="compared outputs, comma separated (default: all available): "
                    "delta_v, ees, energy_loss, post_speed, velocity_angle_change, pdof, "
                    "rest_position, rest_yaw, runout_distance, impact_type")
-    p.add_argument("--parameters", choices=[m.value for m in Parameters], default="primary",
-                   help="fit each effect's primary parameter (diagnose: others at their "
-                   "neutral values, calibrate: at their defaults) or all")
-    p.add_argument("--folds", type=int, default=None, help="k of the k-fold CV (default 5)")
-    p.add_argument("--seed", type=int, default=0, help="seed of folds and bootstrap")
-    p.add_argument("--grid", type=int, default=None,
-                   help="coarse grid points per parameter (default 9)")
-    p.add_argument("--zoom", type=int, default=None,
-                   help="refinement rounds halving the grid spacing (default 3)")
+    p.add_argument("--parameters", **_option("parameters"))
+    p.add_argument("--folds", type=int, **_later("folds"))
+    p.add_argument("--seed", type=int, **_option("seed"))
+    p.add_argument("--grid", type=int, **_later("grid"))
+    p.add_argument("--zoom", type=int, **_later("zoom"))
     p.add_argument("--quick", action="store_true",
                    help="3 folds, grid 5, 2 zoom rounds, 500 bootstrap samples")
     p.add_argument("--plugin", action="append", default=None, metavar="MODULE",
@@ -264,22 +272,19 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="candidate effects, comma separated, or 'all' (default)")
     p.add_argument("--json", default=None, metavar="FILE", help="also write the summary here")
     out_option(p, "report folder", "diagnose-<db>")
-    p.add_argument("--n-boot", dest="n_boot", type=int, default=None,
-                   help="bootstrap samples (default 2000)")
-    p.add_argument("--correction", choices=[m.value for m in Correction], default="bh",
-                   help="multiplicity control of the associations (default bh)")
-    p.add_argument("--alpha", type=float, default=0.05, help="test level (default 0.05)")
-    p.add_argument("--min-reduction", dest="min_reduction", type=float, default=0.01,
-                   help="smallest CV RMSE reduction that counts as helping (default 0.01)")
-    p.add_argument("--worst", type=int, default=6,
-                   help="worst cases listed and sketched (default 6)")
+    p.add_argument("--n-boot", dest="n_boot", type=int,
+                   **_later("n_boot"))
+    p.add_argument("--correction", **_option("correction"))
+    p.add_argument("--alpha", type=float, **_option("alpha"))
+    p.add_argument("--min-reduction", dest="min_reduction", type=float,
+                   **_option("min_reduction"))
+    p.add_argument("--worst", type=int, **_option("worst"))
     p.add_argument("--laws", default="all",
                    help="channels identified per case and learned (vfs identify / learn): "
                    "'all' (default), a list, or 'none'; their laws are candidates of the "
                    "one selection with the library effects")
-    p.add_argument("--max-steps", dest="max_steps", type=int, default=None,
-                   help="most claims of the selection (default "
-                   "vfs.diagnosis.diagnose_spec.MAX_STEPS)")
+    p.add_argument("--max-steps", dest="max_steps", type=int,
+                   **_later("max_steps"))
     p.add_argument("--law-rounds", dest="law_rounds", type=int, default=None,
                    help=argparse.SUPPRESS)
     p.add_argument("--no-plots", dest="no_plots", action="store_true", help="skip figures")

@@ -9,13 +9,24 @@ once.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 import time
 from pathlib import Path
 
-from vfs.cli.common import WHERE_HELP, add_figure_options, add_input_option, out_option
+from vfs.cli.common import (
+    WHERE_HELP,
+    add_figure_options,
+    add_impact_parameters_option,
+    add_input_option,
+    out_option,
+)
 from vfs.errors import ParameterError, VfsError
+from vfs.settings import Setting, cli_kwargs, declared
+
+
+def _optional_help(s: Setting) -> str:
+    """The help of an optional setting without a default: its doc and what absent means."""
+    return f"{s.doc} (default {s.optional_doc})" if s.optional_doc else s.doc
 
 
 def _positive_int(text: str) -> int:
@@ -148,8 +159,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     from vfs.adas import SYSTEMS
     from vfs.study import EXECUTORS
-    from vfs.study.layout import DEFAULT_CHUNK_SIZE
-    from vfs.study.spec import DEFAULT_TASK_CASES, Equip, ImpactParameterSource, StudySpec
+    from vfs.study.spec import StudySpec
 
     add_input_option(p)  # reads a database
     p.add_argument("--systems", required=True, metavar="NAMES",
@@ -162,45 +172,26 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    "vfs.adas.register_system (e.g. adas/example_controller.py); repeatable")
     out_option(p, "study folder", "study-<db>-<systems>")
     p.add_argument("--where", metavar="SQL", help=WHERE_HELP)
-    p.add_argument("--equip", choices=[m.value for m in Equip], default=None,
-                   help="vehicles carrying the system in the treatment runs (default the "
-                   "database's meta 'equip', else both; euro-ncap-c2c: 1, the VUT)")
-    defaults = {f.name: f.default for f in dataclasses.fields(StudySpec)}  # declared once
-    p.add_argument("--engine", choices=EXECUTORS.names(), default=defaults["engine"],
-                   help="executor: serial, local processes (default), dask, or one registered "
-                   "with vfs.study.register_executor or by an installed package (entry-point "
-                   "group vfs.executors)")
-    p.add_argument("--workers", type=_positive_int,
-                   help="parallel workers (default: min(CPUs, chunks))")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="dask scheduler address, e.g. tcp://host:8786 (with --engine dask; "
-                   "default a local cluster); its workers need the same vfs and numpy")
-    p.add_argument("--dashboard", metavar="ADDRESS",
-                   help="serve the dashboard of the local dask cluster at ADDRESS, e.g. :8787, "
-                   "and print its link (needs bokeh; default off)")
-    p.add_argument("--chunk-size", type=_positive_int, default=DEFAULT_CHUNK_SIZE,
-                   help=f"cases per chunk file, the unit of resume and of the random streams "
-                   f"(default {DEFAULT_CHUNK_SIZE})")
-    p.add_argument("--task-cases", type=_positive_int, default=DEFAULT_TASK_CASES,
-                   metavar="N",
-                   help="most cases one task simulates as one batch: whole chunks, each with "
-                   "its own random stream, so results do not depend on it; larger batches "
-                   f"share the per-step cost (default {DEFAULT_TASK_CASES}; with workers the "
-                   "tasks are sized by their estimated cost)")
-    p.add_argument("--seed", type=int, default=defaults["seed"],
-                   help=f"seed of all random draws (default {defaults['seed']})")
-    p.add_argument("--impact-parameters", choices=[m.value for m in ImpactParameterSource],
-                   default=ImpactParameterSource.RECONSTRUCTION.value,
-                   help="restitution and contact friction: the reconstruction's where present "
-                   "(default) or the model defaults")
+    spec = declared(StudySpec)  # each setting declared once (vfs.study.spec)
+    p.add_argument("--equip", **cli_kwargs(spec["equip"], default=None)
+                   | {"help": spec["equip"].doc + " (default the database's meta 'equip', "
+                      "else both; euro-ncap-c2c: 1, the VUT)"})
+    p.add_argument("--engine", **cli_kwargs(spec["engine"]) | {"choices": EXECUTORS.names()})
+    p.add_argument("--workers", type=_positive_int, help=_optional_help(spec["workers"]))
+    p.add_argument("--scheduler", metavar="ADDRESS", help=_optional_help(spec["scheduler"]))
+    p.add_argument("--dashboard", metavar="ADDRESS", help=_optional_help(spec["dashboard"]))
+    p.add_argument("--chunk-size", type=_positive_int, **cli_kwargs(spec["chunk_size"]))
+    p.add_argument("--task-cases", type=_positive_int, metavar="N",
+                   **cli_kwargs(spec["task_cases"]))
+    p.add_argument("--seed", type=int, **cli_kwargs(spec["seed"]))
+    add_impact_parameters_option(p, spec["impact_parameters"].default,
+                                 "'defaults' is accepted too, with a warning")
     p.add_argument("--allow-failed", action="store_true",
                    help="exit 0 although runs failed inside the simulation (default: exit "
                    "code 4 when any run failed; the rows hold the error either way)")
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--resume", action="store_true",
-                       help="continue an interrupted study in --out (same inputs)")
-    group.add_argument("--overwrite", action="store_true",
-                       help="replace an existing study in --out")
+    group.add_argument("--resume", action="store_true", help=spec["resume"].doc)
+    group.add_argument("--overwrite", action="store_true", help=spec["overwrite"].doc)
     p.set_defaults(func=cmd_study)
 
     report = report_subparsers(subparsers)

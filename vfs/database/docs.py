@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from vfs.database.pcm import pcm_mapping_markdown
@@ -33,13 +33,15 @@ _BLOCK = re.compile(
 )
 
 
-def render_document(text: str) -> str:
+def render_document(text: str, blocks: Mapping[str, Callable[[], str]] | None = None) -> str:
     """Replace the body of every generated block of ``text`` with fresh output.
 
     Parameters
     ----------
     text : str
         Markdown document with generated-block markers.
+    blocks : mapping, optional
+        Block name -> function rendering it (default :data:`GENERATED_BLOCKS`).
 
     Returns
     -------
@@ -51,20 +53,26 @@ def render_document(text: str) -> str:
     KeyError
         If a block names an unknown generator.
     """
+    blocks = GENERATED_BLOCKS if blocks is None else blocks
+
     def replace(match: re.Match[str]) -> str:
-        body = GENERATED_BLOCKS[match.group("name")]()
+        body = blocks[match.group("name")]()
         return match.group(1) + body + match.group(4)
 
     return _BLOCK.sub(replace, text)
 
 
-def stale_blocks(path: str | Path) -> list[str]:
+def stale_blocks(path: str | Path, blocks: Mapping[str, Callable[[], str]] | None = None
+                 ) -> list[str]:
     """Names of generated blocks of the document that differ from the schema (or are missing).
 
     Parameters
     ----------
     path : path
         The Markdown document.
+    blocks : mapping, optional
+        Block name -> function rendering it (default :data:`GENERATED_BLOCKS`); only
+        those the document holds are compared when given.
 
     Returns
     -------
@@ -73,8 +81,10 @@ def stale_blocks(path: str | Path) -> list[str]:
     """
     text = Path(path).read_text(encoding="utf-8")
     found = {m.group("name"): m.group("body") for m in _BLOCK.finditer(text)}
-    return [name for name, render in GENERATED_BLOCKS.items()
-            if found.get(name) != render()]
+    if blocks is None:
+        return [name for name, render in GENERATED_BLOCKS.items()
+                if found.get(name) != render()]
+    return [name for name, body in found.items() if body != blocks[name]()]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

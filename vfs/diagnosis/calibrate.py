@@ -44,10 +44,13 @@ import numpy as np
 import pandas as pd
 
 from vfs.analysis.model_config import MODEL_CONFIG_FORMAT, read_model_config, write_model_config
+from vfs.diagnosis.choices import Fixed, Parameters
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.diagnosis.variants import Model, VariantSimulator, stacked_effect
 from vfs.effects import Effect, get_effect
 from vfs.errors import DataError, DataProblem, ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, OutputGroup, difference, from_reconstruction, from_results
+from vfs.settings import declared, member
 from vfs.simulation import CaseBatch
 
 
@@ -309,7 +312,7 @@ class FitSpace:
 
     @classmethod
     def of(cls, effects: Iterable[Effect | type[Effect] | str],
-           parameters: str = "primary", fixed: str = "default") -> FitSpace:
+           parameters: str = Parameters.PRIMARY, fixed: str = Fixed.DEFAULT) -> FitSpace:
         """Space of effects (instances, classes or names); ``parameters`` "primary"
         (the first parameter of each effect) or "all".
 
@@ -319,15 +322,13 @@ class FitSpace:
         switched off, the diagnosis' choice, so that a candidate is not
         penalised for a nominal strength the data do not have).
         """
-        if parameters not in ("primary", "all"):
-            raise ParameterError(f"parameters={parameters!r}; use 'primary' or 'all'")
-        if fixed not in ("default", "neutral"):
-            raise ParameterError(f"fixed={fixed!r}; use 'default' or 'neutral'")
+        parameters = member(Parameters, parameters, owner="FitSpace", name="parameters")
+        fixed = member(Fixed, fixed, owner="FitSpace", name="fixed")
         inst: list[Effect] = []
         for e in effects:
             if isinstance(e, str):
                 e = get_effect(e)
-            if isinstance(e, type) and fixed == "neutral" and parameters == "primary":
+            if isinstance(e, type) and fixed is Fixed.NEUTRAL and parameters is Parameters.PRIMARY:
                 off = {p.name: p.neutral for p in e.parameters[1:] if p.neutral is not None}
                 inst.append(e(**off))
                 continue
@@ -335,12 +336,13 @@ class FitSpace:
         free = []
         for i, e in enumerate(inst):
             n_par = len(type(e).parameters)
-            free += [(i, j) for j in range(n_par if parameters == "all" else min(n_par, 1))]
+            free += [(i, j) for j in range(n_par if parameters is Parameters.ALL
+                                           else min(n_par, 1))]
         return cls(tuple(inst), tuple(free))
 
     @classmethod
     def alternatives(cls, effects: Iterable[Effect | type[Effect] | str],
-                     parameters: str = "primary") -> tuple[FitSpace, ...]:
+                     parameters: str = Parameters.PRIMARY) -> tuple[FitSpace, ...]:
         """The spaces a diagnosis tries for ``effects``.
 
         With ``parameters="primary"``: the parameters that are not fitted at
@@ -350,10 +352,11 @@ class FitSpace:
         space.
         """
         effects = list(effects)
-        if parameters != "primary":
+        if member(Parameters, parameters, owner="FitSpace", name="parameters") \
+                is not Parameters.PRIMARY:
             return (cls.of(effects, parameters),)
-        off = cls.of(effects, parameters, "neutral")
-        nominal = cls.of(effects, parameters, "default")
+        off = cls.of(effects, parameters, Fixed.NEUTRAL)
+        nominal = cls.of(effects, parameters, Fixed.DEFAULT)
         same = all(np.array_equal(a.vector(), b.vector())
                    for a, b in zip(off.effects, nominal.effects, strict=True))
         return (off,) if same else (off, nominal)
@@ -417,7 +420,8 @@ FitGenerator = Generator[list[Model], list[np.ndarray], FitResult]
 
 
 def fit_steps(data: CalibrationData, space: FitSpace, train: Sequence[np.ndarray],
-              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              grid_points: int = DiagnoseSpec.grid_points,
+              zoom_rounds: int = DiagnoseSpec.zoom_rounds, passes: int | None = None,
               polish: bool = True, weights: np.ndarray | None = None) -> FitGenerator:
     """The search of :func:`fit_folds` as a generator.
 
@@ -426,8 +430,9 @@ def fit_steps(data: CalibrationData, space: FitSpace, train: Sequence[np.ndarray
     (``StopIteration.value``) is the :class:`FitResult`.  :func:`run_fits`
     drives several of them so that their requests share simulation calls.
     """
-    if grid_points < 3:
-        raise ParameterError("grid_points must be >= 3")
+    low = declared(DiagnoseSpec)["grid_points"].lo
+    if grid_points < low:
+        raise ParameterError(f"grid_points must be >= {low:g}")
     n_free = len(space.free)
     folds = len(train)
     x = np.tile(space.start(), (folds, 1))
@@ -538,7 +543,8 @@ def run_fits(sim: VariantSimulator, gens: Sequence[FitGenerator]) -> list[FitRes
 
 
 def fit_folds(sim: VariantSimulator, space: FitSpace, train: Sequence[np.ndarray],
-              grid_points: int = 9, zoom_rounds: int = 3, passes: int | None = None,
+              grid_points: int = DiagnoseSpec.grid_points,
+              zoom_rounds: int = DiagnoseSpec.zoom_rounds, passes: int | None = None,
               polish: bool = True, weights: np.ndarray | None = None) -> FitResult:
     """Fit the free parameters of ``space`` for each set of training rows.
 
@@ -752,7 +758,8 @@ def _reduction_statistic(group: int | None, weights: np.ndarray | None
 
 
 def reduction_ci(errors: np.ndarray, base: np.ndarray, rng: np.random.Generator,
-                 group: int | None = None, confidence: float = 0.95, n_boot: int = 2000,
+                 group: int | None = None, confidence: float = DiagnoseSpec.confidence,
+                 n_boot: int = DiagnoseSpec.n_boot,
                  weights: np.ndarray | None = None) -> tuple[float, float, float]:
     """RMSE reduction with a percentile bootstrap CI over cases (paired).
 
@@ -806,7 +813,8 @@ class Calibration:
 
 
 def calibrate(data: CalibrationData, effects: Sequence[Effect | type[Effect] | str],
-              parameters: str = "primary", folds: int = 5, seed: int = 0,
+              parameters: str = Parameters.PRIMARY, folds: int = DiagnoseSpec.folds,
+              seed: int = DiagnoseSpec.seed,
               cumulative: bool = True, sim: VariantSimulator | None = None,
               **fit_options: Any) -> Calibration:
     """Fit the parameters of ``effects`` jointly on all cases; cross-validate.

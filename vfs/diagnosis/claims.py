@@ -593,7 +593,7 @@ def first_laws(sim: VariantSimulator, base: CVResult, held: Sequence[np.ndarray]
         return t.merge(feats, on="case_id", how="left")
 
     def learned(table: pd.DataFrame) -> list[Any]:
-        return learn(table, None, folds=5, seed=seed, n_boot=min(n_boot, 1000), band_boot=50)
+        return learn(table, None, seed=seed, n_boot=min(n_boot, 1000), band_boot=50)
 
     t0 = time.perf_counter()
     names = parse_channels(channels)

@@ -83,8 +83,8 @@ from vfs.diagnosis.diagnose_spec import (
 from vfs.diagnosis.features import case_features
 from vfs.diagnosis.selection import Selection, select, step_label
 from vfs.effects import get_effect, registered_effects
-from vfs.errors import ParameterError
 from vfs.outcomes import OUTPUT_GROUPS, QUANTITIES, Quantity
+from vfs.settings import member
 from vfs.simulation import SimulationParams
 
 #: Numeric case features (name -> quantity kind: SI unit, report unit and factor).
@@ -177,7 +177,7 @@ def residual_variables(data: CalibrationData, residuals: np.ndarray) -> pd.DataF
 
 
 def residual_associations(variables: pd.DataFrame, features: pd.DataFrame,
-                          correction: str = "bh", alpha: float = 0.05,
+                          correction: str = Correction.BH, alpha: float = DiagnoseSpec.alpha,
                           min_cases: int = 10) -> pd.DataFrame:
     """Association of each residual with each case feature, with multiplicity control.
 
@@ -197,8 +197,8 @@ def residual_associations(variables: pd.DataFrame, features: pd.DataFrame,
 
     from vfs.analysis.stats import benjamini_hochberg, holm_bonferroni
 
-    if correction not in ("bh", "holm"):
-        raise ParameterError(f"correction={correction!r}; use 'bh' or 'holm'")
+    correction = member(Correction, correction, owner="residual_associations",
+                        name="correction")
     rows: list[dict[str, Any]] = []
     for rname in variables.columns:
         r = variables[rname].to_numpy(float)
@@ -231,7 +231,7 @@ def residual_associations(variables: pd.DataFrame, features: pd.DataFrame,
         return out
     p = out["p"].to_numpy(float)
     p = np.where(np.isfinite(p), p, np.nan)
-    out["p_adj"] = benjamini_hochberg(p) if correction == "bh" else holm_bonferroni(p)
+    out["p_adj"] = benjamini_hochberg(p) if correction is Correction.BH else holm_bonferroni(p)
     out["significant"] = out["p_adj"] < alpha
     return out.sort_values(["p", "residual"], kind="stable").reset_index(drop=True)
 

@@ -1,20 +1,23 @@
 """The settings of one diagnosis (:class:`DiagnoseSpec`), declared and validated once.
 
-``vfs diagnose`` builds a :class:`DiagnoseSpec` from its flags (the choices are the
-:class:`enum.StrEnum` members below, the ranges :data:`RANGES`); the Python API
-:func:`vfs.diagnosis.diagnose.diagnose` takes one or the same keyword arguments.
+``vfs diagnose`` builds a :class:`DiagnoseSpec` from its flags; each field is declared
+once with :func:`vfs.settings.setting` (bounds, default, choices as the
+:class:`enum.StrEnum` classes below, one line of doc), from which the checks, the
+command line's choices, defaults and help and the table of docs/diagnosis.md are
+derived.  The Python API :func:`vfs.diagnosis.diagnose.diagnose` takes one or the same
+keyword arguments.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
-from enum import StrEnum
 from typing import Any
 
+from vfs.diagnosis.choices import Correction, Fixed, Parameters, parse_channels
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.settings import setting, validate
 
 #: Most claims of the selection by default (library effects and learned laws together).
 MAX_STEPS = 4
@@ -22,36 +25,6 @@ MAX_STEPS = 4
 MIN_CASES = 30
 #: Fewest held-out cases per fold for which the diagnosis claims anything.
 MIN_FOLD_CASES = 5
-
-
-class Parameters(StrEnum):
-    """Which parameters of a library effect are fitted."""
-
-    PRIMARY = "primary"
-    ALL = "all"
-
-
-class Correction(StrEnum):
-    """Multiplicity control of the residual-feature associations."""
-
-    BH = "bh"
-    HOLM = "holm"
-
-
-#: field -> (lowest, highest, what it is); ``math.inf``: no upper bound.
-RANGES: Mapping[str, tuple[float, float, str]] = {
-    "folds": (2, math.inf, "k of the k-fold cross-validation"),
-    "grid_points": (3, 101, "coarse grid points per parameter"),
-    "zoom_rounds": (0, 10, "refinement rounds"),
-    "confidence": (0.5, 0.9999, "confidence level"),
-    "n_boot": (100, 1_000_000, "bootstrap samples"),
-    "alpha": (1e-6, 0.5, "test level"),
-    "min_reduction": (0.0, 0.99, "smallest reduction that counts"),
-    "worst": (0, 1000, "worst cases listed"),
-    "min_cases": (2, math.inf, "fewest cases for a claim"),
-    "law_grid": (3, 201, "grid values per channel"),
-    "max_steps": (1, 20, "most claims of the selection"),
-}
 
 
 def _names(value: str | Iterable[str] | None) -> tuple[str, ...] | None:
@@ -69,10 +42,8 @@ def _names(value: str | Iterable[str] | None) -> tuple[str, ...] | None:
 
 def _channels(value: str | Iterable[str] | None) -> tuple[str, ...]:
     """Channels to learn: None / "" / "none" none; "all" the channels
-    :func:`vfs.diagnosis.identify.parse_channels` identifies by default.
+    :func:`vfs.diagnosis.choices.parse_channels` identifies by default.
     """
-    from vfs.diagnosis.identify import parse_channels
-
     if value is None or (isinstance(value, str) and value.strip() in ("", "none")):
         return ()
     return parse_channels(value)
@@ -119,21 +90,30 @@ class DiagnoseSpec:
     outputs: tuple[str, ...] | None = None
     effects: tuple[str, ...] | None = None
     laws: tuple[str, ...] = ()
-    folds: int = 5
-    seed: int = 0
-    parameters: Parameters = Parameters.PRIMARY
-    grid_points: int = 9
-    zoom_rounds: int = 3
-    confidence: float = 0.95
-    n_boot: int = 2000
-    correction: Correction = Correction.BH
-    alpha: float = 0.05
-    min_reduction: float = 0.01
-    worst: int = 6
-    stepwise: bool = True
-    min_cases: int = MIN_CASES
-    law_grid: int = 13
-    max_steps: int = MAX_STEPS
+    folds: int = setting(5, "int", "k of the k-fold cross-validation by case", lo=2)
+    seed: int = setting(0, "int", "seed of the folds and the bootstrap")
+    parameters: Parameters = setting(
+        Parameters.PRIMARY, "text", "fit each effect's primary parameter (diagnose: the "
+        "others at their neutral values, calibrate: at their defaults) or all",
+        choices=Parameters)
+    grid_points: int = setting(9, "int", "coarse grid points per parameter", lo=3, hi=101)
+    zoom_rounds: int = setting(3, "int", "refinement rounds halving the grid spacing",
+                               lo=0, hi=10)
+    confidence: float = setting(0.95, "ratio", "simultaneous level of the reductions' CIs "
+                                "(Bonferroni over all candidates)", lo=0.5, hi=0.9999)
+    n_boot: int = setting(2000, "int", "bootstrap samples", lo=100, hi=1_000_000)
+    correction: Correction = setting(Correction.BH, "text", "multiplicity control of the "
+                                     "residual-feature associations", choices=Correction)
+    alpha: float = setting(0.05, "ratio", "level of the association tests", lo=1e-6, hi=0.5)
+    min_reduction: float = setting(0.01, "ratio", "smallest CV RMSE reduction that counts "
+                                   "as helping", lo=0.0, hi=0.99)
+    worst: int = setting(6, "int", "worst cases listed and sketched", lo=0, hi=1000)
+    stepwise: bool = setting(True, "bool", "false: only the first claim (the best candidate "
+                             "alone) is made")
+    min_cases: int = setting(MIN_CASES, "int", "fewest cases for any claim", lo=2)
+    law_grid: int = setting(13, "int", "grid values per channel of the identification",
+                            lo=3, hi=201)
+    max_steps: int = setting(MAX_STEPS, "int", "most claims of the selection", lo=1, hi=20)
     database: str = ""
 
     def __post_init__(self) -> None:
@@ -141,19 +121,9 @@ class DiagnoseSpec:
         set_(self, "outputs", _names(self.outputs))
         set_(self, "effects", _names(self.effects))
         set_(self, "laws", _channels(self.laws))
-        for name, enum in (("parameters", Parameters), ("correction", Correction)):
-            value = getattr(self, name)
-            try:
-                set_(self, name, enum(value))
-            except ValueError:
-                raise ParameterError(f"{name}={value!r}; use one of "
-                                     f"{', '.join(m.value for m in enum)}") from None
-        for name, (lo, hi, what) in RANGES.items():
-            value = getattr(self, name)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) \
-                    or not lo <= value <= hi:
-                upper = "" if hi == math.inf else f", {hi:g}"
-                raise ParameterError(f"{name} ({what}) = {value!r} must be in [{lo:g}{upper}]")
+        validate(self)
+        set_(self, "parameters", Parameters(self.parameters))
+        set_(self, "correction", Correction(self.correction))
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> DiagnoseSpec:
@@ -185,5 +155,5 @@ class DiagnoseSpec:
         return n >= self.min_cases and n // self.folds >= MIN_FOLD_CASES
 
 
-__all__ = ["MAX_STEPS", "MIN_CASES", "MIN_FOLD_CASES", "RANGES", "Correction", "DiagnoseSpec",
-           "Parameters"]
+__all__ = ["MAX_STEPS", "MIN_CASES", "MIN_FOLD_CASES", "Correction", "DiagnoseSpec",
+           "Fixed", "Parameters"]

@@ -54,6 +54,7 @@ import pandas as pd
 
 from vfs.atomic import write_text
 from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator
+from vfs.diagnosis.choices import DEFAULT_CHANNELS, parse_channels
 from vfs.diagnosis.features import case_features
 from vfs.effects.context import ContactContext, ImpactContext
 from vfs.effects.learned import CHANNELS, LAW_FEATURES, ChannelLaw, law_effect_class
@@ -69,22 +70,6 @@ POLISH_ROUNDS = 3
 #: A refinement (:func:`_refine_profile`): yields per-case values, is sent their residuals,
 #: returns the values tried and their residuals.
 RefineSteps = Generator[list[np.ndarray], np.ndarray, tuple[np.ndarray, np.ndarray]]
-
-#: Channels identified by default (all).
-DEFAULT_CHANNELS: tuple[str, ...] = tuple(CHANNELS)
-
-
-def parse_channels(spec: str | Iterable[str] | None) -> tuple[str, ...]:
-    """Channel names from ``"a,b"`` / a list / None or "all" (all channels)."""
-    if spec is None or (isinstance(spec, str) and spec.strip() in ("", "all")):
-        return DEFAULT_CHANNELS
-    names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec)]
-    names = [s for s in names if s]
-    bad = [s for s in names if s not in CHANNELS]
-    if bad:
-        raise ParameterError(f"unknown channel(s) {bad}; known: {sorted(CHANNELS)}")
-    return tuple(dict.fromkeys(names))
-
 
 def channel_grid(channel: str, points: int) -> np.ndarray:
     """Candidate values of a channel (its unit): linear or geometric over its range."""

@@ -68,6 +68,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.diagnosis.calibrate import kfold_indices, reduction_ci
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.diagnosis.robust_fit import (
     fit_form,
     fit_spline,
@@ -237,7 +238,8 @@ def refit_law(law: Mapping[str, Any], x: np.ndarray, y: np.ndarray, w: np.ndarra
 
 def cross_validate_law(sim: Any, table: pd.DataFrame, law: Mapping[str, Any],
                        held: Sequence[np.ndarray], polish: bool = False,
-                       grid_points: int = 7, zoom_rounds: int = 3
+                       grid_points: int = 7,
+                       zoom_rounds: int = DiagnoseSpec.zoom_rounds
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Cross-validated outcome errors of a law used as an effect.
 
@@ -358,8 +360,9 @@ def fold_law_effects(data: Any, laws: Sequence[tuple[pd.DataFrame, Mapping[str, 
 
 
 def learn_channel(table: pd.DataFrame, channel: str,
-                  features: Iterable[str] = LEARN_FEATURES, folds: int = 5, seed: int = 0,
-                  forms: Iterable[str] | None = None, confidence: float = 0.95,
+                  features: Iterable[str] = LEARN_FEATURES, folds: int = DiagnoseSpec.folds,
+                  seed: int = DiagnoseSpec.seed, forms: Iterable[str] | None = None,
+                  confidence: float = DiagnoseSpec.confidence,
                   n_boot: int = 1000, min_reduction: float = 0.05,
                   band_boot: int = 100) -> ChannelLaw:
     """Learn the law of one channel from the identification table (see the module docstring).

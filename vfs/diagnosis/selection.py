@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from vfs.diagnosis.claims import Reduction, helps
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 
 
 class Evaluator(Protocol):
@@ -188,7 +189,8 @@ def _est(r: Reduction | None) -> float:
     return -math.inf if r is None or not math.isfinite(r.estimate) else r.estimate
 
 
-def select(names: Sequence[str], ev: Evaluator, min_reduction: float, max_steps: int = 4,
+def select(names: Sequence[str], ev: Evaluator, min_reduction: float,
+           max_steps: int = DiagnoseSpec.max_steps,
            reliable: bool = True, worth_trying: Callable[[Reduction], bool] | None = None,
            say: Callable[[str], None] | None = None,
            always_try: Collection[str] = ()) -> Selection:

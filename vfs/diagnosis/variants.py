@@ -18,8 +18,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from vfs.effects import STAGES, Effect, VelocityChange, hooks
+from vfs.effects import STAGES, Effect, VelocityChange, call_post_impact, hooks
 from vfs.errors import ParameterError
+from vfs.physics.post_impact import POST_IMPACT_FIELDS, PostImpactInputs
 from vfs.physics.precrash import UNUSED_VEHICLE_FIELDS, PrecrashParams, PrecrashResult
 from vfs.physics.runout import RunoutMemo
 from vfs.physics.vehicle import VehicleArrays
@@ -56,6 +57,9 @@ def merge_rows(old: Any, new: Any, sel: np.ndarray) -> Any:
         return old
     if isinstance(old, tuple) and hasattr(old, "_fields"):
         return type(old)(*(merge_rows(a, b, sel) for a, b in zip(old, new, strict=True)))
+    if isinstance(old, PostImpactInputs) and isinstance(new, PostImpactInputs):
+        return PostImpactInputs(*(merge_rows(getattr(old, f), getattr(new, f), sel)
+                                  for f in POST_IMPACT_FIELDS))
     if isinstance(old, np.ndarray):
         m = sel.shape[0]
         if old.shape[:1] == (m,):
@@ -186,10 +190,19 @@ class StackedVariants(Effect):
         """Stage ``energy_split`` of each variant on its rows [J]."""
         return self._pair("energy_split", ctx, config, result, e1, e2)
 
-    def post_impact(self, ctx: Any, config: Any, result: Any, brake1: np.ndarray,
-                    brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Stage ``post_impact`` of each variant on its rows (wheel brake factors)."""
-        return self._pair("post_impact", ctx, config, result, brake1, brake2)
+    def post_impact(self, ctx: Any, config: Any, result: Any,
+                    inputs: PostImpactInputs) -> PostImpactInputs:
+        """Stage ``post_impact`` of each variant on its rows (run-out inputs: wheel brake
+        factors, steer angles).
+        """
+        rep = self._variant(ctx.rows)
+        out = inputs
+        for g, hs in self._active("post_impact"):
+            a = inputs
+            for h in hs:
+                a = call_post_impact(h, ctx, config, result, a)
+            out = merge_rows(out, a, rep == g)
+        return out
 
 
 def stacked_effect(models: Sequence[Model], n: int,

@@ -6,6 +6,8 @@ from vfs.effects.base import (
     Effect,
     EffectParameter,
     VelocityChange,
+    apply_post_impact,
+    call_post_impact,
     check_effects,
     effects_from_dicts,
     get_effect,
@@ -20,7 +22,8 @@ from vfs.effects.library import BUILTIN_EFFECTS
 
 __all__ = [
     "BUILTIN_EFFECTS", "ENTRY_POINT_GROUP", "STAGES", "ContactContext", "Effect",
-    "EffectParameter", "ImpactContext", "VelocityChange", "check_effects",
+    "EffectParameter", "ImpactContext", "VelocityChange", "apply_post_impact",
+    "call_post_impact", "check_effects",
     "effects_from_dicts", "get_effect", "hooks", "parse_effect", "register_effect",
     "registered_effects", "unregister_effect",
 ]

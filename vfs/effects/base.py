@@ -35,13 +35,21 @@ contact_impulse       ``contact_impulse(ctx, config, result) -> VelocityChange``
                       arrays, vehicle axis 1)
 energy_split          ``energy_split(ctx, config, result, e1, e2) -> (e1, e2)``:
                       deformation energies [J] behind the EES
-post_impact           ``post_impact(ctx, config, result, b1, b2) -> (b1, b2)``:
-                      wheel brake factors (N, 4) for the run-out
+post_impact           ``post_impact(ctx, config, result, inputs) -> inputs``:
+                      the run-out inputs of the colliding cases
+                      (:class:`vfs.physics.post_impact.PostImpactInputs`: brake
+                      factors per wheel, all given; steer angle and onset,
+                      extra drag per wheel, NaN = default)
 ====================  ============================================================
+
+A ``post_impact`` hook of the earlier form ``post_impact(ctx, config, result, b1, b2)
+-> (b1, b2)`` (brake factors (N, 4) per vehicle) is still run (:func:`apply_post_impact`
+tells the two forms apart by the number of parameters); it cannot steer.
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -50,10 +58,13 @@ from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import numpy as np
 
+from vfs.catalog import QUANTITY_UNITS
 from vfs.effects.context import ContactContext, ImpactContext
-from vfs.errors import ParameterError
+from vfs.errors import ParameterError, SettingProblem, SettingsError
 from vfs.physics.impact import ImpactConfig, ImpactResult, add_vehicle_aliases
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.registry import Registry
+from vfs.settings import Setting
 
 #: Simulation stages an effect can hook into, in the order they run.
 STAGES: tuple[str, ...] = (
@@ -63,6 +74,11 @@ STAGES: tuple[str, ...] = (
 
 #: Entry-point group through which other packages register effects.
 ENTRY_POINT_GROUP = "vfs.effects"
+
+
+#: The quantity (:data:`vfs.catalog.QUANTITY_UNITS`) of a parameter's SI unit label.
+_QUANTITY_OF_UNIT = {u.label: q for q, units in QUANTITY_UNITS.items() for u in units
+                     if u.to_si(2.0) == 2.0 and q != "degrees"}
 
 
 @dataclass(frozen=True)
@@ -95,23 +111,32 @@ class EffectParameter:
     neutral: float | None = None
 
     def __post_init__(self) -> None:
-        if not (self.lo <= self.default <= self.hi):
-            raise ParameterError(
-                f"parameter {self.name}: default {self.default} outside [{self.lo}, {self.hi}]")
+        self.check("EffectParameter", self.default)
+
+    @property
+    def setting(self) -> Setting:
+        """The parameter as a declared setting (:mod:`vfs.settings`): its checks, its
+        allowed range and the tables of the documentation come from it.
+        """
+        return Setting(_QUANTITY_OF_UNIT.get(self.unit, "ratio"), self.description,
+                       lo=self.lo, hi=self.hi, name=self.name, default=self.default)
 
     def check(self, effect: str, value: object) -> float:
-        """Validate a value; return it as float or raise :class:`ParameterError`."""
-        try:
-            v = float(value)  # type: ignore[arg-type]
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"effect {effect}: {self.name}={value!r} is not a number "
-                f"(allowed [{self.lo:g}, {self.hi:g}] {self.unit})") from None
-        if not (math.isfinite(v) and self.lo <= v <= self.hi):
-            raise ParameterError(
-                f"effect {effect}: {self.name}={v:g} outside the allowed range "
-                f"[{self.lo:g}, {self.hi:g}] {self.unit}")
-        return v
+        """Validate a value; return it as float or raise :class:`vfs.errors.SettingsError`
+        (``effect.parameter: value is out of range (allowed: [lo, hi] unit)``).
+        """
+        s = self.setting
+        if isinstance(value, str):  # NAME:PARAM=VALUE of a command line
+            try:
+                value = float(value)
+            except ValueError:
+                pass  # reported as not a number
+        problem = s.problem(value)
+        if problem is None and not math.isfinite(float(value)):  # type: ignore[arg-type]
+            problem = "is out of range"
+        if problem is not None:
+            raise SettingsError(SettingProblem(effect, self.name, value, problem, s.allowed()))
+        return float(value)  # type: ignore[arg-type]
 
 
 class VelocityChange(NamedTuple):
@@ -284,9 +309,12 @@ class Effect:
         return e1, e2
 
     def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
-                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Stage ``post_impact``: wheel brake factors (n, 4) FL, FR, RL, RR for the run-out."""
-        return brake1, brake2
+                    inputs: PostImpactInputs) -> PostImpactInputs:
+        """Stage ``post_impact``: the run-out inputs of the n colliding cases (brake factors
+        (n, 2, 4) [-] of the wheels FL, FR, RL, RR, every one given; front-wheel steer
+        angles (n, 2) [rad] and onsets [s], extra drag (n, 2, 4) [-], NaN = default).
+        """
+        return inputs
 
 
 # ----------------------------------------------------------------------------
@@ -397,6 +425,42 @@ def check_effects(effects: Iterable[Effect]) -> tuple[Effect, ...]:
             raise ParameterError(f"effect {e.name} listed twice")
         seen.add(e.name)
     return out
+
+
+def call_post_impact(hook: Callable[..., Any], ctx: ImpactContext, config: ImpactConfig,
+                     result: ImpactResult, inputs: PostImpactInputs) -> PostImpactInputs:
+    """Run one ``post_impact`` hook on the run-out inputs of the colliding cases.
+
+    A hook of the earlier form ``(ctx, config, result, brake1, brake2) -> (brake1,
+    brake2)`` (five parameters) gets the brake factors (n, 4) [-] of each vehicle and
+    sets them; one of the present form gets and returns the
+    :class:`vfs.physics.post_impact.PostImpactInputs`.
+
+    Raises
+    ------
+    ParameterError
+        If the hook returns something else.
+    """
+    if len(inspect.signature(hook).parameters) == 5:
+        b1, b2 = hook(ctx, config, result, np.array(inputs.brake[:, 0]),
+                      np.array(inputs.brake[:, 1]))
+        return inputs.with_brakes(b1, b2)
+    out = hook(ctx, config, result, inputs)
+    if not isinstance(out, PostImpactInputs) or out.size != inputs.size:
+        raise ParameterError(f"post_impact hook {getattr(hook, '__qualname__', hook)!r} "
+                             f"returned {type(out).__name__}, expected PostImpactInputs of "
+                             f"{inputs.size} cases")
+    return out
+
+
+def apply_post_impact(effects: Iterable[Effect], ctx: ImpactContext, config: ImpactConfig,
+                      result: ImpactResult, inputs: PostImpactInputs) -> PostImpactInputs:
+    """The run-out inputs after every ``post_impact`` hook of ``effects``, in order
+    (:func:`call_post_impact`).
+    """
+    for hook in hooks(effects, "post_impact"):
+        inputs = call_post_impact(hook, ctx, config, result, inputs)
+    return inputs
 
 
 def hooks(effects: Iterable[Effect], stage: str) -> list[Callable[..., Any]]:

@@ -4,9 +4,11 @@ A *channel* is a quantity of the model that an effect can move
 (:data:`CHANNELS`): the restitution, the contact friction, the POI shift
 along / across the contact plane, the turn of the contact plane, the
 penetration time, the EES stiffness ratio, a factor on the yaw inertias,
-the speed the tyres take from each vehicle during the contact phase, and
-the run-out brake factor of each vehicle (:data:`CHANNEL_OUTPUTS`: the
-outcomes each moves).  A *law* sets a channel per
+the speed the tyres take from each vehicle during the contact phase, the
+run-out brake factors (per vehicle, both vehicles, the impact-corner wheel) and
+the run-out front-wheel steer angle (per vehicle or both, signed towards the
+impact side: :func:`impact_sides`) (:data:`CHANNEL_OUTPUTS`: the outcomes each
+moves).  A *law* sets a channel per
 case from a *feature* of the case at impact (:data:`LAW_FEATURES`) by a
 closed form (:data:`FORMS`) or a tabulated curve (linear interpolation,
 held constant outside the table).
@@ -35,8 +37,10 @@ from vfs.effects.context import ContactContext, ImpactContext
 from vfs.effects.library import braking_impulse
 from vfs.errors import ParameterError
 from vfs.physics.impact import ImpactConfig, ImpactResult, contact_frame, energy_split
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.precrash import PrecrashParams
 from vfs.physics.runout import wheel_positions
+from vfs.physics.vehicle import VehicleArrays
 
 
 @dataclass(frozen=True)
@@ -76,6 +80,10 @@ class Channel:
     physical: tuple[bool, bool] = (False, False)
 
 
+#: Largest steer angle of a run-out steer law [rad] (about 34 deg: the steering lock of a
+#: passenger car's front wheels; :data:`vfs.physics.post_impact.MAX_STEER` allows more).
+MAX_LAW_STEER = 0.6
+
 #: The channels, by name.
 CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
     Channel("restitution", "-", 0.0, 0.8, "set", "impact_parameters",
@@ -111,11 +119,23 @@ CHANNELS: Mapping[str, Channel] = {c.name: c for c in (
             "brake factor of the wheel at the impact corner (the wheel nearest the point "
             "of impact) of each vehicle in the run-out, the other wheels at the model's "
             "factor (1 = locked by damage)", physical=(True, True)),
+    Channel("runout_steer1", "rad", -MAX_LAW_STEER, MAX_LAW_STEER, "set", "post_impact",
+            "front-wheel steer angle of vehicle 1 in the run-out, positive towards the side "
+            "of the vehicle the point of impact lies on (:func:`impact_sides`)"),
+    Channel("runout_steer2", "rad", -MAX_LAW_STEER, MAX_LAW_STEER, "set", "post_impact",
+            "front-wheel steer angle of vehicle 2 in the run-out, positive towards the side "
+            "of the vehicle the point of impact lies on (:func:`impact_sides`)"),
+    Channel("runout_steer", "rad", -MAX_LAW_STEER, MAX_LAW_STEER, "set", "post_impact",
+            "front-wheel steer angle of both vehicles in the run-out, one law for both, "
+            "each vehicle's positive towards the side the point of impact lies on"),
 )}
 
 #: The run-out channels (they act after separation only: :data:`CHANNEL_OUTPUTS`).
 RUNOUT_CHANNELS: tuple[str, ...] = ("runout_brake1", "runout_brake2", "runout_brake",
-                                    "corner_brake")
+                                    "corner_brake", "runout_steer1", "runout_steer2",
+                                    "runout_steer")
+#: The run-out steer channels (signed towards the impact side, :func:`impact_sides`).
+STEER_CHANNELS: tuple[str, ...] = ("runout_steer1", "runout_steer2", "runout_steer")
 
 #: Outcome columns each channel moves (the others stay as the default model has them).
 CHANNEL_OUTPUTS: Mapping[str, tuple[str, ...]] = {
@@ -126,8 +146,7 @@ CHANNEL_OUTPUTS: Mapping[str, tuple[str, ...]] = {
     "ees_stiffness_ratio": ("ees",),
     "tyre_impulse": ("delta_v", "post_speed", "velocity_angle_change", "rest_position",
                      "rest_yaw", "runout_distance"),
-    **{name: ("rest_position", "rest_yaw", "runout_distance") for name in (
-        "runout_brake1", "runout_brake2", "runout_brake", "corner_brake")},
+    **{name: ("rest_position", "rest_yaw", "runout_distance") for name in RUNOUT_CHANNELS},
 }
 
 
@@ -331,20 +350,25 @@ class ChannelLaw(Effect):
         return braking_impulse(config, result, self.value(ctx, config, np.zeros(ctx.size)))
 
     def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
-                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Brake factors [-] of the run-out from the law: all wheels of one vehicle
-        (``runout_brake1/2``), all wheels of both (``runout_brake``: the law's value,
-        one per case, for each vehicle), or the impact-corner wheel of each vehicle
-        (``corner_brake``, :func:`impact_corner_wheels`).
+                    inputs: PostImpactInputs) -> PostImpactInputs:
+        """Run-out inputs from the law: the brake factors [-] of all wheels of one vehicle
+        (``runout_brake1/2``), of all wheels of both (``runout_brake``: the law's value,
+        one per case, for each vehicle), or of the impact-corner wheel of each vehicle
+        (``corner_brake``, :func:`impact_corner_wheels`); or the front-wheel steer angle
+        [rad] of one vehicle or both (``runout_steer1/2``, ``runout_steer``), signed
+        towards the side of each vehicle the point of impact lies on
+        (:func:`impact_sides`), so that a mirrored scene steers mirrored.
         """
         ch = self.law["channel"]
         if ch not in RUNOUT_CHANNELS:
-            return brake1, brake2
+            return inputs
+        if ch in STEER_CHANNELS:
+            return self._steer(ctx, config, inputs, ch)
+        brake1, brake2 = inputs.brake[:, 0], inputs.brake[:, 1]
         if ch == "runout_brake":
-            b1 = np.asarray(brake1, float)
-            b = self.value(ctx, config, 0.5 * (b1.mean(axis=1) + np.asarray(brake2).mean(axis=1)))
+            b = self.value(ctx, config, 0.5 * (brake1.mean(axis=1) + brake2.mean(axis=1)))
             new = np.repeat(b[:, None], 4, axis=1)
-            return new, new.copy()
+            return inputs.with_brakes(new, new)
         if ch == "corner_brake":
             rows = np.arange(config.size)
             out = []
@@ -353,25 +377,69 @@ class ChannelLaw(Effect):
                 b = np.array(brake, float, copy=True)
                 b[rows, w] = self.value(ctx, config, b[rows, w])
                 out.append(b)
-            return out[0], out[1]
+            return inputs.with_brakes(out[0], out[1])
         old = brake1 if ch == "runout_brake1" else brake2
-        b = self.value(ctx, config, np.asarray(old, float).mean(axis=1))
+        b = self.value(ctx, config, old.mean(axis=1))
         new = np.repeat(b[:, None], 4, axis=1)
-        return (new, brake2) if ch == "runout_brake1" else (brake1, new)
+        return (inputs.with_brakes(new, brake2) if ch == "runout_brake1"
+                else inputs.with_brakes(brake1, new))
+
+    def _steer(self, ctx: ImpactContext, config: ImpactConfig, inputs: PostImpactInputs,
+               ch: str) -> PostImpactInputs:
+        """The steer angles [rad] of a steer law: the law's value (towards the impact
+        side) times each vehicle's side (+1 left, -1 right); a vehicle whose point of impact
+        lies on its centre line (side 0) keeps its angle.
+        """
+        side = impact_sides(config)
+        toward = inputs.steer() * side  # the present angles, towards the impact side
+        vehicles = (1, 2) if ch == "runout_steer" else (int(ch[-1]),)
+        base = toward[:, [i - 1 for i in vehicles]].mean(axis=1)
+        v = self.value(ctx, config, base)
+        for i in vehicles:
+            s = side[:, i - 1]
+            inputs = inputs.with_steer(i, np.where(s != 0.0, v * s + 0.0,
+                                                   inputs.steer_angle[:, i - 1]))
+        return inputs
+
+
+def impact_sides(config: ImpactConfig) -> np.ndarray:
+    """Side of each vehicle the point of impact lies on, (n, 2): +1 left, -1 right, 0 on the
+    centre line (the sign of the POI's lateral coordinate in the vehicle's frame, x forward,
+    y left).  Mirroring the scene flips it, so that a law of the steer angle towards the
+    impact side (the run-out steer channels) gives the mirrored angle.
+    """
+    return np.sign(poi_in_vehicle_frames(config)[..., 1])
+
+
+def poi_in_vehicle_frames(config: ImpactConfig) -> np.ndarray:
+    """The point of impact in each vehicle's frame (x forward, y left, origin at the CG)
+    [m], (n, 2 vehicles, 2).
+    """
+    dx = config.poi_x[:, None] - config.x
+    dy = config.poi_y[:, None] - config.y
+    c, s = np.cos(config.yaw), np.sin(config.yaw)
+    return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)
 
 
 def impact_corner_wheels(ctx: ImpactContext, config: ImpactConfig
                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Index (0-3: FL, FR, RL, RR) of the wheel nearest the point of impact of vehicle 1
+    and of vehicle 2 per case (:func:`corner_wheels` of the context's vehicles).
+    """
+    return corner_wheels(ctx.vehicle1, ctx.vehicle2, config)
+
+
+def corner_wheels(vehicle1: VehicleArrays, vehicle2: VehicleArrays, config: ImpactConfig
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Index (0-3: FL, FR, RL, RR) of the wheel nearest the point of impact of vehicle 1
     and of vehicle 2 per case: the POI taken into each vehicle's frame (x forward, y
     left, origin at the CG) against the wheel contact points of
     :func:`vfs.physics.runout.wheel_positions`.
     """
     out = []
-    for j, veh in enumerate((ctx.vehicle1, ctx.vehicle2)):
-        dx, dy = config.poi_x - config.x[:, j], config.poi_y - config.y[:, j]
-        c, s = np.cos(config.yaw[:, j]), np.sin(config.yaw[:, j])
-        local = np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)  # (n, 2)
+    poi = poi_in_vehicle_frames(config)
+    for j, veh in enumerate((vehicle1, vehicle2)):
+        local = poi[:, j]  # (n, 2)
         wheels = wheel_positions(veh)  # (n, 4, 2)
         out.append(np.argmin(np.sum((wheels - local[:, None, :]) ** 2, axis=-1), axis=1))
     return out[0], out[1]
@@ -452,6 +520,8 @@ def finite(x: float) -> bool:
     return math.isfinite(x)
 
 
-__all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "RUNOUT_CHANNELS", "Channel",
-           "ChannelLaw", "check_law", "evaluate_law", "feature_values", "impact_corner_wheels",
-           "law_effect_class", "law_text", "normal_closing_speed"]
+__all__ = ["CHANNELS", "CHANNEL_OUTPUTS", "FORMS", "LAW_FEATURES", "MAX_LAW_STEER",
+           "RUNOUT_CHANNELS", "STEER_CHANNELS", "Channel", "ChannelLaw", "check_law",
+           "corner_wheels", "evaluate_law", "feature_values", "impact_corner_wheels",
+           "impact_sides", "law_effect_class", "law_text", "normal_closing_speed",
+           "poi_in_vehicle_frames"]

@@ -23,6 +23,7 @@ from vfs.physics.impact import (
     energy_split,
     poi_relative_velocity,
 )
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.vehicle import VehicleArrays
 from vfs.units import G, wrap_axial
 
@@ -305,18 +306,18 @@ class WheelLock(Effect):
     outputs = ("rest_position", "rest_yaw", "runout_distance")
 
     def post_impact(self, ctx: ImpactContext, config: ImpactConfig, result: ImpactResult,
-                    brake1: np.ndarray, brake2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    inputs: PostImpactInputs) -> PostImpactInputs:
         """Set the front brake factors to 1 where the depth is exceeded."""
         poly = ctx.overlap.polygon
         out = []
-        for j, (veh, brake) in enumerate(((ctx.vehicle1, brake1), (ctx.vehicle2, brake2))):
+        for j, veh in enumerate((ctx.vehicle1, ctx.vehicle2)):
             local = ctx.overlap_local[j]
             depth = veh.cg_to_front - local[..., 0].min(axis=1)
             lock = poly.nonempty & (ctx.faces[:, j] == FACE_FRONT) & (depth > self["depth"])
-            b = np.array(brake, float, copy=True)
+            b = np.array(inputs.brake[:, j], float, copy=True)
             b[lock, 0:2] = 1.0
             out.append(b)
-        return out[0], out[1]
+        return inputs.with_brakes(out[0], out[1])
 
 
 @register_effect

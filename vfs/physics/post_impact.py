@@ -97,6 +97,37 @@ class PostImpactInputs:
         return any(not np.isnan(a).all() for a in (self.brake, self.driver_brake, self.drag,
                                                     self.steer_angle, self.steer_onset))
 
+    def with_brakes(self, brake1: npt.ArrayLike, brake2: npt.ArrayLike) -> PostImpactInputs:
+        """A copy with every wheel's brake factor given [-]: ``brake1``, ``brake2`` (N, 4)
+        of vehicles 1 and 2 (checked against [0, 1]).
+        """
+        brake = np.stack([np.asarray(brake1, float), np.asarray(brake2, float)], axis=1)
+        return PostImpactInputs(brake, self.driver_brake, self.drag, self.steer_angle,
+                                self.steer_onset)
+
+    def with_steer(self, vehicle: int, angle: npt.ArrayLike,
+                   onset: npt.ArrayLike | None = None) -> PostImpactInputs:
+        """A copy with the front-wheel steer angle [rad] (N,) of ``vehicle`` (1 or 2) set
+        (NaN: the default, 0), and its onset [s] (N,) if given.
+        """
+        if vehicle not in (1, 2):
+            raise ParameterError(f"vehicle must be 1 or 2, got {vehicle!r}")
+        steer = np.array(self.steer_angle, float, copy=True)
+        steer[:, vehicle - 1] = np.broadcast_to(np.asarray(angle, float), (self.size,))
+        start = self.steer_onset
+        if onset is not None:
+            start = np.array(start, float, copy=True)
+            start[:, vehicle - 1] = np.broadcast_to(np.asarray(onset, float), (self.size,))
+        return PostImpactInputs(self.brake, self.driver_brake, self.drag, steer, start)
+
+    @property
+    def wheels_given(self) -> bool:
+        """True if a drag, steer angle or onset is given (the run-out needs the wheel
+        inputs beyond the brakes).
+        """
+        return any(not np.isnan(a).all() for a in (self.drag, self.steer_angle,
+                                                    self.steer_onset))
+
     def wheel_brake(self, default: npt.ArrayLike) -> np.ndarray:
         """Brake factors (N, 2, 4) [-]: a wheel's own value, else the driver braking, else
         ``default`` (4,) (``RunoutParams.wheel_brake``).
@@ -118,6 +149,10 @@ class PostImpactInputs:
         """Steering onsets (N, 2) [s], NaN -> 0."""
         return np.where(np.isnan(self.steer_onset), 0.0, self.steer_onset)
 
+
+#: The fields of :class:`PostImpactInputs`, in order.
+POST_IMPACT_FIELDS: tuple[str, ...] = ("brake", "driver_brake", "drag", "steer_angle",
+                                       "steer_onset")
 
 #: Largest front-wheel steer angle of the run-out [rad] (60 deg: beyond the steering lock of a
 #: passenger car, room for a wheel turned by the damage).

@@ -66,6 +66,7 @@ from vfs.physics.precrash_contact import (
 )
 from vfs.physics.precrash_result import KinematicState, PrecrashResult
 from vfs.physics.vehicle import VehicleArrays
+from vfs.settings import Rule, setting, validate
 
 #: The braking names are re-exported from :mod:`vfs.physics.braking`, the records from
 #: :mod:`vfs.physics.precrash_result`, where they live.
@@ -122,21 +123,23 @@ class PrecrashParams:
         Brake build-up.
     """
 
-    dt: float = 0.01
-    penetration_time: float = 0.030
-    contact_tolerance: float = 0.00005
-    extra_time: float = 3.0
+    dt: float = setting(0.01, "time", "time step of the pre-crash simulation",
+                        lo=1e-4, hi=0.1)
+    penetration_time: float = setting(0.030, "time", "time the outlines move on after first "
+                                      "contact (the impact configuration)", lo=0.0, hi=0.5)
+    contact_tolerance: float = setting(0.00005, "time", "first contact is located to within "
+                                       "this by bisection; <= dt", lo=0.0, lo_open=True,
+                                       hi=0.1)
+    extra_time: float = setting(3.0, "time", "simulated beyond the end of the longer record "
+                                "(collisions delayed by braking)", lo=0.0, hi=60.0)
     brake: BrakeActuatorParams = BrakeActuatorParams()
 
+    #: Rules between the settings.
+    RULES = (Rule(("contact_tolerance", "dt"), lambda p: p.contact_tolerance <= p.dt,
+                  "contact_tolerance <= dt"),)
+
     def __post_init__(self) -> None:
-        if not 1e-4 <= self.dt <= 0.1:
-            raise ParameterError(f"dt={self.dt} s outside [0.0001, 0.1]")
-        if not 0.0 <= self.penetration_time <= 0.5:
-            raise ParameterError(f"penetration_time={self.penetration_time} s outside [0, 0.5]")
-        if not 0 < self.contact_tolerance <= self.dt:
-            raise ParameterError("contact_tolerance must be in (0, dt]")
-        if not 0.0 <= self.extra_time <= 60.0:
-            raise ParameterError(f"extra_time={self.extra_time} s outside [0, 60]")
+        validate(self)
 
 
 class SegmentedRandom(NamedTuple):

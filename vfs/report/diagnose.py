@@ -21,6 +21,7 @@ from vfs.accident_types import accident_type_label
 from vfs.atomic import write_json, write_table
 from vfs.diagnosis.claims import LawFinding
 from vfs.diagnosis.diagnose import Diagnosis, claim_label, summary_dict
+from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.diagnosis.selection import step_label
 from vfs.report.figures import (
     new_figure,
@@ -42,6 +43,9 @@ from vfs.simulation import SimulationParams
 
 #: Format of the floating-point cells of the report tables.
 FLOAT_FORMAT = "{:.3g}"
+#: The confidence level of a summary written before it recorded its own (the declared
+#: default of :attr:`DiagnoseSpec.confidence`).
+CONFIDENCE = DiagnoseSpec().confidence
 
 
 def _pct(x: float) -> str:
@@ -252,7 +256,7 @@ def summary_blocks(diag: Diagnosis) -> list[Block]:
     its cross-validated RMSE reduction and simultaneous interval.
     """
     s = diag.settings
-    level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', 0.95)):.1f} %"
+    level = f"{100 * s.get('simultaneous_confidence', s.get('confidence', CONFIDENCE)):.1f} %"
     items: list[str] = []
     cands = diag.candidates
 

@@ -327,7 +327,7 @@ def _replay(batch: _Batch, rows: np.ndarray, dt: float) -> _Replay:
     collided = np.zeros(n, dtype=bool)
     contact = np.full(n, np.nan)
     distance = np.full(n, np.nan)
-    params = PrecrashParams(dt=min(0.01, dt), extra_time=0.0)
+    params = PrecrashParams(dt=min(PrecrashParams().dt, dt), extra_time=0.0)
     first = _replay_start(batch, rows, dt)
     order = np.argsort(batch.count[rows] - first, kind="stable")
     for lo in range(0, n, CHUNK):

@@ -3,9 +3,10 @@
 A frozen dataclass passed whole from the command line (``vfs study`` builds
 it, :mod:`vfs.cli.study`) or the Python API (:func:`vfs.study.run_study`
 takes one, or builds it from keyword arguments) down to the chunk runner.
-Its checks are declared in two tables, :data:`RANGES` (numeric bounds) and
-:data:`CHOICES` (string options as :class:`enum.StrEnum`, also the argparse
-``choices``), and run in ``__post_init__``.
+Each of its settings is declared once with :func:`vfs.settings.setting` (bounds,
+default, choices as :class:`enum.StrEnum`, one line of doc); the checks of
+``__post_init__``, the command line's choices, defaults and help and the table of
+docs/study.md are derived from the declarations.
 """
 
 from __future__ import annotations
@@ -13,13 +14,11 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields
-from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from vfs.errors import ParameterError
+from vfs.settings import declared, setting, validate
 from vfs.simulation import ImpactParameterSource, SimulationParams
 from vfs.study.layout import DEFAULT_CHUNK_SIZE, Equip
 
@@ -27,42 +26,6 @@ from vfs.study.layout import DEFAULT_CHUNK_SIZE, Equip
 #: :data:`DEFAULT_CHUNK_SIZE` together (each keeps its own file and random
 #: stream), so that the per-step cost of the pre-crash loop is shared.
 DEFAULT_TASK_CASES = 5_000
-
-#: Bounds (inclusive; None = open) of the numeric settings, checked when set.
-RANGES: dict[str, tuple[int | None, int | None]] = {
-    "chunk_size": (1, None),
-    "task_cases": (1, None),
-    "workers": (1, None),
-    "in_flight": (1, None),
-    "max_chunks": (0, None),
-}
-
-#: String options and their enums (also the argparse ``choices``).
-CHOICES: dict[str, type[StrEnum]] = {
-    "equip": Equip,
-    "impact_parameters": ImpactParameterSource,
-}
-
-
-def checked_int(name: str, value: object, low: int | None = 1, high: int | None = None) -> int:
-    """``value`` as an int within [low, high], else :class:`ParameterError` naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer | float) \
-            or int(value) != value:
-        raise ParameterError(f"{name}={value!r} must be an integer")
-    if (low is not None and value < low) or (high is not None and value > high):
-        bounds = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ParameterError(f"{name}={value!r} must be {bounds}")
-    return int(value)
-
-
-def checked_choice(name: str, value: object, enum: type[StrEnum]) -> StrEnum:
-    """``value`` as a member of ``enum``, else :class:`ParameterError` listing them."""
-    try:
-        return enum(str(value))
-    except ValueError:
-        raise ParameterError(f"{name}={value!r}; use one of "
-                             f"{', '.join(m.value for m in enum)}") from None
-
 
 @dataclass(frozen=True)
 class StudySpec:
@@ -118,25 +81,48 @@ class StudySpec:
     db: str | os.PathLike[str] | Any
     systems: tuple[Any, ...]
     out: Path
-    engine: str = "process"
-    workers: int | None = None
-    scheduler: str | None = None
-    chunk_size: int = DEFAULT_CHUNK_SIZE
-    task_cases: int = DEFAULT_TASK_CASES
-    seed: int = 0
-    where: str | None = None
-    equip: Equip = Equip.BOTH
-    resume: bool = False
-    overwrite: bool = False
+    engine: str = setting("process", "text", "executor: serial, local processes, dask, or one "
+                          "registered with vfs.study.register_executor or by an installed "
+                          "package (entry-point group vfs.executors)")
+    workers: int | None = setting(None, "int", "parallel workers", lo=1, optional=True,
+                                  optional_doc="min(CPUs, tasks)")
+    scheduler: str | None = setting(None, "text", "dask scheduler address, e.g. "
+                                    "tcp://host:8786 (engine dask); its workers need the "
+                                    "same vfs and numpy", optional=True,
+                                    optional_doc="a local cluster")
+    chunk_size: int = setting(DEFAULT_CHUNK_SIZE, "int", "cases per chunk file, the unit of "
+                              "resume and of the random streams", lo=1)
+    task_cases: int = setting(DEFAULT_TASK_CASES, "int", "most cases one task simulates as "
+                              "one batch: whole chunks, each with its own random stream, so "
+                              "results do not depend on it; larger batches share the per-step "
+                              "cost (with workers the tasks are sized by their estimated cost)",
+                              lo=1)
+    seed: int = setting(0, "int", "seed of all random draws")
+    where: str | None = setting(None, "text", "SQL predicate on the cases table",
+                                optional=True, optional_doc="every case")
+    equip: Equip = setting(Equip.BOTH, "text", "vehicles carrying the system in the "
+                           "treatment runs", choices=Equip)
+    resume: bool = setting(False, "bool", "continue an interrupted study in out (same "
+                           "inputs)")
+    overwrite: bool = setting(False, "bool", "replace an existing study in out")
     params: SimulationParams = field(default_factory=SimulationParams)
-    impact_parameters: ImpactParameterSource = ImpactParameterSource.RECONSTRUCTION
+    impact_parameters: ImpactParameterSource = setting(
+        ImpactParameterSource.RECONSTRUCTION, "text", "restitution and contact friction: "
+        "the reconstruction's where the database has them, or the model defaults for every "
+        "case", choices=ImpactParameterSource)
     registry: Any = None
-    progress: bool | None = None
-    dask_processes: bool = True
-    max_chunks: int | None = None
+    progress: bool | None = setting(None, "bool", "progress bar on stderr", optional=True,
+                                    optional_doc="when stderr is a terminal")
+    dask_processes: bool = setting(True, "bool", "a local dask cluster of processes (true) "
+                                   "or threads")
+    max_chunks: int | None = setting(None, "int", "run at most this many chunks now", lo=0,
+                                     optional=True, optional_doc="all")
     on_chunk: Callable[[int, int], None] | None = None
-    dashboard: str | None = None
-    in_flight: int | None = None
+    dashboard: str | None = setting(None, "text", "dashboard address of the local dask "
+                                    "cluster, e.g. :8787 (needs bokeh)", optional=True,
+                                    optional_doc="off")
+    in_flight: int | None = setting(None, "int", "tasks submitted and not yet written",
+                                    lo=1, optional=True, optional_doc="twice the workers")
 
     def __post_init__(self) -> None:
         from vfs.study.executors import EXECUTORS
@@ -148,13 +134,16 @@ class StudySpec:
         set_("systems", tuple(split_systems(systems)) if isinstance(systems, str | Sequence)
              else (systems,))
         set_("out", Path(self.out))
-        for name, (low, high) in RANGES.items():
+        for name, s in declared(self).items():  # equip=1 means "1"
+            if s.choices is not None and isinstance(getattr(self, name), int):
+                set_(name, str(getattr(self, name)))
+        validate(self)
+        for name, s in declared(self).items():
             value = getattr(self, name)
-            if value is not None:
-                set_(name, checked_int(name, value, low, high))
-        for name, enum in CHOICES.items():
-            set_(name, checked_choice(name, getattr(self, name), enum))
-        set_("seed", checked_int("seed", self.seed, None, None))
+            if s.quantity == "int" and value is not None:
+                set_(name, int(value))
+            elif s.choices is not None:
+                set_(name, s.choices(value))
         set_("params", self.params if self.params is not None else SimulationParams())
         EXECUTORS.get(self.engine)  # an unknown engine: ParameterError listing the known
         if self.dashboard is not None and (self.engine != "dask" or self.scheduler):
@@ -173,5 +162,4 @@ class StudySpec:
         return cls(db, systems, out, **options)
 
 
-__all__ = ["CHOICES", "DEFAULT_TASK_CASES", "RANGES", "Equip", "ImpactParameterSource",
-           "StudySpec", "checked_choice", "checked_int"]
+__all__ = ["DEFAULT_TASK_CASES", "Equip", "ImpactParameterSource", "StudySpec"]

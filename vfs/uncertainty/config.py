@@ -25,7 +25,18 @@ from types import MappingProxyType
 from typing import Any
 
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.physics.post_impact import MAX_STEER
 from vfs.physics.runout import RunoutParams
+from vfs.settings import (
+    Rule,
+    build,
+    declared,
+    fields_of,
+    raise_problems,
+    read_table,
+    setting,
+    validate,
+)
 from vfs.units import KMH_PER_MS
 
 #: The default configuration file (package data, read with :mod:`importlib.resources`).
@@ -116,6 +127,20 @@ INPUTS: tuple[InputInfo, ...] = (
               (0.0, 1.0), (), "post-crash brake factor of the four wheels of vehicle 1"),
     InputInfo("wheel_brake2", "wheel brake 2", "dimensionless", ("absolute", "offset"),
               (0.0, 1.0), (), "post-crash brake factor of the four wheels of vehicle 2"),
+    InputInfo("corner_brake1", "corner brake 1", "dimensionless", ("absolute", "offset"),
+              (-1.0, 1.0), (),
+              "post-crash brake factor of the impact-corner wheel of vehicle 1 over its "
+              "vehicle's factor (its wheel = clip(wheel brake 1 + this, 0, 1))"),
+    InputInfo("corner_brake2", "corner brake 2", "dimensionless", ("absolute", "offset"),
+              (-1.0, 1.0), (),
+              "post-crash brake factor of the impact-corner wheel of vehicle 2 over its "
+              "vehicle's factor (its wheel = clip(wheel brake 2 + this, 0, 1))"),
+    InputInfo("steer1", "steer angle 1", "angle", ("absolute", "offset"),
+              (-MAX_STEER, MAX_STEER), (),
+              "post-crash front-wheel steer angle of vehicle 1, positive to the left [rad]"),
+    InputInfo("steer2", "steer angle 2", "angle", ("absolute", "offset"),
+              (-MAX_STEER, MAX_STEER), (),
+              "post-crash front-wheel steer angle of vehicle 2, positive to the left [rad]"),
 )
 
 #: Input names in column order.
@@ -250,10 +275,17 @@ class UncertaintyConfig:
     """
 
     inputs: Mapping[str, InputSpec]
-    runout_dt: float = 0.02
-    runout_max_time: float = 30.0
-    wheel_brake: float = 0.8
+    runout_dt: float = setting(0.02, "time", "run-out time step of the Monte-Carlo model",
+                               lo=0.0, lo_open=True, hi=0.05)
+    runout_max_time: float = setting(30.0, "time", "longest run-out of the Monte-Carlo model; "
+                                     ">= runout_dt", lo=0.0, lo_open=True, hi=3600.0)
+    wheel_brake: float = setting(0.8, "ratio", "nominal post-crash brake factor of the wheels "
+                                 "(0 free rolling, 1 locked)", lo=0.0, hi=1.0)
     source: str = ""
+
+    #: Rules between the settings.
+    RULES = (Rule(("runout_dt", "runout_max_time"),
+                  lambda c: c.runout_dt <= c.runout_max_time, "runout_dt <= runout_max_time"),)
 
     def __post_init__(self) -> None:
         missing = [n for n in INPUT_NAMES if n not in self.inputs]
@@ -262,13 +294,7 @@ class UncertaintyConfig:
         unknown = sorted(set(self.inputs) - set(INPUT_NAMES))
         if unknown:
             raise ParameterError(f"unknown inputs {unknown}; known: {', '.join(INPUT_NAMES)}")
-        if not 0.0 < self.runout_dt <= 0.05:
-            raise ParameterError(f"model.runout_dt_s = {self.runout_dt:g} outside (0, 0.05]")
-        if not self.runout_dt <= self.runout_max_time <= 3600.0:
-            raise ParameterError(f"model.runout_max_time_s = {self.runout_max_time:g} outside "
-                                 f"[{self.runout_dt:g}, 3600]")
-        if not 0.0 <= self.wheel_brake <= 1.0:
-            raise ParameterError(f"model.wheel_brake = {self.wheel_brake:g} outside [0, 1]")
+        validate(self)
 
     def runout_params(self) -> RunoutParams:
         """Run-out parameters of the Monte-Carlo model (paths sampled only at the end)."""
@@ -449,19 +475,17 @@ def config_from_dict(data: Mapping[str, Any], base: UncertaintyConfig | None = N
     model = data.get("model", {})
     if not isinstance(model, Mapping):
         raise ParameterError("'model' must be a table")
-    bad = sorted(set(model) - {"runout_dt_s", "runout_max_time_s", "wheel_brake"})
+    fields = fields_of(UncertaintyConfig)  # the [model] keys: the declared settings
+    keys = [k for f in fields for k in f.keys()]
+    bad = sorted(set(model) - set(keys))
     if bad:
-        raise ParameterError(f"model: unknown keys {bad}; allowed: runout_dt_s, "
-                             "runout_max_time_s, wheel_brake")
-    settings = {
-        "runout_dt": base.runout_dt if base else 0.02,
-        "runout_max_time": base.runout_max_time if base else 30.0,
-        "wheel_brake": base.wheel_brake if base else 0.8,
-    }
-    for key, attr in (("runout_dt_s", "runout_dt"), ("runout_max_time_s", "runout_max_time"),
-                      ("wheel_brake", "wheel_brake")):
-        if key in model:
-            settings[attr] = _number(f"model.{key}", model[key])
+        raise ParameterError(f"model: unknown keys {bad}; allowed: {', '.join(keys)}")
+    settings = {name: getattr(base, name) if base else s.default
+                for name, s in declared(UncertaintyConfig).items()}
+    values, problems = read_table(model, fields, path=source or "uncertainty configuration",
+                                  where="model.")
+    raise_problems(problems)
+    settings |= values
     inputs_raw = data.get("inputs", {})
     if not isinstance(inputs_raw, Mapping):
         raise ParameterError("'inputs' must be a table of input names")
@@ -479,7 +503,13 @@ def config_from_dict(data: Mapping[str, Any], base: UncertaintyConfig | None = N
         else:
             raise ParameterError(f"inputs.{name} is missing (a complete configuration lists "
                                  "every input)")
-    return UncertaintyConfig(MappingProxyType(inputs), source=source, **settings)
+    problems = []
+    config = build(UncertaintyConfig, {"inputs": MappingProxyType(inputs), "source": source,
+                                       **settings},
+                   path=source or "uncertainty configuration", where="model.",
+                   problems=problems, labels={f.name: f.keys()[0] for f in fields})
+    raise_problems(problems)
+    return config
 
 
 def _read_toml(path: Path | Traversable) -> dict[str, Any]:

@@ -46,6 +46,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vfs.database.post_impact import post_impact_inputs
+from vfs.effects.learned import corner_wheels
 from vfs.errors import ParameterError
 from vfs.outcomes import from_results
 from vfs.physics.geometry import contact_geometry, vehicle_outline
@@ -179,6 +180,33 @@ def _run_brakes(post: PostImpactInputs | None, rows: np.ndarray, sampled: np.nda
     return np.where(given[:, None], shifted, plain)
 
 
+def _corner_brakes(brakes: list[np.ndarray], runs: _Cases, config: ImpactConfig,
+                   extra1: np.ndarray, extra2: np.ndarray) -> None:
+    """Add the sampled extra brake factor [-] to the impact-corner wheel of each vehicle
+    (:func:`vfs.effects.learned.corner_wheels`), clipped to [0, 1], in place; nothing where
+    it is 0 (the default).
+    """
+    if not (np.any(extra1 != 0.0) or np.any(extra2 != 0.0)):
+        return
+    rows = np.arange(config.size)
+    for b, w, extra in zip(brakes, corner_wheels(runs.vehicle1, runs.vehicle2, config),
+                           (extra1, extra2), strict=True):
+        b[rows, w] = np.clip(b[rows, w] + extra, 0.0, 1.0)
+
+
+def _run_wheels(post: PostImpactInputs | None, rows: np.ndarray, steer1: np.ndarray,
+                steer2: np.ndarray) -> PostImpactInputs | None:
+    """The run-out inputs beyond the brakes of the runs: the case's drag per wheel and
+    steering onset (where the data give them) and the sampled steer angles [rad] (their
+    nominal value is the data's, :func:`vfs.uncertainty.sampling.nominal_inputs`); None
+    when nothing steers or drags (the run-out without wheel inputs, bit for bit the same).
+    """
+    if post is None and not (np.any(steer1 != 0.0) or np.any(steer2 != 0.0)):
+        return None
+    sub = PostImpactInputs.unknown(rows.shape[0]) if post is None else post.take(rows)
+    return sub.with_steer(1, steer1).with_steer(2, steer2)
+
+
 def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                     params: SimulationParams, post: PostImpactInputs | None = None,
                     nominal_brake: float = 0.8) -> ModelRuns:
@@ -240,14 +268,15 @@ def _evaluate_block(cases: CaseSet, rows: np.ndarray, x: np.ndarray,
                   col["road_friction"])
     at = ImpactInputs(state, np.stack([poi_x, poi_y], axis=1), cp,
                       contact_time=-col["penetration_time"], impact_time=np.zeros(k))
-    _, res, _, _ = impact_stage(runs, at, np.arange(k), col["restitution"],
-                                col["contact_friction"], params)
+    solved, res, _, _ = impact_stage(runs, at, np.arange(k), col["restitution"],
+                                     col["contact_friction"], params)
+    brakes = [_run_brakes(post, rows, col[f"wheel_brake{i}"], nominal_brake, i)
+              for i in (1, 2)]
+    _corner_brakes(brakes, runs, solved, col["corner_brake1"], col["corner_brake2"])
     ro = runout_stage(runs.vehicle1, runs.vehicle2, state, res, col["road_friction"],
-                      params.runout,
-                      _run_brakes(post, rows, col["wheel_brake1"], nominal_brake, 1),
-                      _run_brakes(post, rows, col["wheel_brake2"], nominal_brake, 2),
+                      params.runout, brakes[0], brakes[1],
                       secondary_collisions=False,
-                      post_impact=None if post is None else post.take(rows))
+                      post_impact=_run_wheels(post, rows, col["steer1"], col["steer2"]))
     columns: dict[str, np.ndarray] = {"energy_loss": res.energy_loss,
                                       "closing_speed": res.closing_speed}
     for i in (1, 2):

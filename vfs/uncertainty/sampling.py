@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.special import ndtr, ndtri
 
+from vfs.database.post_impact import post_impact_inputs
 from vfs.errors import ParameterError
 from vfs.uncertainty.cases import CaseSet
 from vfs.uncertainty.config import (
@@ -146,6 +147,8 @@ def nominal_inputs(cases: CaseSet, config: UncertaintyConfig) -> np.ndarray:
     """Nominal input values (d, N) [SI]: the database's values, no shifts."""
     c = cases.config
     n = cases.size
+    post = post_impact_inputs(cases.reconstruction, cases.case_id)
+    steer = np.zeros((n, 2)) if post is None else post.steer()  # [rad], the data's or 0
     rows = {
         "road_friction": cases.road_friction,
         "restitution": c.restitution,
@@ -156,6 +159,8 @@ def nominal_inputs(cases: CaseSet, config: UncertaintyConfig) -> np.ndarray:
         "mass1": c.m[:, 0], "mass2": c.m[:, 1],
         "wheel_brake1": np.full(n, config.wheel_brake),
         "wheel_brake2": np.full(n, config.wheel_brake),
+        "corner_brake1": np.zeros(n), "corner_brake2": np.zeros(n),
+        "steer1": steer[:, 0], "steer2": steer[:, 1],
     }
     return np.stack([np.asarray(rows[name], float) for name in INPUT_NAMES])
 

@@ -18,6 +18,8 @@ import pytest
 
 from vfs.adas import controller as controller_module
 from vfs.adas.controller import AEBController
+from vfs.adas.definition import AEBSystem
+from vfs.adas.params import AEBParams
 from vfs.adas.systems import SYSTEM_NAMES, get_system
 from vfs.physics.braking import BrakeActuatorParams, PrecrashObservation
 from vfs.scenarios.generator import generate_database, get_preset
@@ -42,7 +44,7 @@ def _differences(ref: object, got: object, path: str = "") -> list[str]:
         assert isinstance(got, dict) and ref.keys() == got.keys()
         return [d for k in ref for d in _differences(ref[k], got[k], f"{path}{k}.")]
     if hasattr(ref, "_fields"):
-        return [d for name, a, b in zip(ref._fields, ref, got, strict=True)  # type: ignore
+        return [d for name, a, b in zip(ref._fields, ref, got, strict=True)
                 for d in _differences(a, b, f"{path}{name}.")]
     x, y = np.asarray(ref), np.asarray(got)
     if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
@@ -50,21 +52,30 @@ def _differences(ref: object, got: object, path: str = "") -> list[str]:
     return []
 
 
-def _variants() -> dict[str, object]:
+def _system(name: str) -> AEBSystem:
+    """The built-in system ``name`` (an :class:`AEBSystem`)."""
+    system = get_system(name)
+    assert isinstance(system, AEBSystem)
+    return system
+
+
+def _variants() -> dict[str, AEBSystem]:
     """Every built-in system, and variants that reach the other branches: the CA model,
     release by TTC and never, detection probability below 1 (the draws), a mounted and
     turned sensor, box margins, and the first-order actuator.
     """
-    out: dict[str, object] = {name: get_system(name) for name in (*SYSTEM_NAMES, "ideal-ctra")}
-    three, ideal = get_system("three-stage"), get_system("ideal-ctra")
-    sensor = dataclasses.replace(three.aeb.sensor, detection_probability=0.6, mount_x=-0.5,
+    out = {name: _system(name) for name in (*SYSTEM_NAMES, "ideal-ctra")}
+    three, ideal = _system("three-stage"), _system("ideal-ctra")
+    three_aeb, ideal_aeb = three.aeb, ideal.aeb
+    assert isinstance(three_aeb, AEBParams) and isinstance(ideal_aeb, AEBParams)
+    sensor = dataclasses.replace(three_aeb.sensor, detection_probability=0.6, mount_x=-0.5,
                                  mount_y=0.4, mount_yaw=0.1, field_of_view=1.2)
     out["three-stage-ca-ttc"] = dataclasses.replace(three, aeb=dataclasses.replace(
-        three.aeb, prediction="ca", release="ttc", sensor=sensor, box_margin_longitudinal=1.0,
+        three_aeb, prediction="ca", release="ttc", sensor=sensor, box_margin_longitudinal=1.0,
         box_margin_lateral=0.4))
     out["ideal-ctrv-never-lag"] = dataclasses.replace(
-        ideal, aeb=dataclasses.replace(ideal.aeb, prediction="ctrv", release="never",
-                                       sensor=dataclasses.replace(ideal.aeb.sensor,
+        ideal, aeb=dataclasses.replace(ideal_aeb, prediction="ctrv", release="never",
+                                       sensor=dataclasses.replace(ideal_aeb.sensor,
                                                                   latency=0.05,
                                                                   cycle_time=0.03)),
         brake=BrakeActuatorParams(model="first_order", time_constant=0.12,

@@ -3,7 +3,8 @@
 Runs, with the current code, the built-in systems on both Euro NCAP matrices (2026, the
 default ``--db euro-ncap-c2c``, and 2023, ``--db euro-ncap-c2c-2023``) and on the bundled
 accident database, then ``vfs report side-by-side`` for each version, and keeps the small
-text outputs: ``side_by_side_<version>.csv`` / ``.md`` (the side-by-side tables),
+text outputs: ``side_by_side_<version>.csv`` / ``.md`` (the side-by-side tables) and
+``.png`` (test score against accident benefit),
 ``scores_<version>.csv`` (points per scenario and system), ``tests_<version>.csv`` (the
 result sheet: measure, colour, points per test and system), ``report.md`` (the 2026 study's
 effectiveness report with its Euro NCAP section and result sheets; figures left out, their
@@ -91,6 +92,10 @@ def main(argv: list[str]) -> int:
               "--out", str(sbs)], work, log, times)
         shutil.copy(sbs / "side_by_side.csv", OUT / f"side_by_side_{version}.csv")
         shutil.copy(sbs / "side_by_side.md", OUT / f"side_by_side_{version}.md")
+        shutil.copy(sbs / "side_by_side.png", OUT / f"side_by_side_{version}.png")
+        if version == "2026":  # the figure of docs/euro-ncap.md
+            shutil.copy(sbs / "side_by_side.png", ROOT / "docs" / "figures"
+                        / "euro_ncap_side_by_side.png")
         shutil.copy(study / "report" / "euro_ncap_scores.csv", OUT / f"scores_{version}.csv")
         shutil.copy(study / "report" / "euro_ncap_tests.csv", OUT / f"tests_{version}.csv")
         if version == "2026":

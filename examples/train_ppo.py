@@ -44,6 +44,8 @@ import argparse  # noqa: E402
 import csv  # noqa: E402
 import json  # noqa: E402
 import resource  # noqa: E402
+import shlex  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
@@ -139,6 +141,13 @@ def main() -> None:
     ap.add_argument("--validation", type=float, default=0.0,
                     help="hold out this share of the train split (choosing settings)")
     ap.add_argument("--validation-seed", type=int, default=1)
+    ap.add_argument("--passes", type=int, default=0,
+                    help="add this many generated passes without a conflict to the training "
+                    "cases (vfs.gym.benchmark.with_passes; the benchmark evaluates others)")
+    ap.add_argument("--passes-seed", type=int, default=2,
+                    help="seed of the generated training passes (the benchmark's is 1)")
+    ap.add_argument("--wall-minutes", type=float, default=float("inf"),
+                    help="also stop after this many wall-clock minutes (a loaded machine)")
     ap.add_argument("--out", default="results/ppo")
     ap.add_argument("--evaluate", action="store_true",
                     help="evaluate on the test split (on the held-out cases with --validation)")
@@ -150,6 +159,17 @@ def main() -> None:
     env_kwargs = deep_merge(ENV_KWARGS, json.loads(args.env_kwargs))
     ppo_kwargs = {**PPO_KWARGS, **json.loads(args.ppo_kwargs)}
     train_cases, eval_cases = case_selection(args.validation, args.validation_seed)
+    if args.passes > 0:
+        from vfs.database import open_database
+        from vfs.gym.benchmark import PASSING_SEED, with_passes
+        from vfs.gym.env import split_case_ids
+
+        if args.passes_seed == PASSING_SEED:
+            ap.error(f"--passes-seed {PASSING_SEED} is the benchmark's own passes")
+        base = open_database("default", train_cases.get("where"))
+        ids = split_case_ids(base.case_ids, train_cases["split"])
+        train_cases = {"db": with_passes(base.subset(ids), args.passes, args.passes_seed),
+                       "split": "all"}
 
     import torch
     from stable_baselines3 import PPO
@@ -184,7 +204,8 @@ def main() -> None:
                     self.ended.append((bool(info["recorded_collision"]),
                                        bool(info["collided"]),
                                        bool(np.isfinite(info["brake_start"]))))
-            return cpu_seconds() - started_cpu < budget
+            return (cpu_seconds() - started_cpu < budget
+                    and time.perf_counter() - started < 60.0 * args.wall_minutes)
 
         def _on_rollout_end(self) -> None:
             eps = list(self.model.ep_info_buffer)
@@ -213,9 +234,13 @@ def main() -> None:
                             "steps_per_cpu_s": round(model.num_timesteps / cpu),
                             "envs": args.envs, "seed": args.seed, "net": net,
                             "log_std_init": args.log_std_init, "ppo": ppo_kwargs,
-                            "cases": "train split" if args.validation <= 0 else
-                            f"train split less a {args.validation} validation share "
-                            f"(seed {args.validation_seed})"}}
+                            "cases": ("train split" if args.validation <= 0 else
+                                      f"train split less a {args.validation} validation share "
+                                      f"(seed {args.validation_seed})")
+                            + (f" + {args.passes} generated passes (seed {args.passes_seed})"
+                               if args.passes > 0 else ""),
+                            "command": "python examples/train_ppo.py "
+                            + " ".join(shlex.quote(a) for a in sys.argv[1:])}}
     (out / ("model" + SB3_SETTINGS_SUFFIX)).write_text(json.dumps(settings, indent=2))
     with open(out / "learning_curve.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(curve[0]) if curve else ["steps"])

@@ -148,6 +148,81 @@ CHANNELS = ("restitution", "contact_friction", "poi_along", "poi_across", "cp_an
             "penetration_time", "ees_stiffness_ratio", "yaw_inertia_factor", "tyre_impulse",
             "runout_brake1", "runout_brake2")
 
+RUNOUT_MICRO = "benchmarks/results/core_37_runout_micro.json"
+
+
+def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]:
+    """Figures of one benchmark of a ``vfs bench --json`` record; ``key*100``: in %,
+    ``key*1e13``: in units of 1e-13."""
+    def read(root: Path) -> list[float]:
+        data = json.loads((root / record).read_text(encoding="utf-8"))[bench]
+        out = []
+        for key in keys:
+            name, _, scale = key.partition("*")
+            out.append(float(data[name]) * (float(scale) if scale else 1.0))
+        return out
+    return read
+
+
+RUNOUT_STUDY = tuple(f"benchmarks/results/core_37_runout_study_{w}.json"
+                     for w in ("before", "before2", "after", "after2"))
+RUNOUT_DIAG = tuple(f"benchmarks/results/core_37_runout_diagnose_quick_{w}.json"
+                    for w in ("before", "before2", "after", "after2"))
+RUNOUT_UNC = tuple(f"benchmarks/results/core_37_runout_uncertainty_{w}.json"
+                   for w in ("before", "before2", "after", "after2"))
+
+
+def _runs(records: tuple[str, ...], bench: str, *keys: str) -> Callable[[Path], list[float]]:
+    """``keys`` of one benchmark over several records: for the quoted layout "before1 and
+    before2 (k1, k2) | after1 and after2 (k1, k2)", the first key of the two befores, the
+    second key of them, then the same for the two afters.
+    """
+    def read(root: Path) -> list[float]:
+        data = [json.loads((root / r).read_text(encoding="utf-8"))[bench] for r in records]
+        out = []
+        for pair in (data[:2], data[2:]):
+            for key in keys:
+                out += [float(d[key]) for d in pair]
+        return out
+    return read
+
+
+RUNOUT_PROFILE = "benchmarks/results/core_37_runout_study_profile.txt"
+
+
+def _profile(record: str, *functions: str) -> Callable[[Path], list[float]]:
+    """Cumulative times [s] of functions (``file.py:function``) in a pstats listing."""
+    def read(root: Path) -> list[float]:
+        text = (root / record).read_text(encoding="utf-8")
+        out = []
+        for fn in functions:
+            module, name = fn.split(":")
+            m = re.search(rf"^\s*[\d/]+\s+[\d.]+\s+[\d.]+\s+([\d.]+)\s+[\d.]+\s+\S*"
+                          rf"{re.escape(module)}:\d+\({re.escape(name)}\)$", text, re.M)
+            if m is None:
+                raise AssertionError(f"{record}: no line of {fn}")
+            out.append(float(m.group(1)))
+        return out
+    return read
+
+
+GYM = "benchmarks/results/gym-benchmark.json"
+GYM_POLICIES = ("ppo-reference", "ppo-quick", "three-stage", "openpass-like", "ideal",
+                "never-brake", "always-brake")
+SIGNED = r"(-?\d[\d,]*(?:\.\d+)?)"
+
+
+def _gym(policy: str, keys: tuple[str, ...]) -> Callable[[Path], list[float]]:
+    """Numbers of one policy of the gym benchmark's record (shares in %)."""
+    def read(root: Path) -> list[float]:
+        rows = [r for r in json.loads((root / GYM).read_text())["policies"]
+                if r["policy"] == policy]
+        assert len(rows) == 1, f"{GYM}: {len(rows)} rows of {policy}"
+        return [100.0 * rows[0][k[1:]] if k.startswith("%") else float(rows[0][k])
+                for k in keys]
+    return read
+
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -185,6 +260,142 @@ QUOTES: tuple[Quote, ...] = (
           rf"\({NUMBER}\) \|$",
           ",".join(r for r, _ in COVERAGE.values()), _coverage_pooled,
           "interval coverage, pooled"),
+    *(Quote("docs/gym.md",
+            rf"^\| {p} \| {NUMBER} \[{NUMBER}, {NUMBER}\] \| .* \| {NUMBER} \| "
+            rf"{NUMBER} / {NUMBER} \|$",
+            GYM, _gym(p, ("avoided", "avoided_low", "avoided_high", "new_crashes",
+                          "near_miss_brakes", "near_misses")),
+            f"gym benchmark: crashes avoided by {p}")
+      for p in GYM_POLICIES),
+    *(Quote("docs/gym.md",
+            rf"^\| {p} \| {NUMBER} / {NUMBER} \| {NUMBER} \({NUMBER} %\) \| {NUMBER} \| "
+            rf"{NUMBER} \| {NUMBER} \| {NUMBER} \| {SIGNED} \|$",
+            GYM, _gym(p, ("unnecessary", "near_misses", "unnecessary_speed_loss_kmh",
+                          "%unnecessary_speed_share", "unnecessary_brake_time", "peak_decel",
+                          "peak_jerk", "harsh_time", "score")),
+            f"gym benchmark: braking, comfort and score of {p}")
+      for p in GYM_POLICIES),
+    Quote("docs/performance.md",
+          r"`vfs bench study`\) \| " + NUMBER + r" and " + NUMBER + r" case-runs/s \("
+          + NUMBER + r" s, " + NUMBER + r" s\) \| \*\*" + NUMBER + r" and " + NUMBER
+          + r" case-runs/s\*\* \(" + NUMBER + r" s, " + NUMBER + r" s\)",
+          ",".join(RUNOUT_STUDY), _runs(RUNOUT_STUDY, "study", "case_runs_per_s_cpu", "cpu_s"),
+          "compiled run-out round: study before and after"),
+    Quote("docs/performance.md",
+          r"resume of the last 1,600 cases \| " + NUMBER + r" and " + NUMBER
+          + r" case-runs/s \| " + NUMBER + r" and " + NUMBER + r" case-runs/s \|",
+          ",".join(RUNOUT_STUDY), _runs(RUNOUT_STUDY, "study", "resume_case_runs_per_s_cpu"),
+          "compiled run-out round: study resume before and after"),
+    Quote("docs/performance.md",
+          r"\(`vfs bench uncertainty`\) \| " + NUMBER + r" s and " + NUMBER + r" s \| \*\*"
+          + NUMBER + r" s and " + NUMBER + r" s\*\*",
+          ",".join(RUNOUT_UNC), _runs(RUNOUT_UNC, "uncertainty", "uncertainty_cpu_seconds"),
+          "compiled run-out round: Monte-Carlo before and after"),
+    Quote("docs/performance.md",
+          r"4,000 pairs\) \| " + NUMBER + r" pairs/s \| \*\*" + NUMBER + r" pairs/s\*\*: "
+          + NUMBER + r"x",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "numpy_pairs_per_cpu_s",
+                               "compiled_pairs_per_cpu_s", "speed_up"),
+          "compiled run-out round: the run-out alone"),
+    Quote("docs/performance.md",
+          r"`simulate_cases` " + NUMBER + r" s, the generic AEB controller in Python takes "
+          r"`demand` " + NUMBER + r" s, two\s+thirds: the ideal system's last-moment rule "
+          r"`_last_moment` " + NUMBER + r" s \(its braked-contact sweep\s+`braked_contact` "
+          + NUMBER + r" s\), the sampled CTRV/CTRA predictions `sampled_contact` " + NUMBER
+          + r" s; the\s+compiled step with its Python bookkeeping \(`advance`\) " + NUMBER
+          + r" s; the replay " + NUMBER + r" s; the run-out\s+`run_out_pair` " + NUMBER + r" s",
+          RUNOUT_PROFILE, _profile(RUNOUT_PROFILE, "simulation.py:simulate_cases",
+                                   "controller.py:demand", "controller.py:_last_moment",
+                                   "threat.py:braked_contact", "threat.py:sampled_contact",
+                                   "precrash.py:advance", "core.py:replay_precrash",
+                                   "runout.py:run_out_pair"),
+          "compiled run-out round: the study's profile after"),
+    Quote("docs/performance.md",
+          r"now with both run-out kernels\) \| " + NUMBER + r" s CPU \(" + NUMBER
+          + r" s compiling\) \| " + NUMBER + r" s CPU \(" + NUMBER + r" s compiling, " + NUMBER
+          + r" s wall at load " + NUMBER + r"\); later processes load the cache in " + NUMBER
+          + r" s CPU",
+          "benchmarks/results/core_37_warmup.json,benchmarks/results/core_37_runout_warmup.json",
+          lambda root: [*_bench("benchmarks/results/core_37_warmup.json", "warmup",
+                                "cold_cpu_s", "compile_cpu_s")(root),
+                        *_bench("benchmarks/results/core_37_runout_warmup.json", "warmup",
+                                "cold_cpu_s", "compile_cpu_s", "cold_wall_s",
+                                "load_average_1min", "cache_load_cpu_s")(root)],
+          "compiled run-out round: cold start"),
+    Quote("docs/performance-kernels.md",
+          r"`run_to_rest`\s+" + NUMBER + r" s of " + NUMBER + r" s, the impact's contact "
+          r"geometry `contact_geometry` " + NUMBER + r" s, sampling the inputs\s+"
+          r"`sample_inputs` " + NUMBER + r" s",
+          "benchmarks/results/core_37_runout_mc_profile.txt",
+          _profile("benchmarks/results/core_37_runout_mc_profile.txt",
+                   "core_runout.py:run_to_rest", "bands.py:run_uncertainty",
+                   "geometry.py:contact_geometry", "sampling.py:sample_inputs"),
+          "compiled run-out: the Monte-Carlo's profile"),
+    Quote("docs/performance-kernels.md",
+          r"samples; " + NUMBER + r"-" + NUMBER + r" s\s+CPU now",
+          ",".join(RUNOUT_UNC[2:]),
+          lambda root: sorted(_runs(RUNOUT_UNC, "uncertainty",
+                                    "uncertainty_cpu_seconds")(root)[2:]),
+          "compiled run-out: the Monte-Carlo after"),
+    Quote("docs/performance.md",
+          r"compiled impact\) \| " + NUMBER + r" s and " + NUMBER + r" s \| \*\*" + NUMBER
+          + r" s and " + NUMBER + r" s\*\* \(the same " + NUMBER + r" variants, " + NUMBER
+          + r" case-runs\)",
+          ",".join(RUNOUT_DIAG),
+          lambda root: [*_runs(RUNOUT_DIAG, "diagnose", "cpu_s")(root),
+                        *_bench(RUNOUT_DIAG[2], "diagnose", "variants", "case_runs")(root)],
+          "compiled run-out round: diagnose --quick before and after"),
+    Quote("docs/performance.md",
+          r"main 2c4ada4\) \| " + NUMBER + r" s CPU \| \*\*" + NUMBER + r" s CPU\*\* \(the "
+          r"same " + NUMBER + r" variants; load " + NUMBER + r"\)",
+          "benchmarks/results/core_37_runout_diagnose_before.json,"
+          "benchmarks/results/core_37_runout_diagnose_after.json",
+          lambda root: [*_bench("benchmarks/results/core_37_runout_diagnose_before.json",
+                                "diagnose", "cpu_s")(root),
+                        *_bench("benchmarks/results/core_37_runout_diagnose_after.json",
+                                "diagnose", "cpu_s", "variants", "load_average_1min")(root)],
+          "compiled run-out round: full diagnose before and after"),
+    Quote("docs/performance.md",
+          NUMBER + r" s under the profiler\) the compiled loop `_vehicle_loop` takes " + NUMBER
+          + r" s, the learning of\s+the laws `learn` " + NUMBER + r" s, the identification "
+          r"`identify` " + NUMBER + r" s",
+          "benchmarks/results/core_37_runout_diagnose_profile.txt",
+          _profile("benchmarks/results/core_37_runout_diagnose_profile.txt",
+                   "diagnose.py:diagnose", "core_runout.py:_vehicle_loop", "learn.py:learn",
+                   "identify.py:identify"),
+          "compiled run-out round: the diagnosis profile"),
+    Quote("docs/performance.md",
+          r"\(" + NUMBER + r" s of " + NUMBER + r" s in the profile before\)",
+          "benchmarks/results/core_37_study_profile.txt",
+          _profile("benchmarks/results/core_37_study_profile.txt", "runout.py:run_out_pair",
+                   "simulation.py:simulate_cases"),
+          "compiled run-out round: the run-out in the study's profile before"),
+    Quote("docs/performance-kernels.md",
+          r"path samples and secondary-collision check \| " + NUMBER + r" pairs/s \(" + NUMBER
+          + r" ns per vehicle-step\) \| \*\*" + NUMBER + r" pairs/s\*\* \(" + NUMBER
+          + r" ns\) \| " + NUMBER + r"x \|",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "numpy_pairs_per_cpu_s",
+                               "numpy_ns_per_vehicle_step", "compiled_pairs_per_cpu_s",
+                               "compiled_ns_per_vehicle_step", "speed_up"),
+          "compiled run-out, the study's pairs"),
+    Quote("docs/performance-kernels.md",
+          r"rest poses only \| " + NUMBER + r" vehicles/s \(" + NUMBER
+          + r" ns per vehicle-step\) \| " + NUMBER + r" vehicles/s \(" + NUMBER
+          + r" ns\) \| " + NUMBER + r"x \|",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "mc_numpy_vehicles_per_cpu_s",
+                               "mc_numpy_ns_per_vehicle_step", "mc_compiled_vehicles_per_cpu_s",
+                               "mc_compiled_ns_per_vehicle_step", "mc_speed_up"),
+          "compiled run-out, the Monte-Carlo's vehicles"),
+    Quote("docs/performance-kernels.md",
+          r"at most " + NUMBER + r"e-13 m; " + NUMBER + r" % of the rest",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "max_difference_m*1e13",
+                               "bit_identical*100"),
+          "compiled run-out: difference and bit-identical share"),
+    Quote("docs/performance-kernels.md",
+          r"the compiled loop wins " + NUMBER + r"x\. The Monte-Carlo's batch is 200,000 "
+          r"vehicles, where numpy's\s+fixed cost vanishes: " + NUMBER + r"x",
+          RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "speed_up", "mc_speed_up"),
+          "compiled run-out: speed-ups in the text"),
     Quote("docs/performance.md",
           r"numpy\s+reference: " + NUMBER + r" M/s \(load " + NUMBER + r"\) \| \*\*" + NUMBER
           + r" M/s\*\* compiled",

@@ -84,7 +84,8 @@ def _home_page() -> str:
         return label if label.startswith("`") else f"{label} (`{path}`)"
 
     return re.sub(r"(?<!!)\[([^\]]+)\]\(([^)\s]+)\)", link,
-                  text.replace("](docs/figures/", "](figures/"))
+                  text.replace("](docs/figures/", "](figures/")
+                  .replace('src="docs/figures/', 'src="figures/'))
 
 
 def on_config(config: Any) -> Any:

@@ -264,6 +264,8 @@ def test_cli_diagnose_calibrate_ledger(tmp_path, tyre_db):
                  "--laws", "none", "--quick", "--no-plots", "--out", str(out / "diagnose"),
                  "--json", str(out / "d.json"), "--worst", "1"]) == 0
     assert json.loads((out / "d.json").read_text())["ranking"][0] == "tyre_impulse"
+    report = (out / "diagnose" / "report.md").read_text(encoding="utf-8")
+    assert "## Provenance" in report and "source commit" in report
     assert dcli(["calibrate", "--db", str(db_dir), "--effects", "tyre_impulse",
                  "--quick", "--out", str(out / "model.json")]) == 0
     assert read_model_config(out / "model.json")[0].name == "tyre_impulse"

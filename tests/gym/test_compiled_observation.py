@@ -18,10 +18,10 @@ import pytest
 
 from vfs.gym.compiled import rectangle_distance_compiled
 from vfs.gym.env import AEBVectorEnv
-from vfs.physics import compiled_runout
+from vfs.physics import numba_support
 from vfs.physics.geometry import rectangle_distance
 
-pytestmark = pytest.mark.skipif(not compiled_runout.AVAILABLE, reason="numba not installed")
+pytestmark = pytest.mark.skipif(not numba_support.AVAILABLE, reason="numba not installed")
 
 
 def _poses(seed: int, n: int) -> list[np.ndarray]:
@@ -66,7 +66,7 @@ def test_vector_env_observations_identical_with_and_without_kernel(
         monkeypatch: pytest.MonkeyPatch) -> None:
     runs = []
     for switch in ("0", "1"):
-        monkeypatch.setenv(compiled_runout.ENV_SWITCH, switch)
+        monkeypatch.setenv(numba_support.ENV_SWITCH, switch)
         venv = AEBVectorEnv(num_envs=8, split="test")
         obs, _ = venv.reset(seed=3)
         trace = [obs]

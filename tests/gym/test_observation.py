@@ -148,7 +148,7 @@ def test_leaderboard_counts_braking_in_near_misses(tmp_path, capsys):
     assert main(["evaluate-policy", "never-brake", "always-brake", "--db", "default",
                  "--split", "test", "--where", "case_id <= 100", "--out", str(out),
                  "--engine", "serial", "--bootstrap", "50"]) == 0
-    assert "brakes in near misses" in capsys.readouterr().out
+    assert "brakes in no-crash cases" in capsys.readouterr().out
     board = pd.read_csv(out / "leaderboard.csv").set_index("policy")
     runs = pd.read_parquet(out / "runs.parquet")
     base = runs[runs["system"] == "baseline"].set_index("case_id")
@@ -163,7 +163,9 @@ def test_leaderboard_counts_braking_in_near_misses(tmp_path, capsys):
         100.0 * avoided / base["collided"].astype(bool).sum())
     assert board.loc["never-brake", "avoided"] == 0.0
     assert (board["avoided_low"] <= board["avoided"]).all()
-    assert (out / "leaderboard.md").read_text().count("\n") == 4
+    text = (out / "leaderboard.md").read_text()
+    assert text.count("| never-brake |") == 2  # the benefit table and the braking/comfort one
+    assert "score =" in text
 
 
 def test_false_activation_and_collision_costs():

@@ -17,6 +17,8 @@ from vfs.physics.runout import RunoutParams, RunoutState, run_out
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.units import G
 
+pytestmark = pytest.mark.usefixtures("both_runout_paths")
+
 
 def test_factors_at_the_limits():
     # no rotation: the whole energy goes into translation, k_s = 1 (eq. 3)

@@ -33,6 +33,8 @@ from vfs.physics.runout import (
 from vfs.physics.vehicle import VehicleArrays, VehicleParams, stack_vehicles, vehicle_arrays
 from vfs.units import G
 
+pytestmark = pytest.mark.usefixtures("both_runout_paths")
+
 LOCKED = (1.0, 1.0, 1.0, 1.0)
 FREE = (0.0, 0.0, 0.0, 0.0)
 #: brake factor columns swapped left <-> right (FL, FR, RL, RR -> FR, FL, RR, RL)

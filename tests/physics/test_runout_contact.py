@@ -15,6 +15,8 @@ from vfs.errors import ParameterError
 from vfs.physics.runout import RunoutParams, RunoutState, run_out_pair
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 
+pytestmark = pytest.mark.usefixtures("both_runout_paths")
+
 LENGTH = 4.5
 FREE = (0.0, 0.0, 0.0, 0.0)
 

@@ -26,6 +26,8 @@ from vfs.physics.runout import (
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.units import G
 
+pytestmark = pytest.mark.usefixtures("both_runout_paths")
+
 
 @pytest.mark.parametrize("field, lo, hi, lo_open", [
     ("dt", 0.0, 0.05, True),

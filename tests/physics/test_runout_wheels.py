@@ -4,8 +4,8 @@ Oracles: the kinematic bicycle (steered rolling wheels at low speed: the rear-ax
 follows the circle of radius wheelbase / tan(delta)); a free-rolling car with extra drag f_d
 on every wheel stops after v^2 / (2 (f_r + f_d) g); locked wheels ignore the steer angle
 (v^2 / (2 mu g)); mirror symmetry of +delta and -delta; straight motion before the steer
-onset; kinetic energy never rising (hypothesis); convergence in dt; the compiled kernel
-declines steered batches.
+onset; kinetic energy never rising (hypothesis); convergence in dt.  Every test runs on
+the compiled run-out and on its numpy reference (``both_runout_paths``).
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vfs.errors import ParameterError
-from vfs.physics import compiled_runout
 from vfs.physics.runout import (
     RunoutParams,
     RunoutState,
@@ -28,6 +27,8 @@ from vfs.physics.runout import (
 )
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.units import G
+
+pytestmark = pytest.mark.usefixtures("both_runout_paths")
 
 LOCKED = (1.0, 1.0, 1.0, 1.0)
 FREE = (0.0, 0.0, 0.0, 0.0)
@@ -192,15 +193,6 @@ def test_pair_run_out_takes_each_vehicles_wheels():
     assert pair.rest_x[0, 1] < run_out(v, s2, 0.8).rest_x[0] - 0.5  # its drag stops it early
 
 
-def test_compiled_kernel_declines_steered_batches(monkeypatch):
-    calls = []
-    monkeypatch.setattr(compiled_runout, "runout_enabled", lambda: True)
-    monkeypatch.setattr(compiled_runout, "run_to_rest",
-                        lambda *a, **k: calls.append(1) or (_ for _ in ()).throw(RuntimeError))
-    res = run_out(car(), RunoutState.from_arrays(0, 0, 0, 5.0, 0, 0), 0.8, steer=0.1)
-    assert res.at_rest[0] and not calls
-
-
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"steer": 2.0}, r"steer\[0\]"), ({"steer_onset": -1.0}, "steer_onset"),
     ({"wheel_drag": (0, 0, 0, 1.5)}, "wheel_drag"), ({"wheel_drag": (0.1, 0.1)}, "shape"),
@@ -209,27 +201,3 @@ def test_compiled_kernel_declines_steered_batches(monkeypatch):
 def test_invalid_wheel_inputs_raise(kwargs, match):
     with pytest.raises(ParameterError, match=match):
         run_out(car(), RunoutState.from_arrays(0, 0, 0, 5.0, 0, 0), 0.8, **kwargs)
-
-
-@pytest.mark.skipif(not compiled_runout.AVAILABLE, reason="numba not installed")
-def test_compiled_kernel_takes_the_extra_drag_as_the_numpy_run_out(monkeypatch):
-    """The drag enters through the rolling wheels' brake coefficient, which the kernel reads:
-    the two agree as in tests/physics/test_compiled_runout.py (1e-9 m)."""
-    rng = np.random.default_rng(8)
-    n = 40
-    vehicles = stack_vehicles([VehicleParams()] * n)
-    speed = rng.uniform(2, 15, n)
-    course = rng.uniform(-np.pi, np.pi, n)
-    s = RunoutState.from_arrays(0, 0, 0, speed * np.cos(course), speed * np.sin(course),
-                                rng.uniform(-2, 2, n))
-    kw = dict(wheel_brake=rng.choice([0.0, 0.5, 1.0], (n, 4)),
-              wheel_drag=rng.uniform(0.0, 0.3, (n, 4)))
-    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "0")
-    ref = run_out(vehicles, s, 0.8, **kw)
-    monkeypatch.setenv(compiled_runout.RUNOUT_SWITCH, "1")
-    assert compiled_runout.runout_enabled()
-    fast = run_out(vehicles, s, 0.8, **kw)
-    np.testing.assert_array_equal(fast.time_to_rest, ref.time_to_rest)
-    for name in ("rest_x", "rest_y", "rest_yaw"):
-        np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), rtol=0.0,
-                                   atol=1e-9, err_msg=name)

@@ -530,4 +530,9 @@ def test_study_report_and_side_by_side_on_part_of_the_matrix(tmp_path, capsys) -
     assert table.loc["ideal", "ncap_CCRs_pct"] == 100
     assert str(table.loc["ideal", "ncap_protocol"]) == "2026"
     assert table.loc["ideal", "acc_avoided_share"] == pytest.approx(1.0)
+    # the figure (test score against accident benefit) above two tables that fit the page
+    assert (out / "side_by_side.png").stat().st_size > 10_000
+    md = (out / "side_by_side.md").read_text(encoding="utf-8")
+    assert md.index("(side_by_side.png)") < md.index("## Euro NCAP") < md.index("## Accidents")
+    assert max(len(line) for line in md.splitlines() if line.startswith("| ideal")) < 200
     capsys.readouterr()

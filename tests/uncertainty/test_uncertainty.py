@@ -593,6 +593,11 @@ def test_cli_writes_tables_and_report(db_folder, tmp_path, capsys):
     dv = bands[bands["outcome"].isin(["delta_v1", "delta_v2"])]["rel_half_width"]
     assert f"Delta-v within +-{100 * np.nanmedian(dv):.0f} % [" in short
     assert "Only 5 case(s)" in short and "Impact type in doubt" in short
+    # where the numbers come from: the one provenance section of the study reports, with
+    # the five cases the bands are of; the generated cases said to be synthetic
+    prov = md.split("## Provenance", 1)[1]
+    assert "data (SHA-256" in prov and "| cases | 5" in prov
+    assert "Synthetic data" in md.split("## In short", 1)[0]
 
 
 def test_cli_user_errors_give_exit_code_2(db_folder, tmp_path, capsys):

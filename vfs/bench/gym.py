@@ -37,7 +37,7 @@ def bench_gym_env(quick: bool) -> dict[str, Any]:
     import gymnasium as gym
 
     from vfs.gym.env import AEBEnv, AEBVectorEnv
-    from vfs.physics.compiled_runout import enabled
+    from vfs.physics.numba_support import enabled
     from vfs.simulation import SimulationParams
 
     seconds = 2.0 if quick else 5.0

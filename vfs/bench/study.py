@@ -114,13 +114,14 @@ def bench_study(quick: bool) -> dict[str, Any]:
 
 
 def first_compiled_run() -> None:
-    """The first pre-crash runs of a process: a replay (the compiled per-case loop) and a
-    run with a controller (the compiled step), on 20 synthetic cases; what a first
-    ``vfs study`` compiles (or loads from numba's cache).
+    """The first runs of a process: a replay (the compiled per-case loop), a run with a
+    controller (the compiled step) and the run-outs of both kinds (pairs, single vehicles),
+    on 20 synthetic cases; what a first ``vfs study`` compiles (or loads from numba's cache).
     """
     import numpy as np
 
     from vfs.physics.precrash import ScheduledBraking, simulate_precrash
+    from vfs.physics.runout import RunoutState, run_out, run_out_pair
     from vfs.scenarios.random import synthetic_case_batch
 
     batch = synthetic_case_batch(20, np.random.default_rng(3))
@@ -128,6 +129,9 @@ def first_compiled_run() -> None:
     simulate_precrash(*args)
     simulate_precrash(*args, controller=ScheduledBraking(np.full((20, 2), 4.0),
                                                          np.full((20, 2), 8.0)))
+    state = RunoutState.from_arrays(0.0, 0.0, 0.0, np.linspace(1.0, 10.0, 20), 0.0, 0.5)
+    run_out_pair(batch.vehicle1, batch.vehicle2, state, state._replace(y=state.y + 3.0), 0.8)
+    run_out(batch.vehicle1, state, 0.8, paths=False)
 
 
 def bench_warmup(quick: bool) -> dict[str, Any]:

@@ -10,10 +10,9 @@ def bench_uncertainty(quick: bool) -> dict[str, Any]:
     """Monte-Carlo throughput (1000 samples x 200 cases of the bundled database; 100 x 50
     with ``quick``) and the time of a Sobol analysis (:mod:`vfs.uncertainty.sensitivity`).
     ``uncertainty_cpu_seconds``: CPU time of the process, all threads.
-    ``runout_kernel``: "compiled" (with numba's thread count) where
-    :func:`vfs.physics.compiled_runout.runout_enabled` (``VFS_COMPILED_RUNOUT=1``), else
-    "numpy"; a small run before the
-    timing compiles the kernel (or loads numba's cache).
+    ``runout_kernel``: "compiled" where :func:`vfs.physics.numba_support.enabled` (the
+    default; ``VFS_COMPILED=0``: "numpy"); a small run before the timing compiles the
+    kernel (or loads numba's cache).
     """
     from vfs.database import open_database
     from vfs.uncertainty import CaseSet, default_config, run_uncertainty
@@ -34,15 +33,10 @@ def bench_uncertainty(quick: bool) -> dict[str, Any]:
                                 n_boot=100)
     sobol = time.perf_counter() - t0
     runs = n_samples * n_cases
-    from vfs.physics.compiled_runout import runout_enabled
+    from vfs.physics.numba_support import enabled
 
-    threads = 1
-    if runout_enabled():
-        import numba
-
-        threads = numba.get_num_threads()
     return {
-        "runout_kernel": f"compiled, {threads} threads" if runout_enabled() else "numpy",
+        "runout_kernel": "compiled" if enabled() else "numpy",
         "cases": n_cases, "samples_per_case": n_samples, "model_runs": runs,
         "uncertainty_seconds": mc, "uncertainty_cpu_seconds": mc_cpu, "runs_per_s": runs / mc,
         "sobol_cases": n_sobol, "sobol_base_samples": n_base,

@@ -124,7 +124,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     db, path = _load_db(args.db)
     spec = diagnose_spec(args, str(path))
     diag = diagnose(db, spec, progress=_progress())
-    paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots)
+    paths = write_diagnosis_report(diag, args.out, json_path=args.json, plots=not args.no_plots,
+                                   database=db, database_reference=str(args.db))
     print()
     print(format_selection(diag))
     print()

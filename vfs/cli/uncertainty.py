@@ -48,6 +48,11 @@ def _positive(value: Any, flag: str, integer: bool = False, minimum: float = 0.0
 
 def _load_cases(args: argparse.Namespace) -> Any:
     """The CaseSet of ``--db`` / ``--where`` / ``--cases`` / ``--max-cases``."""
+    return _load_db_and_cases(args)[1]
+
+
+def _load_db_and_cases(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The database of ``--db`` / ``--where`` and :func:`_load_cases`'s CaseSet."""
     from vfs.cli.common import open_db
     from vfs.uncertainty import CaseSet
 
@@ -57,7 +62,7 @@ def _load_cases(args: argparse.Namespace) -> Any:
     if limit is not None:
         limit = _positive(limit, "--max-cases", integer=True)
         cases = cases.take(slice(0, limit))
-    return cases
+    return db, cases
 
 
 def _config(args: argparse.Namespace) -> Any:
@@ -90,10 +95,12 @@ def cmd_uncertainty(args: argparse.Namespace) -> int:
 
     samples = _positive(args.samples, "--samples", integer=True)
     out_folder(args, "uncertainty", args.db)
-    cases = _load_cases(args)
+    db, cases = _load_db_and_cases(args)
+    db = db.subset(cases.case_id)  # the provenance names the cases the bands are of
     result = run_uncertainty(cases, _config(args), n_samples=samples, seed=args.seed,
                              keep_samples=args.save_samples, sampling=args.sampling)
-    files = write_uncertainty_report(result, args.out, plots=not args.no_plots)
+    files = write_uncertainty_report(result, args.out, plots=not args.no_plots, database=db,
+                                     database_reference=str(args.db))
     summary = result.summary()
     print(f"{cases.size} cases x {samples} samples ({args.sampling}) = "
           f"{cases.size * samples} model runs in "

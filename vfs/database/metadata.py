@@ -45,6 +45,18 @@ _PER_VEHICLE_RUN = {
     "brake_start": ("s", "first braking of participant {i} (record time)"),
     "speed_reduction": ("m/s", "speed reduction of participant {i} by braking before impact"),
     "equipped": ("", "participant {i} carries the system"),
+    # braking of the system (vfs.gym.benchmark.ComfortRecorder: gym evaluations)
+    "peak_decel": ("m/s^2", "peak deceleration of the system's brake on participant {i} while "
+                            "it moves"),
+    "peak_jerk": ("m/s^3", "peak rate of change of the system's brake deceleration on "
+                           "participant {i} while it moves"),
+    "harsh_time": ("s", "time with the system's brake on participant {i} above 4 m/s^2 "
+                        "while it moves"),
+    "brake_time": ("s", "time with the system's brake on participant {i} at or above 1 m/s^2 "
+                        "while it moves"),
+    "speed_taken": ("m/s", "speed the system's brake takes from participant {i} (its "
+                           "deceleration integrated while it moves)"),
+    "start_speed": ("m/s", "speed of participant {i} at the first step of a system run"),
     # AEB events (vfs.adas.controller.EVENT_KEYS); NaN where it never happened
     "warning_time": ("s", "first AEB warning of participant {i} (record time)"),
     "partial_time": ("s", "first partial AEB braking of participant {i} (record time)"),

@@ -14,7 +14,7 @@ machines we measured) the gaps are bit-identical, which
 ``tests/gym/test_compiled_observation.py`` checks.
 
 Used by :func:`vfs.gym.observation.observe` where
-:func:`vfs.physics.compiled_runout.enabled` (numba installed, ``VFS_COMPILED``
+:func:`vfs.physics.numba_support.enabled` (numba installed, ``VFS_COMPILED``
 not "0").
 """
 
@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from vfs.physics.compiled_runout import require_numba
+from vfs.physics.numba_support import require_numba
 
 #: Corner signs along the long and the short axis, in the order of
 #: :func:`vfs.physics.geometry.outline_corners` (as ``geometry._UNIT_CORNERS``).

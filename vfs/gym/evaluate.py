@@ -12,6 +12,7 @@ import numpy as np
 from vfs.adas.definition import AEBSystem
 from vfs.database import Database, open_database
 from vfs.errors import ParameterError
+from vfs.gym.benchmark import ComfortSystem, benchmark_measures
 from vfs.gym.config import make_config
 from vfs.gym.env import split_case_ids
 from vfs.gym.policies import PolicySystem, load_policy
@@ -47,8 +48,11 @@ def evaluate_policy(policy: str | Any | Sequence[str | Any],
     policy runs that AEB system exactly as ``vfs study --equip EGO`` would.  The
     environment settings are ``env_kwargs`` over those a policy carries
     (``SB3Policy.env_kwargs``: what it was trained with); policies with different
-    settings are evaluated each with its own.  With ``report`` the effectiveness
-    report (all policies side by side) is written to ``out/report``.
+    settings are evaluated each with its own.  Every system runs as a
+    :class:`vfs.gym.benchmark.ComfortSystem` (same runs; its braking and comfort recorded
+    in ``runs.parquet``).  With ``report`` the effectiveness report (all policies side by
+    side) is written to ``out/report``, and the leaderboard (:func:`leaderboard`) to
+    ``out/leaderboard.csv|md``.
 
     Returns
     -------
@@ -75,7 +79,8 @@ def evaluate_policy(policy: str | Any | Sequence[str | Any],
                                                          base_cfg.impact_parameters):
             raise ParameterError("evaluate_policy: the policies need different simulation "
                                  "settings; evaluate them in separate studies")
-        systems.append(obj if isinstance(obj, AEBSystem) else PolicySystem(obj, cfg))
+        systems.append(ComfortSystem(obj if isinstance(obj, AEBSystem)
+                                     else PolicySystem(obj, cfg)))
     names = [s.name for s in systems]
     if len(set(names)) != len(names):
         raise ParameterError(f"evaluate_policy: policy names repeat: {names}")
@@ -101,9 +106,13 @@ def leaderboard(out: str | os.PathLike[str], ego: int = 1) -> Any:
     (relative reduction of the expected MAIS3+ injured drivers) and delta-v reduction
     per baseline crash [km/h], each with its interval from the effectiveness report
     (``OUT/report/metrics.csv``: Wilson for the share, bootstrap for the others); new
-    crashes; and ``near_miss_brakes``: in how many of the near misses (cases without a
-    crash in the baseline) the ego brakes at all (any delivered deceleration, the
-    recorded driver's included), of ``near_misses``.
+    crashes; ``near_miss_brakes``: in how many of the near misses (cases without a
+    crash in the baseline) the ego brakes at all (any delivered deceleration of the
+    system's brake), of ``near_misses``; and the measures of
+    :func:`vfs.gym.benchmark.benchmark_measures`: unnecessary braking (share of the
+    near misses braked in at or above ``BRAKE_THRESHOLD``, speed lost [km/h] and time
+    braked [s] there), comfort (peak deceleration [m/s^2] and jerk [m/s^3] where the
+    system brakes, time above ``HARSH_DECELERATION`` per case [s]) and the ``score``.
 
     Returns
     -------
@@ -138,23 +147,47 @@ def leaderboard(out: str | os.PathLike[str], ego: int = 1) -> Any:
         start = sys_runs.reindex(near)[f"brake_start{ego}"].to_numpy(float)
         row["near_miss_brakes"] = int(np.isfinite(start).sum())
         row["near_misses"] = int(near.size)
+        measures = benchmark_measures(runs, name, ego, BASELINE)
+        for key in ("unnecessary", "unnecessary_share", "unnecessary_speed_loss_kmh",
+                    "unnecessary_speed_share",
+                    "unnecessary_brake_time", "brakes_share", "peak_decel", "peak_jerk",
+                    "peak_decel_max", "harsh_time", "net_avoided_share", "score"):
+            row[key] = measures[key]
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def leaderboard_markdown(table: Any) -> str:
-    """The leaderboard as a Markdown table (percentages and km/h with their intervals)."""
+    """The leaderboard as two Markdown tables: benefit (percentages and km/h with their
+    intervals), then unnecessary braking, comfort and the score.
+    """
+    from vfs.gym.benchmark import BRAKE_THRESHOLD, HARSH_DECELERATION, score_formula
+
     def cell(row: Any, key: str, fmt: str) -> str:
         return (f"{row[key]:{fmt}} [{row[key + '_low']:{fmt}}, {row[key + '_high']:{fmt}}]")
 
     lines = ["| policy | crashes avoided [%] | MAIS3+ risk reduction [%] | "
-             "delta-v reduction [km/h] | new crashes | brakes in near misses |",
+             "delta-v reduction [km/h] | new crashes | brakes in no-crash cases |",
              "|---|---|---|---|---|---|"]
     for _, row in table.iterrows():
         lines.append(f"| {row['policy']} | {cell(row, 'avoided', '.1f')} | "
                      f"{cell(row, 'mais3_reduction', '.1f')} | "
                      f"{cell(row, 'delta_v_reduction_kmh', '.1f')} | {row['new_crashes']} | "
                      f"{row['near_miss_brakes']} / {row['near_misses']} |")
+    lines += ["", f"| policy | unnecessary braking (>= {BRAKE_THRESHOLD:g} m/s^2) | "
+              "speed taken there [km/h] (share) | braking time there [s] | "
+              "peak deceleration [m/s^2] | peak jerk [m/s^3] | "
+              f"time above {HARSH_DECELERATION:g} m/s^2 per case [s] | score |",
+              "|---|---|---|---|---|---|---|---|"]
+    for _, row in table.iterrows():
+        lines.append(f"| {row['policy']} | {int(row['unnecessary'])} / {row['near_misses']} | "
+                     f"{row['unnecessary_speed_loss_kmh']:.1f} "
+                     f"({100 * row['unnecessary_speed_share']:.0f} %) | "
+                     f"{row['unnecessary_brake_time']:.2f} | {row['peak_decel']:.1f} | "
+                     f"{row['peak_jerk']:.0f} | {row['harsh_time']:.2f} | "
+                     f"{row['score']:.3f} |")
+    lines += ["", score_formula() + "; peak deceleration and jerk: means over the cases "
+              "where the system brakes."]
     return "\n".join(lines) + "\n"
 
 

@@ -15,8 +15,8 @@ from vfs.adas.params import SensorParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, time_to_collision
 from vfs.gym.compiled import rectangle_distance_compiled
-from vfs.physics.compiled_runout import enabled as compiled_enabled
 from vfs.physics.geometry import rectangle_distance
+from vfs.physics.numba_support import enabled as compiled_enabled
 from vfs.physics.precrash import PrecrashObservation
 
 if TYPE_CHECKING:

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from vfs.physics.compiled_runout import require_numba
 from vfs.physics.core import clip_stage
 from vfs.physics.geometry import AREA_TOLERANCE, Overlap, Polygons
+from vfs.physics.numba_support import require_numba
 
 try:  # pragma: no cover - depends on the environment
     import numba

@@ -49,34 +49,24 @@ numba is a required dependency; the first call compiles the kernel (about
 
 from __future__ import annotations
 
-import logging
 import math
-import os
-import time
 from typing import Any
 
 import numpy as np
 
 from vfs.physics.geometry import AREA_TOLERANCE
+from vfs.physics.numba_support import ENV_SWITCH, enabled, run_kernel
 from vfs.physics.paths import STRAIGHT_CURVATURE
 from vfs.physics.precrash_cases import PrecrashCases
 from vfs.physics.precrash_contact import SEPARATION_MARGIN
 from vfs.physics.precrash_result import KinematicState
 from vfs.physics.vehicle import VehicleArrays
 
-#: Environment variable that switches the compiled core off ("0").
-ENV_SWITCH = "VFS_COMPILED"
-
 #: Knot fields (:data:`vfs.physics.paths.KNOT_FIELDS`).
 _T, _S, _X, _Y, _YAW, _HEADING, _SPEED, _ACCEL = range(8)
 
 #: Per-row outputs of the kernel, float columns of ``out_f`` (n, 2) or (n,).
 _STATE_FIELDS = KinematicState._fields
-
-
-def enabled() -> bool:
-    """True unless ``VFS_COMPILED`` is "0" (read at every call)."""
-    return os.environ.get(ENV_SWITCH, "1") != "0"
 
 
 # ----------------------------------------------------------------------------
@@ -229,7 +219,7 @@ def _state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_da
         st[6, j] = speed
 
 
-def _corners(x: float, y: float, yaw: float, front: float, rear: float, width: float,
+def pose_corners(x: float, y: float, yaw: float, front: float, rear: float, width: float,
              out: np.ndarray) -> None:
     """Outline corners (4, 2) [m] (geometry.outline_corners, one row)."""
     half = 0.5 * width
@@ -342,6 +332,15 @@ def _overlaps(o1: np.ndarray, o2: np.ndarray, buf: np.ndarray) -> bool:
     if not _frames_overlap(acx, acy, ca, sa, ahl + m, ahw + m, bcx, bcy, cb, sb, bhl + m,
                            bhw + m):
         return False
+    return clipped_overlap(o1, o2, buf)
+
+
+def clipped_overlap(o1: np.ndarray, o2: np.ndarray, buf: np.ndarray) -> bool:
+    """Outlines (4, 2) [m] overlap with an area > AREA_TOLERANCE [m^2]
+    (``geometry.overlap(o1, o2).area > AREA_TOLERANCE``, one row: the clip in the frame of
+    ``o2`` and the shoelace area in numpy's order).  ``buf`` (5, 8) is scratch.
+    """
+    bcx, bcy, cb, sb, bhl, bhw = _frame(o2)
     ax, ay, bx, by, dist = buf[0], buf[1], buf[2], buf[3], buf[4]
     for j in range(4):
         dx = o1[j, 0] - bcx
@@ -411,8 +410,8 @@ def _outlines_of(st: np.ndarray, dims: np.ndarray, d: int, o1: np.ndarray,
     """Both outlines of data row ``d`` in state ``st`` (7, 2); ``dims`` (n_data, 6):
     front, rear, width of vehicle 1, then of vehicle 2 [m].
     """
-    _corners(st[0, 0], st[1, 0], st[2, 0], dims[d, 0], dims[d, 1], dims[d, 2], o1)
-    _corners(st[0, 1], st[1, 1], st[2, 1], dims[d, 3], dims[d, 4], dims[d, 5], o2)
+    pose_corners(st[0, 0], st[1, 0], st[2, 0], dims[d, 0], dims[d, 1], dims[d, 2], o1)
+    pose_corners(st[0, 1], st[1, 1], st[2, 1], dims[d, 3], dims[d, 4], dims[d, 5], o2)
 
 
 def _step_state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_data: int,
@@ -769,8 +768,9 @@ def _compiled() -> Any:
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         g = globals()
         for name in ("_advance", "_search", "_clip01", "_record", "_pose", "_state",
-                     "_corners", "_frame", "_frames_overlap", "_clip_stage", "_overlaps",
-                     "_corner_gap", "_distance", "_outlines_of", "_step_state", "_bisect"):
+                     "pose_corners", "_frame", "_frames_overlap", "_clip_stage",
+                     "clipped_overlap", "_overlaps", "_corner_gap", "_distance",
+                     "_outlines_of", "_step_state", "_bisect"):
             g[name] = numba.njit(**opts)(g[name])
         g["numba_prange"] = numba.prange
         _kernel = numba.njit(parallel=False, **opts)(_replay_rows)
@@ -778,25 +778,13 @@ def _compiled() -> Any:
     return _kernel
 
 
-_REPORTED_COMPILE: set[str] = set()
-
-
-def _call(kernel: Any, name: str, *args: Any) -> None:
-    """Run ``kernel``; after its first call in this process, say (logging WARNING, once)
-    when numba compiled it instead of loading it from its cache: the first run after an
-    install or an upgrade.
+def geometry_kernels() -> tuple[Any, Any]:
+    """The compiled :func:`pose_corners` and :func:`clipped_overlap` (numba dispatchers, for
+    the kernels of other modules: :mod:`vfs.physics.core_runout`).
     """
-    if name in _REPORTED_COMPILE:
-        kernel(*args)
-        return
-    t0 = time.perf_counter()
-    kernel(*args)
-    _REPORTED_COMPILE.add(name)
-    stats = getattr(kernel, "stats", None)
-    if stats is not None and sum(stats.cache_misses.values()):
-        logging.getLogger("vfs.physics.core").warning(
-            "vfs: compiled the %s of the pre-crash core in %.0f s (once: numba cached it "
-            "in %s; later runs load it)", name, time.perf_counter() - t0, stats.cache_path)
+    _compiled()
+    g = globals()
+    return g["pose_corners"], g["clipped_overlap"]
 
 
 def settle_rows(*args: Any) -> None:
@@ -804,7 +792,7 @@ def settle_rows(*args: Any) -> None:
     :func:`_settle_rows` documents them; :meth:`vfs.physics.precrash.PrecrashRun` calls it).
     """
     _compiled()
-    _call(_settle_kernel, "step", *args)
+    run_kernel(_settle_kernel, "step of the pre-crash core", *args)
 
 
 def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any,
@@ -853,14 +841,15 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     states = np.empty((n, 4, 7, 2))
     reductions = np.empty((n, 3, 2))
     if n:
-        _call(_compiled(), "replay", np.ascontiguousarray(paths.knots, dtype=float),
-                    np.ascontiguousarray(paths.count, dtype=np.int64),
-                    np.ascontiguousarray(paths.end_curvature, dtype=float), dims,
-                    np.ascontiguousarray(reach, dtype=float),
-                    np.ascontiguousarray(case_horizon, dtype=float), data_row, first,
-                    float(params.dt), horizon, float(params.penetration_time),
-                    float(params.contact_tolerance), float(close_range), out, states,
-                    reductions)
+        run_kernel(_compiled(), "replay of the pre-crash core",
+                   np.ascontiguousarray(paths.knots, dtype=float),
+                   np.ascontiguousarray(paths.count, dtype=np.int64),
+                   np.ascontiguousarray(paths.end_curvature, dtype=float), dims,
+                   np.ascontiguousarray(reach, dtype=float),
+                   np.ascontiguousarray(case_horizon, dtype=float), data_row, first,
+                   float(params.dt), horizon, float(params.penetration_time),
+                   float(params.contact_tolerance), float(close_range), out, states,
+                   reductions)
     cases.collided[:] = out[:, _COLLIDED] > 0.5
     cases.contact_time[:] = out[:, _CONTACT_T]
     cases.impact_time[:] = out[:, _IMPACT_T]
@@ -883,5 +872,5 @@ def replay_precrash(vehicle1: VehicleArrays, vehicle2: VehicleArrays, paths: Any
     return cases.result()
 
 
-__all__ = ["ENV_SWITCH", "EVENT_CONTACT", "EVENT_IMPACT", "EVENT_NONE", "enabled",
-           "replay_precrash", "settle_rows"]
+__all__ = ["ENV_SWITCH", "EVENT_CONTACT", "EVENT_IMPACT", "EVENT_NONE", "clipped_overlap",
+           "enabled", "geometry_kernels", "pose_corners", "replay_precrash", "settle_rows"]

@@ -53,6 +53,7 @@ leaves exactly unchanged) and compacted out of the working arrays.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -62,7 +63,8 @@ import numpy as np
 import numpy.typing as npt
 
 from vfs.errors import ParameterError
-from vfs.physics import compiled_runout
+from vfs.physics import core_runout
+from vfs.physics.numba_support import enabled
 from vfs.physics.post_impact import PostImpactInputs as PostImpactInputs  # re-exported
 from vfs.physics.post_impact import WheelInputs, check_wheel_inputs
 from vfs.physics.runout_contacts import Contacts, Kick, SecondaryCollisions
@@ -95,6 +97,7 @@ _TINY = 1e-30
 #: (1 - gamma z)^2 is second order and L-stable, min over z <= 0 of R = -0.207.
 _GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
 
+_REPORTED: list[bool] = []  # the numpy run-out of contacts was logged (once per process)
 #: Compact the working arrays when fewer than this share of them still moves.
 _COMPACT_SHARE = 0.8
 
@@ -880,18 +883,16 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
               record: bool = True, compact: bool = True) -> RunoutResult:
     """Run N vehicles to rest: the engine of :func:`run_out` and :func:`run_out_pair`.
 
-    Without ``on_step`` the vehicles never interact; on request
-    (``VFS_COMPILED_RUNOUT=1``, numba installed) the compiled kernel of
-    :mod:`vfs.physics.compiled_runout` runs them, and this loop is the
-    reference it is tested against.  ``record``: False leaves the path samples and kinetic
-    energies empty (:func:`run_out`).  The compiled kernel has no steered wheels: a batch
-    with a steer angle runs here.
+    This loop is the reference of the compiled kernel (:mod:`vfs.physics.core_runout`),
+    which runs instead where nothing is called between the steps (``on_step`` None) unless
+    ``VFS_COMPILED=0``.  ``record``: False leaves the path samples and kinetic energies
+    empty (:func:`run_out`).
     """
     n = state.x.shape[0]
     w = _prepare(vehicles, state, mu, brake, params, wheels)
     steered = wheels.steered
-    if on_step is None and n and not steered and compiled_runout.runout_enabled():
-        return _unrecorded(_simulate_compiled(w, params), record)
+    if on_step is None and n and enabled():
+        return _simulate_compiled(w, params, record)[0]
     # full arrays: current state of the working set, rest state of the others
     x, y, yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     vx, vy, r = state.vx.copy(), state.vy.copy(), state.yaw_rate.copy()
@@ -974,29 +975,27 @@ def _simulate(vehicles: VehicleArrays, state: RunoutState, mu: np.ndarray, brake
     return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
 
 
-def _unrecorded(res: RunoutResult, record: bool) -> RunoutResult:
-    """``res``, or without path samples and kinetic energies (K = 0) if not ``record``."""
-    if record:
-        return res
-    n = res.rest_x.shape[0]
-    return res._replace(path=np.zeros((n, 0, 3)), path_t=np.zeros(0),
-                        kinetic_energy=np.zeros((n, 0)))
-
-
-def _simulate_compiled(w: _Working, params: RunoutParams) -> RunoutResult:
-    """:func:`_simulate` without step callback, by the compiled kernel (same arithmetic)."""
-    arrays = (w.mass, w.inertia, w.lf, w.lr, w.half_track, w.front_share, w.rear_share,
-              w.lon_transfer, w.lat_transfer, w.radius, w.mu, w.brake_coef.T, w.locked.T,
-              w.static_load.T)
+def _simulate_compiled(w: _Working, params: RunoutParams, record: bool,
+                       pairs: VehicleArrays | None = None
+                       ) -> tuple[RunoutResult, np.ndarray | None, np.ndarray | None]:
+    """:func:`_simulate` by the compiled kernel (the same arithmetic); ``pairs``: the 2N
+    vehicles of :func:`run_out_pair`, whose secondary collisions it checks (as
+    :class:`SecondaryCollisions`: the flags and times are returned too).
+    """
+    par = core_runout.parameter_table(
+        (w.mass, w.inertia, w.lf, w.lr, w.half_track, w.front_share, w.rear_share,
+         w.lon_transfer, w.lat_transfer, w.radius, w.mu, w.steer, w.onset),
+        (w.brake_coef, w.static_load, w.locked), pairs)
     consts = (params.dt, params.cornering_stiffness, params.v_stop, SLIP_SPEED_REGULARISATION,
               SLIP_ANGLE_SPEED_FLOOR, _TINY, _GAMMA)
-    x, y, yaw, _, _, _, steps, distance, moving, path, kinetic = compiled_runout.run_to_rest(
-        arrays, (w.x, w.y, w.yaw, w.vx, w.vy, w.r), consts, params.max_steps,
-        params.steps_per_sample, params.load_transfer)
-    time_to_rest = np.where(moving, np.nan, steps * params.dt)
-    per_sample = params.steps_per_sample
-    path_t = np.arange(path.shape[1]) * (per_sample * params.dt)
-    return RunoutResult(x, y, yaw, time_to_rest, distance, ~moving, path, path_t, kinetic)
+    out = core_runout.run_to_rest(par, (w.x, w.y, w.yaw, w.vx, w.vy, w.r), consts,
+                                  params.max_steps, params.steps_per_sample,
+                                  params.load_transfer, record, pairs is not None)
+    time_to_rest = np.where(out.moving, np.nan, out.steps * params.dt)
+    path_t = np.arange(out.path.shape[1]) * (params.steps_per_sample * params.dt)
+    return (RunoutResult(out.x, out.y, out.yaw, time_to_rest, out.distance, ~out.moving,
+                         out.path, path_t, out.kinetic_energy),
+            out.secondary, out.secondary_time)
 
 
 # ----------------------------------------------------------------------------
@@ -1230,13 +1229,21 @@ def run_out_pair(vehicles1: VehicleArrays, vehicles2: VehicleArrays, state1: Run
     wheels = WheelInputs(*(np.concatenate([a, b]) for a, b in zip(w1, w2, strict=True)))
     both = VehicleArrays(*(np.concatenate([a, b]) for a, b in zip(v1, v2, strict=True)))
     state = RunoutState(*(np.concatenate([a, b]) for a, b in zip(s1, s2, strict=True)))
+    mu2, brake = np.concatenate([mu, mu]), np.concatenate([b1, b2])
+    if not params.contact and n and enabled():
+        res, secondary, time = _simulate_compiled(
+            _prepare(both, state, mu2, brake, params, wheels), params, True, both)
+        return PairRunoutResult.from_batch(res, secondary, time)  # type: ignore[arg-type]
     if params.contact:
+        if enabled() and not _REPORTED:
+            _REPORTED.append(True)
+            logging.getLogger("vfs.physics.runout").info(
+                "run-out: contacts solved (RunoutParams.contact): the numpy reference path")
         contacts = Contacts(both, state.x, state.y, state.yaw, params.contact_restitution)
-        res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]),
-                        params, wheels, on_step=contacts, compact=False)
+        res = _simulate(both, state, mu2, brake, params, wheels, on_step=contacts,
+                        compact=False)
         return PairRunoutResult.from_batch(res, contacts.flags.secondary,
                                            contacts.flags.time)
     tracker = SecondaryCollisions(both, state.x, state.y, state.yaw)
-    res = _simulate(both, state, np.concatenate([mu, mu]), np.concatenate([b1, b2]), params,
-                    wheels, on_step=tracker)
+    res = _simulate(both, state, mu2, brake, params, wheels, on_step=tracker)
     return PairRunoutResult.from_batch(res, tracker.secondary, tracker.time)

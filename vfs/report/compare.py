@@ -38,7 +38,7 @@ from vfs.analysis.staged_tests import staged_summary
 from vfs.atomic import write_atomic, write_table, write_text
 from vfs.report.case_pages import case_link, write_comparison_case_pages
 from vfs.report.figures import new_figure, save_figure
-from vfs.report.provenance import database_manifest, provenance_blocks, synthetic_note
+from vfs.report.provenance import with_provenance
 from vfs.report.references import cite
 from vfs.report.render import (
     Block,
@@ -630,9 +630,7 @@ def write_comparison_report(comparison: Comparison, out: str | os.PathLike[str],
         pages = write_comparison_case_pages(folder, comparison, database, linked)
     blocks = _report_blocks(comparison, top, worst, folder, pages)
     if database is not None:  # where the numbers come from; synthetic data said so
-        manifest = database_manifest(database, database_reference)
-        blocks = [blocks[0], *synthetic_note(manifest), *blocks[1:],
-                  *provenance_blocks(manifest)]
+        blocks = with_provenance(blocks, database, database_reference)
     files.update(write_report(folder, Report("VFS vs reconstruction", tuple(blocks))))
     return files
 

@@ -29,6 +29,7 @@ from vfs.report.figures import (
     reconstruction_scene,
     save_figure,
 )
+from vfs.report.provenance import with_provenance
 from vfs.report.render import (
     Block,
     BulletList,
@@ -53,14 +54,17 @@ def _pct(x: float) -> str:
 
 
 def write_diagnosis_report(diag: Diagnosis, out: str | Path, json_path: str | Path | None = None,
-                 plots: bool = True, params: SimulationParams | None = None
+                 plots: bool = True, params: SimulationParams | None = None,
+                 database: Any = None, database_reference: str | None = None
                  ) -> dict[str, Path]:
     """Write the diagnosis into the folder ``out``.
 
     Files: ``ranking.csv`` (ranked candidates), ``residuals_by_stratum.csv``,
     ``associations.csv`` (default model), ``associations_after_best.csv``,
     ``worst_cases.csv``, ``summary.json`` (and ``json_path`` if given),
-    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).
+    ``report.md``, ``report.html`` and ``figures/*.png`` (with ``plots``).  With the
+    diagnosed ``database`` (``database_reference``: how the user named it) the report
+    says where its numbers come from (:func:`vfs.report.provenance.with_provenance`).
     Returns the paths by name.
     """
     folder = Path(out)
@@ -79,7 +83,10 @@ def write_diagnosis_report(diag: Diagnosis, out: str | Path, json_path: str | Pa
     figures: dict[str, str] = {}
     if plots:
         figures = diagnosis_figures(diag, folder / "figures", params=params)
-    written = write_report(folder, Report("Model diagnosis", tuple(report_blocks(diag, figures))))
+    blocks = report_blocks(diag, figures)
+    if database is not None:
+        blocks = with_provenance(blocks, database, database_reference)
+    written = write_report(folder, Report("Model diagnosis", tuple(blocks)))
     paths["markdown"] = written["report_md"]
     paths["html"] = written["report_html"]
     return paths

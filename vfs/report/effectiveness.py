@@ -112,7 +112,8 @@ def summary_blocks(eff: Effectiveness) -> list[Block]:
                 + (f", lowers the expected {level} injuries by "
                    f"{cell(f'risk_{level}_reduction', s)}" if level else "")
                 + f" and the mean delta-v by {cell('dv_reduction_all', s)} km/h per baseline "
-                f"crash; it causes {new:g} new crash(es).")
+                f"crash; it causes {'no' if new == 0 else f'{new:g}'} new "
+                f"crash{'' if new == 1 else 'es'}.")
         items.append(text)
     return [Heading("In short", 2), BulletList(tuple(items)),
             Paragraph(f"Brackets: {pct} % confidence intervals. Details and definitions "

@@ -36,7 +36,16 @@ from vfs.analysis.euro_ncap import (
 )
 from vfs.atomic import write_text
 from vfs.errors import DataError, DataProblem
-from vfs.report.render import Block, BulletList, Heading, Paragraph, Report, Table, write_report
+from vfs.report.render import (
+    Block,
+    BulletList,
+    Figure,
+    Heading,
+    Paragraph,
+    Report,
+    Table,
+    write_report,
+)
 from vfs.study.manifest import StudyResult
 
 #: Files written next to report.md for a study on the matrix.
@@ -266,11 +275,51 @@ def side_by_side_display(table: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def side_by_side_figure(table: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
+    """The test score against the accident benefit, one labelled point per system (PNG).
+
+    Two panels over the Euro NCAP total [%]: the share of the accident study's baseline
+    crashes avoided [%], and the relative reduction of the expected MAIS3+ injured drivers
+    [%] (where the study has it), each with its interval as a vertical bar.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`side_by_side`'s table.
+    path : path
+        The PNG file.
+    """
+    from vfs.report.figures import new_figure, save_figure
+
+    panels = [("avoided_share", "accident crashes avoided [%]")]
+    if "acc_risk_MAIS3+_reduction" in table.columns:
+        panels.append(("risk_MAIS3+_reduction", "MAIS3+ risk reduction, accidents [%]"))
+    fig = new_figure((4.6 * len(panels), 4.2), layout="constrained")
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    x = table["ncap_pct"].to_numpy(float)
+    for ax, (key, label) in zip(axes, panels, strict=True):
+        y = 100 * table[f"acc_{key}"].to_numpy(float)
+        low = 100 * table[f"acc_{key}_low"].to_numpy(float)
+        high = 100 * table[f"acc_{key}_high"].to_numpy(float)
+        ax.errorbar(x, y, yerr=[y - low, high - y], fmt="o", color="#1f4e79", ecolor="#7a9cc6",
+                    capsize=3, ms=6)
+        for xi, yi, name in zip(x, y, table["system"].astype(str), strict=True):
+            ax.annotate(name, (xi, yi), xytext=(6, 4), textcoords="offset points", fontsize=9)
+        ax.set_xlabel("Euro NCAP test score [% of the maximum points]")
+        ax.set_ylabel(label)
+        ax.set_xlim(0, 105)
+        ax.set_ylim(0, 105)
+        ax.plot([0, 100], [0, 100], color="0.8", lw=0.8, ls="--", zorder=0)
+        ax.grid(alpha=0.3)
+    return save_figure(fig, path)
+
+
 def write_side_by_side(ncap_study: str | os.PathLike[str],
                        accident_study: str | os.PathLike[str],
                        out: str | os.PathLike[str], *, n_boot: int = 2000, seed: int = 0,
                        confidence: float = 0.95) -> Path:
-    """Write ``side_by_side.csv`` (raw), ``.md`` and ``.html`` (formatted) into ``out``.
+    """Write ``side_by_side.csv`` (raw), ``.md`` and ``.html`` (formatted) and the figure
+    ``side_by_side.png`` (:func:`side_by_side_figure`) into ``out``.
 
     Returns
     -------
@@ -282,6 +331,13 @@ def write_side_by_side(ncap_study: str | os.PathLike[str],
     table = side_by_side(ncap_study, accident_study, n_boot=n_boot, seed=seed,
                          confidence=confidence)
     write_text(folder / f"{SIDE_BY_SIDE}.csv", table.to_csv(index=False))
+    side_by_side_figure(table, folder / f"{SIDE_BY_SIDE}.png")
+    shown = side_by_side_display(table)
+    ncap_cols = ["system", *(c for c in shown.columns if not c.startswith("accidents: ")
+                             and c != "system")]
+    accident_cols = ["system", *(c.removeprefix("accidents: ") for c in shown.columns
+                                 if c.startswith("accidents: "))]
+    accidents_shown = shown.rename(columns=lambda c: c.removeprefix("accidents: "))
     pct = int(round(100 * confidence))
     versions = ", ".join(sorted(table["ncap_protocol"].astype(str).unique()))
     blocks: list[Block] = [
@@ -294,7 +350,15 @@ def write_side_by_side(ncap_study: str | os.PathLike[str],
                   f"relative reduction of the expected injured drivers per injury level, with "
                   f"{pct} % intervals ({n_boot} bootstrap resamples, seed {seed}; "
                   "docs/statistics.md)."),
-        _table(side_by_side_display(table)),
+        Figure(f"{SIDE_BY_SIDE}.png", "Test score against accident benefit, one point per "
+               "system: share of the accident study's baseline crashes avoided and MAIS3+ "
+               "risk reduction over the Euro NCAP total, with their intervals (dashed: equal "
+               "percentages).", alt="Scatter plot of the accident benefit over the Euro "
+               "NCAP score, one labelled point per system"),
+        Heading("Euro NCAP", 2),
+        _table(shown[ncap_cols]),
+        Heading("Accidents", 2),
+        _table(accidents_shown[accident_cols]),
     ]
     write_report(folder, Report("Euro NCAP and accidents, side by side", tuple(blocks)),
                  name=SIDE_BY_SIDE)
@@ -302,5 +366,5 @@ def write_side_by_side(ncap_study: str | os.PathLike[str],
 
 
 __all__ = ["SCORES_FILE", "SIDE_BY_SIDE", "TESTS_FILE", "euro_ncap_blocks", "score_table",
-           "side_by_side", "side_by_side_display", "study_tables", "write_euro_ncap_tables",
-           "write_side_by_side"]
+           "side_by_side", "side_by_side_display", "side_by_side_figure", "study_tables",
+           "write_euro_ncap_tables", "write_side_by_side"]

@@ -492,6 +492,16 @@ def _fit_limits(points: np.ndarray, margin: float, min_span: float, max_ratio: f
     return ((centre[0] - half[0], centre[0] + half[0]), (centre[1] - half[1], centre[1] + half[1]))
 
 
+def _with_ratio(view: tuple[tuple[float, float], tuple[float, float]], ratio: float
+                ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``view`` [m] widened or heightened about its centre to height / width = ``ratio``."""
+    (x0, x1), (y0, y1) = view
+    w, h = x1 - x0, y1 - y0
+    w, h = max(w, h / ratio), max(h, w * ratio)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    return (cx - 0.5 * w, cx + 0.5 * w), (cy - 0.5 * h, cy + 0.5 * h)
+
+
 #: Longest side [m] of a main view that also shows the scene's ``nearby`` points (the rest
 #: positions); beyond it the view keeps to the impact.
 NEARBY_SPAN = 25.0
@@ -652,13 +662,16 @@ def plot_scenes(scenes: Sequence[Scene], path: str | os.PathLike[str] | None = N
     if common is not None and common[0][1] - common[0][0] > share:
         common = None
     views = [common] if common is not None else [view_limits([s]) for s in scenes]
-    ratio = max([(v[1][1] - v[1][0]) / (v[0][1] - v[0][0]) for v in views if v is not None],
-                default=1.0)  # height / width of the tallest view
-    fig = new_figure((5.2 * ncols, nrows * (4.6 * float(np.clip(ratio, 0.55, 1.6)) + 0.9)
-                      + 0.6), layout="constrained")
+    ratios = [(v[1][1] - v[1][0]) / (v[0][1] - v[0][0]) for v in views if v is not None]
+    # one height / width for every panel (the geometric mean of theirs): equal-aspect panels
+    # of different shapes would otherwise leave gaps between them
+    ratio = float(np.clip(np.exp(np.mean(np.log(ratios))), 0.55, 1.6)) if ratios else 1.0
+    own = [None if v is None else _with_ratio(v, ratio) for v in views] \
+        if common is None else None
+    fig = new_figure((5.2 * ncols, nrows * (4.6 * ratio + 0.9) + 0.6), layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
-    for ax, scene in zip(axes, scenes, strict=False):
-        draw_scene(ax, scene, limits=common, legend=None)
+    for k, (ax, scene) in enumerate(zip(axes, scenes, strict=False)):
+        draw_scene(ax, scene, limits=common if own is None else own[k], legend=None)
     handles, labels = legend_handles([ly for s in scenes for ly in s.layers])
     if n < len(axes):  # an empty slot: the legend goes there
         for ax in axes[n:]:

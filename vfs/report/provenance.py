@@ -131,6 +131,23 @@ def provenance_blocks(manifest: dict[str, Any], *, written: _dt.datetime | None 
                       "numbers (a seed fixes every random draw).")]
 
 
+def with_provenance(blocks: list[Block], database: Any,
+                    reference: str | None = None) -> list[Block]:
+    """``blocks`` (a report's, title first) with the synthetic-data warning after the title
+    and the provenance section at the end, for a report on ``database`` (no study): what the
+    comparison, diagnosis and uncertainty reports add (:func:`database_manifest`).
+
+    Parameters
+    ----------
+    blocks : list of Block
+    database : Database
+    reference : str, optional
+        How the user named the database (``--db``).
+    """
+    manifest = database_manifest(database, reference)
+    return [*blocks[:1], *synthetic_note(manifest), *blocks[1:], *provenance_blocks(manifest)]
+
+
 def table_of_contents(blocks: list[Block], level: int = 2) -> list[Block]:
     """A bulleted list linking the headings of ``level`` (render adds the anchors)."""
     items = tuple(f"[{b.text}](#{heading_anchor(b.text)})" for b in blocks
@@ -139,4 +156,4 @@ def table_of_contents(blocks: list[Block], level: int = 2) -> list[Block]:
 
 
 __all__ = ["database_argument", "database_label", "database_manifest", "is_synthetic",
-           "provenance_blocks", "synthetic_note", "table_of_contents"]
+           "provenance_blocks", "synthetic_note", "table_of_contents", "with_provenance"]

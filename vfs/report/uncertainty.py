@@ -21,6 +21,7 @@ import pandas as pd
 
 from vfs.atomic import write_json, write_table
 from vfs.report.figures import new_figure, save_figure
+from vfs.report.provenance import with_provenance
 from vfs.report.references import cite
 from vfs.report.render import (
     Block,
@@ -263,14 +264,17 @@ def summary_blocks(result: UncertaintyResult, confidence: float = 0.95,
 
 
 def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[str], *,
-                             plots: bool = True) -> dict[str, Path]:
+                             plots: bool = True, database: Any = None,
+                             database_reference: str | None = None) -> dict[str, Path]:
     """Write the tables, JSON summary, report and figures of a Monte-Carlo run.
 
     Files: ``bands.parquet``/``.csv`` (per case and outcome, SI),
     ``cases.parquet``/``.csv``, ``summary.csv`` (:func:`band_summary`),
     ``inputs.csv``, ``samples.parquet`` (when the result kept them),
     ``uncertainty.json``, ``report.md``, ``report.html`` and
-    ``figures/*.png``.
+    ``figures/*.png``.  With the ``database`` the cases came from (``database_reference``:
+    how the user named it) the report says where its numbers come from
+    (:func:`vfs.report.provenance.with_provenance`).
 
     Returns
     -------
@@ -360,6 +364,8 @@ def write_uncertainty_report(result: UncertaintyResult, out: str | os.PathLike[s
             "`samples.parquet`: every run (with --save-samples)",
         )),
     ]
+    if database is not None:
+        blocks = with_provenance(blocks, database, database_reference)
     _report(folder, blocks, "Monte-Carlo uncertainty", files)
     return files
 

@@ -1,0 +1,61 @@
+"""The one switch and the one check of the compiled (numba) kernels.
+
+The kernels -- the pre-crash core (:mod:`vfs.physics.core`), the run-out to rest
+(:mod:`vfs.physics.core_runout`), the overlap clip (:mod:`vfs.physics.compiled`) and the
+gym's gap (:mod:`vfs.gym.compiled`) -- each repeat a numpy reference.  numba is a required
+dependency of vfs; ``VFS_COMPILED=0`` selects the numpy references everywhere (read at every
+call, so a test can switch it).  :func:`run_kernel` says once per kernel and process when
+numba compiled it instead of loading it from its cache (the first run after an install).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import logging
+import os
+import time
+from typing import Any
+
+from vfs.errors import ParameterError
+
+#: Environment variable that switches the compiled kernels off ("0").
+ENV_SWITCH = "VFS_COMPILED"
+
+#: numba is installed (it is imported only when a kernel first runs: importing it costs a
+#: few tenths of a second that a command without a kernel need not pay).
+AVAILABLE = importlib.util.find_spec("numba") is not None
+
+
+def require_numba() -> None:
+    """Raise :class:`vfs.errors.ParameterError` where numba is missing: the one check of
+    every compiled kernel.
+    """
+    if not AVAILABLE:
+        raise ParameterError("the compiled kernels need numba (a dependency of vfs): "
+                             "pip install numba")
+
+
+def enabled() -> bool:
+    """True where numba is installed and ``VFS_COMPILED`` is not "0" (read at every call)."""
+    return AVAILABLE and os.environ.get(ENV_SWITCH, "1") != "0"
+
+
+_REPORTED_COMPILE: set[str] = set()
+
+
+def run_kernel(kernel: Any, name: str, *args: Any) -> Any:
+    """Call ``kernel(*args)``; after its first call in this process, say (logging WARNING on
+    the ``vfs.physics.core`` logger, once per ``name``) when numba compiled it instead of
+    loading it from its cache: the first run after an install or an upgrade.
+    """
+    if name in _REPORTED_COMPILE:
+        return kernel(*args)
+    t0 = time.perf_counter()
+    out = kernel(*args)
+    _REPORTED_COMPILE.add(name)
+    stats = getattr(kernel, "stats", None)
+    if stats is not None and sum(stats.cache_misses.values()):
+        logging.getLogger("vfs.physics.core").warning(
+            "vfs: compiled the %s in %.0f s (once: numba cached it "
+            "in %s; later runs load it)", name, time.perf_counter() - t0, stats.cache_path)
+    return out

@@ -1,7 +1,7 @@
 """The generic AEB controller's measurement as compiled (numba) loops over the egos.
 
 :class:`vfs.adas.controller.AEBController` runs these kernels by default; its numpy
-path (``VFS_COMPILED=0``, :func:`vfs.physics.core.enabled`) is the tests' reference.
+path (``VFS_COMPILED=0``, :func:`vfs.physics.numba_support.enabled`) is the tests' reference.
 Per sensor cycle the numpy path makes some hundreds of passes over small arrays (the
 threat assessment of :mod:`vfs.adas.threat`: the reach bound, the constant-velocity and
 the sampled sweeps of the predicted outlines with the swept separating axes, the
@@ -51,6 +51,7 @@ from vfs.adas.params import STANDSTILL_SPEED, Prediction, Release
 from vfs.adas.threat import MIN_STEP
 from vfs.physics.braking import G
 from vfs.physics.geometry import STILL_DISPLACEMENT
+from vfs.physics.numba_support import require_numba, run_kernel
 
 if TYPE_CHECKING:
     from vfs.adas.threat import Motion
@@ -618,6 +619,7 @@ def _compiled() -> Any:
     """The three kernels (compiled, or loaded from numba's cache, at the first call)."""
     global _kernels
     if _kernels is None:
+        require_numba()
         import numba
 
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
@@ -673,17 +675,18 @@ def assess(ego: Motion, obj: Motion, case: np.ndarray, col: np.ndarray, front: n
     horizon = np.empty(m)
     near = np.zeros(m, dtype=np.bool_)
     geo = np.zeros((8, m))
-    reach(a, b, active, np.ascontiguousarray(front, dtype=np.float64), thresholds,
-          release_thresholds, model, release, bool(aeb.last_moment), float(aeb.min_speed),
-          float(aeb.max_speed), float(aeb.ttc_horizon), float(sensor.mount_x),
-          float(sensor.mount_y), float(sensor.mount_yaw), ml, mw, horizon, near, geo)
+    run_kernel(reach, "AEB controller's measurement", a, b, active,
+               np.ascontiguousarray(front, dtype=np.float64), thresholds, release_thresholds,
+               model, release, bool(aeb.last_moment), float(aeb.min_speed),
+               float(aeb.max_speed), float(aeb.ttc_horizon), float(sensor.mount_x),
+               float(sensor.mount_y), float(sensor.mount_yaw), ml, mw, horizon, near, geo)
     half_angle = 0.5 * sensor.field_of_view
     # numpy's arctan2 of the bearings, as in the reference (see the module docstring)
     bearing = (np.arctan2(geo[5, near], geo[4, near]) if half_angle < np.pi
                else np.empty(0))
     seen = np.zeros(m, dtype=np.bool_)
-    sector(b, near, geo, np.ascontiguousarray(bearing), float(half_angle),
-           float(sensor.range), seen)
+    run_kernel(sector, "AEB controller's sensor sector", b, near, geo,
+               np.ascontiguousarray(bearing), float(half_angle), float(sensor.range), seen)
     found = seen.copy()
     p = sensor.detection_probability
     if p <= 0.0:
@@ -696,11 +699,12 @@ def assess(ego: Motion, obj: Motion, case: np.ndarray, col: np.ndarray, front: n
     else:
         alpha = 1.0 - np.exp(-dt / brake.time_constant)
         jerk, lag_delay = 0.0, float(dt / alpha - 0.5 * dt)
-    finish(a, b, np.ascontiguousarray(case, dtype=np.int64),
-           np.ascontiguousarray(col, dtype=np.int64), horizon, found, update,
-           np.ascontiguousarray(friction, dtype=np.float64), stage, ttc_state, thresholds,
-           release_thresholds, model, float(aeb.ctrv_tolerance), float(aeb.ctrv_step),
-           release, bool(aeb.last_moment), float(aeb.min_speed), float(aeb.max_speed),
-           float(aeb.ttc_horizon), float(aeb.full_deceleration),
-           float(brake.max_deceleration), jerk, lag_delay, float(sensor.latency),
-           float(sensor.cycle_time), float(dt))
+    run_kernel(finish, "AEB controller's threat assessment", a, b,
+               np.ascontiguousarray(case, dtype=np.int64),
+               np.ascontiguousarray(col, dtype=np.int64), horizon, found, update,
+               np.ascontiguousarray(friction, dtype=np.float64), stage, ttc_state, thresholds,
+               release_thresholds, model, float(aeb.ctrv_tolerance), float(aeb.ctrv_step),
+               release, bool(aeb.last_moment), float(aeb.min_speed), float(aeb.max_speed),
+               float(aeb.ttc_horizon), float(aeb.full_deceleration),
+               float(brake.max_deceleration), jerk, lag_delay, float(sensor.latency),
+               float(sensor.cycle_time), float(dt))

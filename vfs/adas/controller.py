@@ -38,7 +38,7 @@ from vfs.adas.params import STANDSTILL_SPEED, AEBParams, DriverParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, braked_contact, earliest_contact, time_to_collision
 from vfs.errors import ParameterError
-from vfs.physics.core import enabled as core_enabled
+from vfs.physics.numba_support import enabled as core_enabled
 from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashObservation,
@@ -261,7 +261,7 @@ class AEBController:
         """One sensor cycle: reach, visibility, detection, TTC and the stage logic.
 
         The compiled kernels of :mod:`vfs.adas.compiled` by default; the numpy path
-        below with ``VFS_COMPILED=0`` (:func:`vfs.physics.core.enabled`), the reference.
+        below with ``VFS_COMPILED=0`` (:func:`vfs.physics.numba_support.enabled`), the reference.
         """
         aeb, sensor = self.aeb, self.aeb.sensor
         rows = obs.rows

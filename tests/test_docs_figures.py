@@ -405,7 +405,8 @@ QUOTES: tuple[Quote, ...] = (
                         _json(IMPACT_BENCH, root)["impact"]["impacts_per_s"] / 1e6],
           "impacts per second, compiled and numpy reference"),
     Quote("docs/performance.md",
-          r"back to back against main: " + NUMBER + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
+          r"back to back against main [0-9a-f]{7} \(with the compiled run-out\): " + NUMBER
+          + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
           + NUMBER + r" -> " + NUMBER + r" s, loads " + NUMBER + r" and " + NUMBER
           + r"\): [\d.]+x \(`--quick`, 600 cases: " + NUMBER + r" -> " + NUMBER,
           ",".join(AEB_BENCH), _aeb_study, "study case-runs/s with the compiled AEB controller"),

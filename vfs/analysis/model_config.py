@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import fields
 from collections.abc import Iterable, Mapping
+from dataclasses import fields
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -100,7 +100,8 @@ def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
 
 def _read(path: str | os.PathLike[str]) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
     """The file, its effect records and its run-out settings, checked as
-    :func:`read_model_config` documents."""
+    :func:`read_model_config` documents.
+    """
     file = Path(path)
     if not file.is_file():
         raise DataError(DataProblem(str(file), "", None, None, "model configuration not found"))

@@ -82,6 +82,17 @@ def _mutation_row(module: str) -> Callable[[Path], list[float]]:
         return out + [s["equivalent"]]
     return read
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
+AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
+                  for k in ("before", "after", "before_quick", "after_quick"))
+AEB_PROFILE = "benchmarks/results/core_37_aeb_profile.txt"
+
+
+def _aeb_study(root: Path) -> list[float]:
+    """Case-runs/s, CPU s and loads of the compiled-controller records, as quoted."""
+    before, after, before_quick, after_quick = (_json(r, root)["study"] for r in AEB_BENCH)
+    return [before["case_runs_per_s_cpu"], after["case_runs_per_s_cpu"], before["cpu_s"],
+            after["cpu_s"], before["load_average_1min"], after["load_average_1min"],
+            before_quick["case_runs_per_s_cpu"], after_quick["case_runs_per_s_cpu"]]
 
 
 def _json(record: str, root: Path) -> dict:
@@ -412,6 +423,22 @@ QUOTES: tuple[Quote, ...] = (
                         _json(IMPACT_BENCH, root)["impact"]["load_average"],
                         _json(IMPACT_BENCH, root)["impact"]["impacts_per_s"] / 1e6],
           "impacts per second, compiled and numpy reference"),
+    Quote("docs/performance.md",
+          r"back to back against main [0-9a-f]{7} \(with the compiled run-out\): " + NUMBER
+          + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
+          + NUMBER + r" -> " + NUMBER + r" s, loads " + NUMBER + r" and " + NUMBER
+          + r"\): [\d.]+x \(`--quick`, 600 cases: " + NUMBER + r" -> " + NUMBER,
+          ",".join(AEB_BENCH), _aeb_study, "study case-runs/s with the compiled AEB controller"),
+    Quote("docs/performance.md",
+          r"core_37_aeb_profile.txt`, wall clock at load " + NUMBER + r"\): `demand` " + NUMBER
+          + r" s of `simulate_cases` " + NUMBER + r" s",
+          AEB_PROFILE,
+          lambda root: [*_md_numbers(AEB_PROFILE, r"load average ([\d.]+)")(root),
+                        *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
+                                     r"\S+controller.py:\d+\(demand\)")(root),
+                        *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
+                                     r"\S+simulation.py:\d+\(simulate_cases\)")(root)],
+          "profile of the study with the compiled AEB controller"),
 )
 
 

@@ -33,10 +33,12 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from vfs.adas import compiled
 from vfs.adas.params import STANDSTILL_SPEED, AEBParams, DriverParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, braked_contact, earliest_contact, time_to_collision
 from vfs.errors import ParameterError
+from vfs.physics.numba_support import enabled as core_enabled
 from vfs.physics.precrash import (
     BrakeActuatorParams,
     PrecrashObservation,
@@ -256,27 +258,24 @@ class AEBController:
             self._acting = decision.stage
 
     def _measure(self, obs: PrecrashObservation) -> None:
-        """One sensor cycle: reach, visibility, detection, TTC and the stage logic."""
+        """One sensor cycle: reach, visibility, detection, TTC and the stage logic.
+
+        The compiled kernels of :mod:`vfs.adas.compiled` by default; the numpy path
+        below with ``VFS_COMPILED=0`` (:func:`vfs.physics.numba_support.enabled`), the reference.
+        """
         aeb, sensor = self.aeb, self.aeb.sensor
         rows = obs.rows
         ri, ji = np.nonzero(self.equipped[rows])
-        if ri.size:
-            oi = 1 - ji
+        if ri.size and core_enabled():
             case = rows[ri]
-            front, rear, width = (self._front[case, ji], self._rear[case, ji],
-                                  self._width[case, ji])
-            o_front, o_rear, o_width = (self._front[case, oi], self._rear[case, oi],
-                                        self._width[case, oi])
+            ego, obj = self._pairs(obs, ri, ji)
+            compiled.assess(ego, obj, case, ji, self._front[case, ji], obs.road_friction[ri],
+                            self._stage, self._ttc, aeb, self.brake, self._dt, self._draw)
+        elif ri.size:
+            case = rows[ri]
+            front = self._front[case, ji]
             ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
-            # the direction of motion is undefined at standstill: take the yaw there
-            heading = np.where(obs.speed > 0.0, obs.heading, obs.yaw)
-            ego = Motion(obs.x[ri, ji], obs.y[ri, ji], obs.yaw[ri, ji], heading[ri, ji],
-                         obs.speed[ri, ji], obs.accel[ri, ji], obs.yaw_rate[ri, ji],
-                         0.5 * (front + rear) + ml, 0.5 * width + mw, 0.5 * (front - rear))
-            obj = Motion(obs.x[ri, oi], obs.y[ri, oi], obs.yaw[ri, oi], heading[ri, oi],
-                         obs.speed[ri, oi], obs.accel[ri, oi], obs.yaw_rate[ri, oi],
-                         0.5 * (o_front + o_rear) + ml, 0.5 * o_width + mw,
-                         0.5 * (o_front - o_rear))
+            ego, obj = self._pairs(obs, ri, ji)
             # TTC is needed only up to the largest threshold that can still change
             # the decision; beyond it (or beyond reach) it counts as infinite
             horizon = self._needed_horizon(self._stage[case, ji], ego.speed)
@@ -309,6 +308,30 @@ class AEBController:
             self._decide(case, ji, ttc, ego, obj, obs.road_friction[ri], detected | ~visible)
         self._queue.append(_Decision(obs.t + sensor.latency, self._stage.copy(),
                                      self._ttc.copy()))
+
+    def _pairs(self, obs: PrecrashObservation, ri: np.ndarray,
+               ji: np.ndarray) -> tuple[Motion, Motion]:
+        """The egos (running row ``ri``, participant ``ji``) and their objects, outlines
+        enlarged by the box margins [m].
+        """
+        aeb = self.aeb
+        oi = 1 - ji
+        case = obs.rows[ri]
+        front, rear, width = (self._front[case, ji], self._rear[case, ji],
+                              self._width[case, ji])
+        o_front, o_rear, o_width = (self._front[case, oi], self._rear[case, oi],
+                                    self._width[case, oi])
+        ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
+        # the direction of motion is undefined at standstill: take the yaw there
+        heading = np.where(obs.speed > 0.0, obs.heading, obs.yaw)
+        ego = Motion(obs.x[ri, ji], obs.y[ri, ji], obs.yaw[ri, ji], heading[ri, ji],
+                     obs.speed[ri, ji], obs.accel[ri, ji], obs.yaw_rate[ri, ji],
+                     0.5 * (front + rear) + ml, 0.5 * width + mw, 0.5 * (front - rear))
+        obj = Motion(obs.x[ri, oi], obs.y[ri, oi], obs.yaw[ri, oi], heading[ri, oi],
+                     obs.speed[ri, oi], obs.accel[ri, oi], obs.yaw_rate[ri, oi],
+                     0.5 * (o_front + o_rear) + ml, 0.5 * o_width + mw,
+                     0.5 * (o_front - o_rear))
+        return ego, obj
 
     def _needed_horizon(self, active: np.ndarray, speed: np.ndarray) -> np.ndarray:
         """Horizon [s] per ego up to which the TTC can still change the decision.

@@ -3,10 +3,14 @@
 A model configuration is a JSON object::
 
     {"effects": [{"name": "tyre_impulse", "parameters": {"duration": 0.1}}, ...],
+     "runout": {"contact": true},
      "name": "...", "description": "...", "comment": "...",
      "created_by": "vfs calibrate", "fit": {...}}
 
-Only ``effects`` changes the model; the other keys of :data:`MODEL_CONFIG_KEYS`
+``effects`` and ``runout`` change the model: ``runout`` sets fields of
+:class:`vfs.physics.runout.RunoutParams` by name (checked by their declarations; for
+example ``{"contact": true}``: vehicles that stay in contact after the impact push each
+other instead of passing through).  The other keys of :data:`MODEL_CONFIG_KEYS`
 are informational (``fit`` records how ``vfs calibrate`` obtained the
 parameters).  :func:`read_model_config` is the one reader (``vfs compare
 --model``, ``vfs diagnose``); it refuses unknown keys, so that a misspelt
@@ -18,6 +22,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Iterable, Mapping
+from dataclasses import fields
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -25,14 +30,16 @@ from typing import Any
 from vfs.atomic import write_json
 from vfs.effects import Effect, effects_from_dicts
 from vfs.errors import DataError, DataProblem, ParameterError
+from vfs.physics.runout import RunoutParams
 from vfs.simulation import SimulationParams
 
 #: Format tag of model configuration files (in ``fit``).
 MODEL_CONFIG_FORMAT = "vfs-model/1"
 
-#: Keys of a model configuration file; everything but "effects" is informational.
-MODEL_CONFIG_KEYS: tuple[str, ...] = ("effects", "name", "description", "comment", "created_by",
-                                      "fit")
+#: Keys of a model configuration file; everything but "effects" and "runout" is
+#: informational.
+MODEL_CONFIG_KEYS: tuple[str, ...] = ("effects", "runout", "name", "description", "comment",
+                                      "created_by", "fit")
 
 
 def write_model_config(path: str | os.PathLike[str], effects: Iterable[Effect],
@@ -67,7 +74,8 @@ def write_model_config(path: str | os.PathLike[str], effects: Iterable[Effect],
 
 
 def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
-    """The effects of a model configuration file.
+    """The effects of a model configuration file (its ``runout`` settings are checked
+    but not returned: :func:`load_model_config` gives both).
 
     Parameters
     ----------
@@ -86,6 +94,13 @@ def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
     ParameterError
         If a key is unknown, ``effects`` is not a list of objects with a
         ``name``, or an effect or parameter is unknown or out of range.
+    """
+    return effects_from_dicts(_read(path)[1])
+
+
+def _read(path: str | os.PathLike[str]) -> tuple[Path, list[dict[str, Any]], dict[str, Any]]:
+    """The file, its effect records and its run-out settings, checked as
+    :func:`read_model_config` documents.
     """
     file = Path(path)
     if not file.is_file():
@@ -106,14 +121,29 @@ def read_model_config(path: str | os.PathLike[str]) -> tuple[Effect, ...]:
             for d in items):
         raise ParameterError(f"{file}: 'effects' must be a list of objects "
                              "{\"name\": ..., \"parameters\": {...}}")
-    return effects_from_dicts(items)
+    runout = cfg.get("runout", {})
+    if not isinstance(runout, dict):
+        raise ParameterError(f"{file}: 'runout' must be an object of run-out settings, "
+                             "e.g. {\"contact\": true}")
+    known = [f.name for f in fields(RunoutParams)]
+    unknown = sorted(set(runout) - set(known))
+    if unknown:
+        raise ParameterError(f"{file}: 'runout': unknown setting(s) {unknown}; known: {known}")
+    return file, items, runout
 
 
 def load_model_config(path: str | os.PathLike[str]) -> SimulationParams:
     """Simulation parameters of a model configuration file: the default parameters
-    with the effects of :func:`read_model_config` (same errors).
+    with the effects of :func:`read_model_config` and its ``runout`` settings (same
+    errors; a run-out value out of its declared range raises
+    :class:`vfs.errors.ParameterError` naming the setting).
     """
-    return SimulationParams(effects=read_model_config(path))
+    file, items, runout = _read(path)
+    try:
+        runout_params = RunoutParams(**runout)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{file}: 'runout': {exc}") from exc
+    return SimulationParams(effects=effects_from_dicts(items), runout=runout_params)
 
 
 __all__ = [

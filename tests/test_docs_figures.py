@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pytest
 
+from vfs.analysis.paper_reference import PAPER_TABLE1, table1_label
+
 ROOT = Path(__file__).resolve().parents[1]
 NUMBER = r"(\d[\d,]*(?:\.\d+)?)"
 
@@ -237,6 +239,66 @@ def _gym(policy: str, keys: tuple[str, ...]) -> Callable[[Path], list[float]]:
     return read
 
 
+STUDY36 = "results/reference/study36-side-by-side/study36.json"
+
+
+def _study36_runs(root: Path = ROOT) -> dict[tuple[int, str], dict]:
+    path = root / STUDY36
+    if not path.is_file():
+        return {}
+    return {(r["seed"], r["setting"]): r
+            for r in json.loads(path.read_text(encoding="utf-8"))["runs"]}
+
+
+def _p_cell(p: float | None) -> str:
+    """A p-value as docs/compare.md prints it: ``< 0.001`` below 0.001 (bound: 0.001)."""
+    return r"< " + NUMBER if p is not None and p < 0.001 else NUMBER
+
+
+def _study36_table1(parameter: str) -> tuple[str, Callable[[Path], list[float]]]:
+    """Pattern and reader of the two lines (defaults, reconstruction) of a Table 1 row of
+    docs/compare.md's seed table: per seed VFS - rec. and p, significant and higher counts."""
+    runs = _study36_runs()
+    seeds = range(5)
+    lines = []
+    for setting, label in (("default", "defaults"), ("reconstruction", "reconstruction")):
+        cells = []
+        for seed in seeds:
+            rows = [r for r in runs.get((seed, setting), {}).get("table1", [])
+                    if r["parameter"] == parameter]
+            cells.append(r"\+?" + SIGNED + r" \(" + _p_cell(rows[0]["p_value"] if rows else None)
+                         + r"\)")
+        first = (rf"{re.escape(parameter)} \| [^|\n]*" if setting == "default" else r" \| ")
+        lines.append(rf"^\| {first} \| {label} \| " + "; ".join(cells)
+                     + rf" \| {NUMBER}/5 \| {NUMBER}/5 \|$")
+
+    def read(root: Path) -> list[float]:
+        runs = _study36_runs(root)
+        out: list[float] = []
+        for setting in ("default", "reconstruction"):
+            rows = [next(r for r in runs[seed, setting]["table1"] if r["parameter"] == parameter)
+                    for seed in seeds]
+            for r in rows:
+                out += [r["difference"], max(r["p_value"], 0.001)]
+            out += [sum(r["p_value"] < 0.05 for r in rows), sum(r["difference"] > 0 for r in rows)]
+        return out
+    return "\n".join(lines), read
+
+
+def _study36_types(seed: int, setting: str) -> Callable[[Path], list[float]]:
+    """Impact-type cells, chi-squared p and mean POI distances [m] of one seed and setting."""
+    def read(root: Path) -> list[float]:
+        r = _study36_runs(root)[seed, setting]
+        c = r["contingency"]
+        poi = r["poi_distance_m"]
+        return [c["full->full"], c["full->sliding"], c["sliding->full"], c["sliding->sliding"],
+                r["chi2_pvalue"], *(poi[g] for g in ("all", "both full", "both sliding",
+                                                     "type changed"))]
+    return read
+
+
+STUDY36_PARAMETERS = tuple(table1_label(r.outcome, r.group) for r in PAPER_TABLE1)
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -439,6 +501,17 @@ QUOTES: tuple[Quote, ...] = (
                         *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
                                      r"\S+simulation.py:\d+\(simulate_cases\)")(root)],
           "profile of the study with the compiled AEB controller"),
+
+    *(Quote("docs/compare.md", _study36_table1(parameter)[0], STUDY36,
+            _study36_table1(parameter)[1], f"study36 seeds 0-4: {parameter}")
+      for parameter in STUDY36_PARAMETERS),
+    *(Quote("docs/compare.md",
+            rf"^\| {seed} \| {label} \| {NUMBER} \| {NUMBER} \| {NUMBER} \| {NUMBER} \| {NUMBER} "
+            rf"\| {NUMBER} / {NUMBER} / {NUMBER} / {NUMBER} \|$",
+            STUDY36, _study36_types(seed, setting),
+            f"study36 seed {seed}, {label}: impact types and POI distances")
+      for seed in range(5)
+      for setting, label in (("default", "defaults"), ("reconstruction", "reconstruction"))),
 )
 
 

@@ -348,3 +348,17 @@ def test_case_instances_within_the_cases_only() -> None:
     for bad in ([0, 2], [-1, 1]):
         with pytest.raises(ParameterError, match="case_of"):
             simulate_precrash(*args, case_of=bad)
+
+
+@pytest.mark.parametrize("lateral", [3.5, 20.0], ids=["within-close-range", "beyond"])
+def test_a_constant_distance_is_nearest_at_its_first_step(path: str, lateral: float) -> None:
+    """Two cars side by side on parallel lanes at the same speed keep one distance, the gap
+    between the lanes less the width (the CG distance exactly constant: equal arc lengths
+    on equal records): the closest approach is the first time of the smallest distance,
+    the start, both where the outlines are measured each step (within CLOSE_RANGE) and
+    where the pose of the smallest CG distance is kept and measured at the end."""
+    cases = [(line(0.0, 0.0, 0.0, 10.0), line(0.0, lateral, 0.0, 10.0))]
+    res = run(cases, ScheduledBraking([[np.nan, np.nan]], [[0.0, 0.0]]))
+    assert not res.collided[0]
+    assert res.min_distance[0] == pytest.approx(lateral - 1.8, abs=1e-9)
+    assert res.time_closest[0] == 0.0

@@ -161,6 +161,13 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
         "start) but never read: the speeds the run needs come from record_pair "
         "(_taken_off) and from the compiled step itself; only a_rec is read (advance, "
         "observation)",
+    ("vfs/effects/learned.py", "check_law", "evaluate_law(law, np.zeros(1))", "1", "2"):
+        "check_law evaluates the law only to raise on a bad form or coefficient count; one "
+        "feature value or two raise the same (the value is discarded)",
+    ("vfs/effects/learned.py", "law_effect_class",
+     'for n, v in zip(names, law["coefficients"], strict=True):', "True", "False"):
+        "check_law (evaluate_law) has already raised unless the law has exactly as many "
+        "coefficients as its form has names, so the zip never sees unequal lengths",
 }
 
 #: Equivalent mutants where a line holds the same constant twice: the key of

@@ -83,6 +83,31 @@ def _mutation_row(module: str) -> Callable[[Path], list[float]]:
             out += [100.0 * s["all_rate"], s["killed_all"], scored]
         return out + [s["equivalent"]]
     return read
+#: The latest mutation record of each module (docs/testing.md, third pass).
+MUTATION_LATEST = {
+    "vfs/physics/impact.py": "after", "vfs/physics/geometry.py": "after",
+    "vfs/analysis/stats.py": "after", "vfs/analysis/euro_ncap.py": "after",
+    "vfs/physics/precrash.py": "third-precrash", "vfs/physics/runout.py": "second-after",
+    "vfs/effects/learned.py": "third-after",
+}
+
+
+def _mutation_record(module: str) -> str:
+    return f"benchmarks/results/mutation-2026-11-28-{MUTATION_LATEST[module]}.json"
+
+
+def _mutation_latest(module: str) -> Callable[[Path], list[float]]:
+    """Rate [%], killed, scored, equivalent and surviving (with not covered) of a module's
+    latest record."""
+    def read(root: Path) -> list[float]:
+        s = json.loads((root / _mutation_record(module)).read_text())["modules"][module][
+            "summary"]
+        scored = s["mutants"] - s["equivalent"]
+        return [100.0 * s["all_rate"], s["killed_all"], scored, s["equivalent"],
+                s["survived"] + s["not_covered"]]
+    return read
+
+
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
 AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
                   for k in ("before", "after", "before_quick", "after_quick"))
@@ -341,6 +366,25 @@ QUOTES: tuple[Quote, ...] = (
             rf"\({NUMBER}/{NUMBER}\) \| {NUMBER} \|",
             MUTATION, _mutation_row(module), f"mutation testing: {module} (second pass)")
       for module in ("vfs/physics/precrash.py", "vfs/physics/runout.py")),
+    *(Quote("docs/testing.md",
+            rf"^\| {module} \| {NUMBER} % \({NUMBER}/{NUMBER}\) \| {NUMBER} \| {NUMBER} \| "
+            rf"`mutation-2026-11-28-{MUTATION_LATEST[module]}` \|$",
+            _mutation_record(module), _mutation_latest(module),
+            f"mutation testing: {module} (latest record)")
+      for module in MUTATION_LATEST),
+    Quote("docs/testing.md",
+          r"`mutation-2026-11-28-third-after` \(" + NUMBER + r" s wall, " + NUMBER
+          + r" s CPU",
+          "benchmarks/results/mutation-2026-11-28-third-after.json",
+          lambda root: [_json("benchmarks/results/mutation-2026-11-28-third-after.json",
+                              root)["meta"][k] for k in ("wall_s", "cpu_s")],
+          "mutation testing: time of the learned.py run"),
+    Quote("docs/testing.md",
+          r"rerun with\s+the tests of this pass, " + NUMBER + r" s wall\)",
+          "benchmarks/results/mutation-2026-11-28-third-precrash.json",
+          lambda root: [_json("benchmarks/results/mutation-2026-11-28-third-precrash.json",
+                              root)["meta"]["wall_s"]],
+          "mutation testing: time of the precrash rerun"),
     *(Quote("docs/gym.md",
             rf"^\| {p} \| {NUMBER} \[{NUMBER}, {NUMBER}\] \| .* \| {NUMBER} \| "
             rf"{NUMBER} / {NUMBER} \|$",

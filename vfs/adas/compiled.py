@@ -30,7 +30,7 @@ no fast-math, so no fused multiply-add).  The sampled sweeps depend on the set o
 pairs a call of the reference gets (the grid of each group of pairs runs to the
 largest interval count of the group, and a group whose paths are all straight keeps
 the outlines' yaw without adding the zero turn): the kernels form the same sets and
-groups.  cos, sin, hypot and sqrt round alike in numba and numpy on the machines we
+groups.  The functions cos, sin, hypot and sqrt round alike in numba and numpy on the machines we
 measured; ``arctan2`` does not (numpy's SIMD routine differs from the C library's in
 the last bit for a few per cent of arguments), so it stays in numpy between the
 kernels.  ``tests/adas/test_compiled_aeb.py`` compares both paths output by output.

@@ -71,7 +71,8 @@ OWN_TESTS: dict[str, tuple[str, ...]] = {
     "vfs/physics/precrash.py": ("tests/physics/test_precrash*.py",),
     "vfs/physics/runout.py": ("tests/physics/test_runout*.py",
                               "tests/physics/test_core_runout.py"),
-    "vfs/effects/learned.py": ("tests/effects/test_learned*.py", "tests/analysis/test_learn*.py"),
+    "vfs/effects/learned.py": ("tests/effects/test_learned*.py", "tests/diagnosis/test_learn*.py",
+                               "tests/diagnosis/test_channels.py"),
 }
 
 #: Environment of the test runs of a module (trace and mutants).  ``precrash.py`` and
@@ -148,7 +149,45 @@ EQUIVALENT: dict[tuple[str, str, str, str, str], str] = {
      "1.0", "2.0"):
         "np.nextafter(0.0, x) is the smallest subnormal for every x > 0: the lower bound of "
         "the yaw inertias does not change",
+    ("vfs/physics/precrash.py", "PrecrashRun._keep", "self.active = None", "self.active = None",
+     "pass"):
+        "active caches the path rows of the running rows for _settle, which recomputes it "
+        "whenever its size differs from 2 x the running rows: a _keep that drops a row "
+        "changes the size, one that drops none leaves the rows (and their active rows) as "
+        "they were, and _start and start() reset it themselves",
+    ("vfs/physics/precrash.py", "PrecrashRun._settle_compiled",
+     "self.v_rec, self.a_rec = rec[0], rec[1]", "0", "1"):
+        "v_rec (the recorded speeds of the running rows) is carried along (_keep, _start, "
+        "start) but never read: the speeds the run needs come from record_pair "
+        "(_taken_off) and from the compiled step itself; only a_rec is read (advance, "
+        "observation)",
+    ("vfs/effects/learned.py", "check_law", "evaluate_law(law, np.zeros(1))", "1", "2"):
+        "check_law evaluates the law only to raise on a bad form or coefficient count; one "
+        "feature value or two raise the same (the value is discarded)",
+    ("vfs/effects/learned.py", "law_effect_class",
+     'for n, v in zip(names, law["coefficients"], strict=True):', "True", "False"):
+        "check_law (evaluate_law) has already raised unless the law has exactly as many "
+        "coefficients as its form has names, so the zip never sees unequal lengths",
 }
+
+#: Equivalent mutants where a line holds the same constant twice: the key of
+#: :data:`EQUIVALENT` and the column of the mutated constant.
+EQUIVALENT_AT: dict[tuple[str, str, str, str, str, int], str] = {
+    ("vfs/physics/precrash.py", "PrecrashRun._settle",
+     "w = np.where(first, 0.0, np.clip((t_c - prev_tau[new_contact]) / dt, 0.0,", "0.0", "1.0",
+     32):
+        "a first contact at a row's own step 0 interpolates between the reductions of that "
+        "step and of the step before, which are both 0 there (a fresh _Track and zero prev_* "
+        "from __init__ and _start; no step of the row has been integrated), so the weight "
+        "0 or 1 gives the same dv, ds and state",
+}
+
+
+def equivalent_reason(module: str, function: str, context: str, original: str, mutated: str,
+                      col: int) -> str | None:
+    """Why the mutant is equivalent (:data:`EQUIVALENT`, :data:`EQUIVALENT_AT`), or None."""
+    key = (module, function, context, original, mutated)
+    return EQUIVALENT.get(key, EQUIVALENT_AT.get((*key, col)))
 
 #: Call names swapped by the call mutator (both directions).
 _CALL_SWAPS = {
@@ -791,8 +830,9 @@ def _select(cov: CoverageMap, m: Mutant, files: list[str]) -> list[str]:
 def run_mutant(tree: Path, m: Mutant, source: str, cov: CoverageMap, own: list[str],
                others: list[str], factor: float, floor: float) -> None:
     """Apply ``m`` in ``tree``, run the selected tests, set ``m.status``; restore the file."""
-    if m.key in EQUIVALENT:
-        m.status, m.reason = "equivalent", EQUIVALENT[m.key]
+    reason = equivalent_reason(*m.key, m.col)
+    if reason is not None:
+        m.status, m.reason = "equivalent", reason
         return
     target = tree / m.module
     pycache = target.parent / "__pycache__"
@@ -1078,9 +1118,10 @@ def _merge(args: argparse.Namespace) -> int:
         lines = (ROOT / module).read_text().splitlines()
         for m in r["mutants"]:
             m.setdefault("context", lines[m["line"] - 1].strip())
-            key = (module, m["function"], m["context"], m["original"], m["mutated"])
-            if key in EQUIVALENT:
-                m["status"], m["reason"] = "equivalent", EQUIVALENT[key]
+            reason = equivalent_reason(module, m["function"], m["context"], m["original"],
+                                       m["mutated"], m["col"])
+            if reason is not None:
+                m["status"], m["reason"] = "equivalent", reason
         r["summary"] = _rates([Mutant(**{k: (tuple(v) if k == "lines" else v)
                                          for k, v in m.items()}) for m in r["mutants"]])
     order = [m for m in OWN_TESTS if m in results]

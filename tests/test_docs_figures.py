@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pytest
 
+from vfs.analysis.paper_reference import PAPER_TABLE1, table1_label
+
 ROOT = Path(__file__).resolve().parents[1]
 NUMBER = r"(\d[\d,]*(?:\.\d+)?)"
 
@@ -81,6 +83,31 @@ def _mutation_row(module: str) -> Callable[[Path], list[float]]:
             out += [100.0 * s["all_rate"], s["killed_all"], scored]
         return out + [s["equivalent"]]
     return read
+#: The latest mutation record of each module (docs/testing.md, third pass).
+MUTATION_LATEST = {
+    "vfs/physics/impact.py": "after", "vfs/physics/geometry.py": "after",
+    "vfs/analysis/stats.py": "after", "vfs/analysis/euro_ncap.py": "after",
+    "vfs/physics/precrash.py": "third-precrash", "vfs/physics/runout.py": "second-after",
+    "vfs/effects/learned.py": "third-after",
+}
+
+
+def _mutation_record(module: str) -> str:
+    return f"benchmarks/results/mutation-2026-11-28-{MUTATION_LATEST[module]}.json"
+
+
+def _mutation_latest(module: str) -> Callable[[Path], list[float]]:
+    """Rate [%], killed, scored, equivalent and surviving (with not covered) of a module's
+    latest record."""
+    def read(root: Path) -> list[float]:
+        s = json.loads((root / _mutation_record(module)).read_text())["modules"][module][
+            "summary"]
+        scored = s["mutants"] - s["equivalent"]
+        return [100.0 * s["all_rate"], s["killed_all"], scored, s["equivalent"],
+                s["survived"] + s["not_covered"]]
+    return read
+
+
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
 AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
                   for k in ("before", "after", "before_quick", "after_quick"))
@@ -237,6 +264,66 @@ def _gym(policy: str, keys: tuple[str, ...]) -> Callable[[Path], list[float]]:
     return read
 
 
+STUDY36 = "results/reference/study36-side-by-side/study36.json"
+
+
+def _study36_runs(root: Path = ROOT) -> dict[tuple[int, str], dict]:
+    path = root / STUDY36
+    if not path.is_file():
+        return {}
+    return {(r["seed"], r["setting"]): r
+            for r in json.loads(path.read_text(encoding="utf-8"))["runs"]}
+
+
+def _p_cell(p: float | None) -> str:
+    """A p-value as docs/compare.md prints it: ``< 0.001`` below 0.001 (bound: 0.001)."""
+    return r"< " + NUMBER if p is not None and p < 0.001 else NUMBER
+
+
+def _study36_table1(parameter: str) -> tuple[str, Callable[[Path], list[float]]]:
+    """Pattern and reader of the two lines (defaults, reconstruction) of a Table 1 row of
+    docs/compare.md's seed table: per seed VFS - rec. and p, significant and higher counts."""
+    runs = _study36_runs()
+    seeds = range(5)
+    lines = []
+    for setting, label in (("default", "defaults"), ("reconstruction", "reconstruction")):
+        cells = []
+        for seed in seeds:
+            rows = [r for r in runs.get((seed, setting), {}).get("table1", [])
+                    if r["parameter"] == parameter]
+            cells.append(r"\+?" + SIGNED + r" \(" + _p_cell(rows[0]["p_value"] if rows else None)
+                         + r"\)")
+        first = (rf"{re.escape(parameter)} \| [^|\n]*" if setting == "default" else r" \| ")
+        lines.append(rf"^\| {first} \| {label} \| " + "; ".join(cells)
+                     + rf" \| {NUMBER}/5 \| {NUMBER}/5 \|$")
+
+    def read(root: Path) -> list[float]:
+        runs = _study36_runs(root)
+        out: list[float] = []
+        for setting in ("default", "reconstruction"):
+            rows = [next(r for r in runs[seed, setting]["table1"] if r["parameter"] == parameter)
+                    for seed in seeds]
+            for r in rows:
+                out += [r["difference"], max(r["p_value"], 0.001)]
+            out += [sum(r["p_value"] < 0.05 for r in rows), sum(r["difference"] > 0 for r in rows)]
+        return out
+    return "\n".join(lines), read
+
+
+def _study36_types(seed: int, setting: str) -> Callable[[Path], list[float]]:
+    """Impact-type cells, chi-squared p and mean POI distances [m] of one seed and setting."""
+    def read(root: Path) -> list[float]:
+        r = _study36_runs(root)[seed, setting]
+        c = r["contingency"]
+        poi = r["poi_distance_m"]
+        return [c["full->full"], c["full->sliding"], c["sliding->full"], c["sliding->sliding"],
+                r["chi2_pvalue"], *(poi[g] for g in ("all", "both full", "both sliding",
+                                                     "type changed"))]
+    return read
+
+
+STUDY36_PARAMETERS = tuple(table1_label(r.outcome, r.group) for r in PAPER_TABLE1)
+
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
     Quote("docs/getting-started.md",
@@ -279,6 +366,25 @@ QUOTES: tuple[Quote, ...] = (
             rf"\({NUMBER}/{NUMBER}\) \| {NUMBER} \|",
             MUTATION, _mutation_row(module), f"mutation testing: {module} (second pass)")
       for module in ("vfs/physics/precrash.py", "vfs/physics/runout.py")),
+    *(Quote("docs/testing.md",
+            rf"^\| {module} \| {NUMBER} % \({NUMBER}/{NUMBER}\) \| {NUMBER} \| {NUMBER} \| "
+            rf"`mutation-2026-11-28-{MUTATION_LATEST[module]}` \|$",
+            _mutation_record(module), _mutation_latest(module),
+            f"mutation testing: {module} (latest record)")
+      for module in MUTATION_LATEST),
+    Quote("docs/testing.md",
+          r"`mutation-2026-11-28-third-after` \(" + NUMBER + r" s wall, " + NUMBER
+          + r" s CPU",
+          "benchmarks/results/mutation-2026-11-28-third-after.json",
+          lambda root: [_json("benchmarks/results/mutation-2026-11-28-third-after.json",
+                              root)["meta"][k] for k in ("wall_s", "cpu_s")],
+          "mutation testing: time of the learned.py run"),
+    Quote("docs/testing.md",
+          r"rerun with\s+the tests of this pass, " + NUMBER + r" s wall\)",
+          "benchmarks/results/mutation-2026-11-28-third-precrash.json",
+          lambda root: [_json("benchmarks/results/mutation-2026-11-28-third-precrash.json",
+                              root)["meta"]["wall_s"]],
+          "mutation testing: time of the precrash rerun"),
     *(Quote("docs/gym.md",
             rf"^\| {p} \| {NUMBER} \[{NUMBER}, {NUMBER}\] \| .* \| {NUMBER} \| "
             rf"{NUMBER} / {NUMBER} \|$",
@@ -439,6 +545,17 @@ QUOTES: tuple[Quote, ...] = (
                         *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
                                      r"\S+simulation.py:\d+\(simulate_cases\)")(root)],
           "profile of the study with the compiled AEB controller"),
+
+    *(Quote("docs/compare.md", _study36_table1(parameter)[0], STUDY36,
+            _study36_table1(parameter)[1], f"study36 seeds 0-4: {parameter}")
+      for parameter in STUDY36_PARAMETERS),
+    *(Quote("docs/compare.md",
+            rf"^\| {seed} \| {label} \| {NUMBER} \| {NUMBER} \| {NUMBER} \| {NUMBER} \| {NUMBER} "
+            rf"\| {NUMBER} / {NUMBER} / {NUMBER} / {NUMBER} \|$",
+            STUDY36, _study36_types(seed, setting),
+            f"study36 seed {seed}, {label}: impact types and POI distances")
+      for seed in range(5)
+      for setting, label in (("default", "defaults"), ("reconstruction", "reconstruction"))),
 )
 
 

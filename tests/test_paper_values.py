@@ -1,5 +1,5 @@
-"""Every number docs/validation.md, docs/physics.md (Marquard) and docs/compare.md (study36
-side by side) quote, recomputed from the inputs.
+"""Every number docs/validation.md, docs/physics.md (Marquard) and docs/compare.md (the
+paper's Table 1) quote, recomputed from the inputs.
 
 The numbers are read from the pages themselves, so a change of the model, the data or the page
 that moves one fails here. Tolerances are the pages' own rounding (half a unit of the last
@@ -187,57 +187,30 @@ def test_paper_table1_in_the_code_is_the_one_the_page_quotes():
             r.n, r.mean_reconstruction, r.mean_vfs, r.p_value)
 
 
-def _page_seed0(label: str, setting: str) -> tuple[float, str]:
-    """The page's 'VFS - rec. (p)' of seed 0 for a Table 1 row and a setting."""
-    lines = COMPARE.splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith(f"| {label} |"))
-    line = lines[start] if setting == "defaults" else lines[start + 1]
-    cell = line.split("|")[4].strip().split(";")[0]
-    d, p = re.match(r"([+-][\d.]+) \((.+)\)", cell).groups()
-    return float(d), p
-
-
-@pytest.mark.parametrize("setting", ["default", "reconstruction"])
-def test_study36_seed0_side_by_side_values(setting):
+def test_study36_side_by_side_section_follows_the_comparison():
+    """The report's side-by-side section: the paper's numbers beside exactly this run's, and
+    the sliding velocity-angle row named as a different population.  (The seed 0-4 figures
+    docs/compare.md quotes are bound to results/reference/study36-side-by-side/study36.json
+    in tests/test_docs_figures.py.)"""
     from vfs.analysis.compare import compare_database
-    from vfs.scenarios.generator import generate_database
-
-    db, _ = generate_database("study36", seed=0)
-    c = compare_database(db, impact_parameters=setting)
-    label = "defaults" if setting == "default" else "reconstruction"
-    for r in c.table1.itertuples(index=False):
-        d, p = _page_seed0(r.parameter, label)
-        assert r.mean_vfs - r.mean_reconstruction == pytest.approx(d, abs=0.05)
-        assert (p == "< 0.001" and r.p_value < 0.001) or float(p) == pytest.approx(
-            r.p_value, abs=0.0005)
-    row = re.search(rf"^\| 0 \| {label} \| (\d+) \| (\d+) \| (\d+) \| (\d+) \| ([\d.]+) \| "
-                    r"([\d.]+) / ", COMPARE, re.M)
-    t = c.contingency.table
-    assert tuple(int(x) for x in row.groups()[:4]) == (
-        t.loc["full", "full"], t.loc["full", "sliding"], t.loc["sliding", "full"],
-        t.loc["sliding", "sliding"])
-    assert float(row.group(5)) == pytest.approx(c.contingency.chi2_pvalue, abs=0.00005)
-    poi = c.poi_distances.set_index("group").loc["all", "mean"]
-    assert float(row.group(6)) == pytest.approx(poi, abs=0.0005)
-    # the report's side-by-side section: the paper's numbers beside exactly these, and the
-    # sliding velocity-angle row named as a different population (compare.md: 43-78 deg
-    # against the paper's 12.8 deg)
     from vfs.analysis.paper_reference import (
         PAPER_TABLE1,
         population_notes,
         side_by_side_table1,
         side_by_side_types,
     )
+    from vfs.scenarios.generator import generate_database
 
+    db, _ = generate_database("study36", seed=0)
+    c = compare_database(db, impact_parameters="default")
+    t = c.contingency.table
     side = side_by_side_table1(c)
     assert side["paper_reconstruction"].tolist() == [r.mean_reconstruction for r in PAPER_TABLE1]
     np.testing.assert_array_equal(side["vfs"] - side["reconstruction"],
                                   c.table1["mean_vfs"] - c.table1["mean_reconstruction"])
     notes = population_notes(side)
     assert any(n.startswith("Change of velocity angle, sliding") for n in notes)
-    sliding = side.set_index("parameter").loc["Change of velocity angle, sliding impacts [deg]"]
-    assert 43 <= sliding["reconstruction"] <= 78
     types = side_by_side_types(c).set_index("group")
     assert types.loc["type changed", "cases"] == t.loc["full", "sliding"] + t.loc[
         "sliding", "full"]
-    assert types.loc["all", "cases"] == 36 and types.loc["all", "paper_cases"] == 36
+    assert types.loc["all", "cases"] == len(db.cases) and types.loc["all", "paper_cases"] == 36

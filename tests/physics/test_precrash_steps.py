@@ -348,3 +348,46 @@ def test_case_instances_within_the_cases_only() -> None:
     for bad in ([0, 2], [-1, 1]):
         with pytest.raises(ParameterError, match="case_of"):
             simulate_precrash(*args, case_of=bad)
+
+
+@pytest.mark.parametrize("lateral", [3.5, 20.0], ids=["within-close-range", "beyond"])
+def test_a_constant_distance_is_nearest_at_its_first_step(path: str, lateral: float) -> None:
+    """Two cars side by side on parallel lanes at the same speed keep one distance, the gap
+    between the lanes less the width (the CG distance exactly constant: equal arc lengths
+    on equal records): the closest approach is the first time of the smallest distance,
+    the start, both where the outlines are measured each step (within CLOSE_RANGE) and
+    where the pose of the smallest CG distance is kept and measured at the end."""
+    cases = [(line(0.0, 0.0, 0.0, 10.0), line(0.0, lateral, 0.0, 10.0))]
+    res = run(cases, ScheduledBraking([[np.nan, np.nan]], [[0.0, 0.0]]))
+    assert not res.collided[0]
+    assert res.min_distance[0] == pytest.approx(lateral - 1.8, abs=1e-9)
+    assert res.time_closest[0] == 0.0
+
+
+def test_a_grazing_contact_holds_the_reductions_of_its_first_contact(path: str) -> None:
+    """The braking car's front left corner is clipped by the rear of a car crossing at
+    20 m/s, whose rear is 0.6 m over the braking car's left side when the front reaches it:
+    the outlines part again within the penetration time (0.2 s), so the impact is taken at
+    the largest overlap in between, with the speed and arc length taken off held at their
+    values at first contact (precrash_contact.largest_overlap): the braking car's speed at
+    the impact is that at the contact, and it has moved on at its recorded speed."""
+    x2, u = 40.0, 20.0
+    # contact when the front (CG + 2.1 m) reaches the crossing car's right side (x2 - 0.9):
+    # travelled(t_c) = x2 - 3.0, the root of the quadratic of the closed form
+    c = V0 * (T_B + DT / 2) - A * DT**2 / 8 - (x2 - 3.0)
+    t_c = (V0 - np.sqrt(V0**2 + 2.0 * A * c)) / A + T_B + DT / 2
+    y2 = 0.9 - 0.6 + 2.4 - u * t_c  # its rear (CG - 2.4 m) 0.6 m over y = 0.9 then
+    cases = [(line(0.0, 0.0, 0.0, V0), line(x2, y2, np.pi / 2, u))]
+    res = run(cases, ScheduledBraking([[T_B, np.nan]], [[A, A]]),
+              params=PrecrashParams(brake=STEP, penetration_time=0.2))
+    assert res.collided[0]
+    assert res.contact_time[0] == pytest.approx(t_c, abs=1e-4)
+    t_c, t_i = res.contact_time[0], res.impact_time[0]
+    assert t_c < t_i < t_c + 0.2 - DT  # moved to the largest overlap: a graze
+    v_c = V0 - A * (t_c - T_B - DT / 2)
+    assert res.contact_state.speed[0, 0] == pytest.approx(v_c, abs=1e-9)
+    assert res.impact_state.speed[0, 0] == pytest.approx(v_c, abs=1e-9)
+    ds_c = V0 * t_c - travelled(t_c)  # taken off the record's arc length at the contact
+    assert res.impact_state.x[0, 0] == pytest.approx(V0 * t_i - ds_c, abs=2e-4)
+    assert res.impact_state.x[0, 1] == pytest.approx(x2, abs=1e-9)
+    assert res.impact_state.y[0, 1] == pytest.approx(y2 + u * t_i, abs=1e-9)

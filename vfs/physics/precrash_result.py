@@ -50,7 +50,7 @@ class PrecrashResult(NamedTuple):
     min_distance : ndarray (N,)
         Smallest outline distance before contact [m] (0 if they touched).
     time_closest : ndarray (N,)
-        Time of the smallest distance [s] (step resolution).
+        Time of the smallest distance [s] (step resolution; the first of equal distances).
     brake_start : ndarray (N, 2)
         First time the actuator delivered deceleration [s], NaN if never.
     speed_reduction : ndarray (N, 2)

@@ -3,7 +3,7 @@ impact-parameter settings: the Table 1 rows and the impact-type/POI table of
 docs/compare.md (Markdown).
 
     python examples/study36_side_by_side.py [--seeds 5] [--hidden structure_poi,...]
-        [--out results/reference/study36-side-by-side]
+        [--out benchmarks/results/study36-side-by-side]
 
 With ``--out DIR`` the tables are also written to ``DIR/printed.md`` and the numbers they
 print, unrounded, to ``DIR/study36.json`` (the record tests/test_docs_figures.py binds the

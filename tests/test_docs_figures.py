@@ -264,7 +264,7 @@ def _gym(policy: str, keys: tuple[str, ...]) -> Callable[[Path], list[float]]:
     return read
 
 
-STUDY36 = "results/reference/study36-side-by-side/study36.json"
+STUDY36 = "benchmarks/results/study36-side-by-side/study36.json"
 
 
 def _study36_runs(root: Path = ROOT) -> dict[tuple[int, str], dict]:

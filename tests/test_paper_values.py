@@ -190,7 +190,7 @@ def test_paper_table1_in_the_code_is_the_one_the_page_quotes():
 def test_study36_side_by_side_section_follows_the_comparison():
     """The report's side-by-side section: the paper's numbers beside exactly this run's, and
     the sliding velocity-angle row named as a different population.  (The seed 0-4 figures
-    docs/compare.md quotes are bound to results/reference/study36-side-by-side/study36.json
+    docs/compare.md quotes are bound to benchmarks/results/study36-side-by-side/study36.json
     in tests/test_docs_figures.py.)"""
     from vfs.analysis.compare import compare_database
     from vfs.analysis.paper_reference import (

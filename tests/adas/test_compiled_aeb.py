@@ -16,40 +16,20 @@ import zlib
 import numpy as np
 import pytest
 
+from tests.generated import bit_differences, cases_of_every_type
 from vfs.adas import controller as controller_module
 from vfs.adas.controller import AEBController
 from vfs.adas.definition import AEBSystem
 from vfs.adas.params import AEBParams
 from vfs.adas.systems import SYSTEM_NAMES, get_system
 from vfs.physics.braking import BrakeActuatorParams, PrecrashObservation
-from vfs.scenarios.generator import generate_database, get_preset
-from vfs.scenarios.scenes import SCENARIO_TYPES
 from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
 
 @pytest.fixture(scope="module")
 def batch() -> CaseBatch:
     """Cases of every accident type of the generator, a fifth of them near misses."""
-    preset = dataclasses.replace(get_preset("default"),
-                                 type_shares={code: 1.0 for code in SCENARIO_TYPES},
-                                 near_miss_share=0.2, hidden=())
-    db, _ = generate_database(preset, n_cases=5 * len(SCENARIO_TYPES), seed=37)
-    assert set(db.cases["accident_type"]) == set(SCENARIO_TYPES)
-    return CaseBatch.from_database(db)
-
-
-def _differences(ref: object, got: object, path: str = "") -> list[str]:
-    """Names of the fields (named tuples, dicts) that are not equal bit for bit."""
-    if isinstance(ref, dict):
-        assert isinstance(got, dict) and ref.keys() == got.keys()
-        return [d for k in ref for d in _differences(ref[k], got[k], f"{path}{k}.")]
-    if hasattr(ref, "_fields"):
-        return [d for name, a, b in zip(ref._fields, ref, got, strict=True)
-                for d in _differences(a, b, f"{path}{name}.")]
-    x, y = np.asarray(ref), np.asarray(got)
-    if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
-        return [path.rstrip(".")]
-    return []
+    return cases_of_every_type(5, seed=37, near_miss_share=0.2)
 
 
 def _system(name: str) -> AEBSystem:
@@ -110,8 +90,8 @@ def test_every_system_equals_the_numpy_controller_bit_for_bit(
         return result, (controller.events() if controller is not None else {})
 
     (ref, ref_events), (got, got_events) = _run_both(monkeypatch, run)
-    assert _differences(ref, got) == []
-    assert _differences(ref_events, got_events) == []
+    assert bit_differences(ref, got) == []
+    assert bit_differences(ref_events, got_events) == []
     if name != "none":  # the systems act: the comparison is not vacuous
         assert np.isfinite(ref_events["full_time"]).any()
 

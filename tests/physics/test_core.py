@@ -23,44 +23,26 @@ import logging
 import numpy as np
 import pytest
 
+from tests.generated import bit_differences, cases_of_every_type
 from vfs.adas.systems import SYSTEM_NAMES, get_system
 from vfs.physics import precrash
 from vfs.physics.core_runout import AGREEMENT
 from vfs.physics.precrash import PrecrashParams, ScheduledBraking, simulate_precrash
-from vfs.scenarios.generator import generate_database, get_preset
-from vfs.scenarios.scenes import SCENARIO_TYPES
 from vfs.simulation import CaseBatch, SimulationParams, simulate_cases
 
 
 @pytest.fixture(scope="module")
 def batch() -> CaseBatch:
     """Cases of every accident type of the generator, a fifth of them near misses."""
-    preset = dataclasses.replace(get_preset("default"),
-                                 type_shares={code: 1.0 for code in SCENARIO_TYPES},
-                                 near_miss_share=0.2, hidden=())
-    db, _ = generate_database(preset, n_cases=4 * len(SCENARIO_TYPES), seed=21)
-    assert set(db.cases["accident_type"]) == set(SCENARIO_TYPES)
-    return CaseBatch.from_database(db)
-
-
-def _differences(ref: tuple, got: tuple, path: str = "") -> list[str]:
-    """Names of the fields (recursively in named tuples) that are not equal bit for bit."""
-    out = []
-    for name, a, b in zip(ref._fields, ref, got, strict=True):
-        if hasattr(a, "_fields"):
-            out += _differences(a, b, f"{path}{name}.")
-            continue
-        x, y = np.asarray(a), np.asarray(b)
-        if x.shape != y.shape or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
-            out.append(path + name)
-    return out
+    return cases_of_every_type(4, seed=21, near_miss_share=0.2)
 
 
 def _end_to_end_differences(ref: tuple, got: tuple) -> list[str]:
-    """:func:`_differences` of two ``simulate_cases`` results, the run-out's positions,
-    headings, lengths and energies within AGREEMENT (m, rad; energies relative).
+    """:func:`tests.generated.bit_differences` of two ``simulate_cases`` results, the
+    run-out's positions, headings, lengths and energies within AGREEMENT (m, rad; energies
+    relative).
     """
-    out = _differences(ref._replace(runout=None), got._replace(runout=None))
+    out = bit_differences(ref._replace(runout=None), got._replace(runout=None))
     for name, a, b in zip(ref.runout._fields, ref.runout, got.runout, strict=True):
         x, y = np.asarray(a), np.asarray(b)
         if x.dtype.kind != "f" or name in ("time_to_rest", "path_t",
@@ -87,7 +69,7 @@ def test_replay_equals_the_reference_bit_for_bit(batch: CaseBatch,
     ref, got = _both(monkeypatch, lambda: simulate_precrash(
         batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction))
     assert ref.collided.any() and not ref.collided.all()  # contacts and near misses
-    assert _differences(ref, got) == []
+    assert bit_differences(ref, got) == []
 
 
 def test_replay_of_instances_and_late_starts_equals_the_reference(
@@ -100,7 +82,7 @@ def test_replay_of_instances_and_late_starts_equals_the_reference(
                    {"params": params}):
         ref, got = _both(monkeypatch, lambda kw=kwargs: simulate_precrash(
             batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction, **kw))
-        assert _differences(ref, got) == [], kwargs
+        assert bit_differences(ref, got) == [], kwargs
 
 
 @pytest.mark.parametrize("name", [*SYSTEM_NAMES, "ideal-ctra"])
@@ -135,7 +117,7 @@ def test_a_python_controller_runs_between_compiled_steps_and_says_so_once(
         controller=controller))
     simulate_precrash(batch.vehicle1, batch.vehicle2, batch.paths, batch.road_friction,
                       controller=controller)
-    assert _differences(ref, got) == []
+    assert bit_differences(ref, got) == []
     assert np.isfinite(got.brake_start[::2]).any()
     lines = [r.getMessage() for r in vfs_log if "ScheduledBraking" in r.getMessage()]
     assert len(lines) == 1, lines

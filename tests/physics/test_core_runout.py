@@ -21,20 +21,18 @@ enters only the lateral force of a rolling wheel, so:
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 
 import numpy as np
 import pytest
 
+from tests.generated import cases_of_every_type
 from vfs.physics import runout
 from vfs.physics.core_runout import AGREEMENT
 from vfs.physics.numba_support import AVAILABLE, ENV_SWITCH
 from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.runout import RunoutMemo, RunoutParams, RunoutState, run_out, run_out_pair
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
-from vfs.scenarios.generator import generate_database, get_preset
-from vfs.scenarios.scenes import SCENARIO_TYPES
 from vfs.simulation import CaseBatch, simulate_cases
 from vfs.units import G
 
@@ -180,11 +178,7 @@ def test_monte_carlo_settings_and_the_memo(monkeypatch: pytest.MonkeyPatch) -> N
 @pytest.fixture(scope="module")
 def batch() -> CaseBatch:
     """Generated cases of every accident type with random post-impact wheel inputs."""
-    preset = dataclasses.replace(get_preset("default"),
-                                 type_shares={code: 1.0 for code in SCENARIO_TYPES},
-                                 near_miss_share=0.1, hidden=())
-    db, _ = generate_database(preset, n_cases=5 * len(SCENARIO_TYPES), seed=31)
-    cases = CaseBatch.from_database(db)
+    cases = cases_of_every_type(5, seed=31, near_miss_share=0.1)
     n = cases.size
     rng = np.random.default_rng(12)
 

@@ -114,6 +114,19 @@ def _wrap(a: float) -> float:
     return w
 
 
+def _slab(origin: float, rate: float, half: float, still: float) -> tuple[float, float]:
+    """Interval of the parameter t in which origin + rate t lies in [-half, half] (a
+    separating-axis slab or a ray's box slab): all t or none where |rate| < ``still``,
+    else between (-half - origin) / rate and (half - origin) / rate, in numpy's min/max.
+    """
+    if abs(rate) < still:
+        inside = abs(origin) <= half
+        return (-np.inf if inside else np.inf), (np.inf if inside else -np.inf)
+    t1 = (-half - origin) / rate
+    t2 = (half - origin) / rate
+    return _fmin(t1, t2), _fmax(t1, t2)
+
+
 def _circumradius(m: np.ndarray, i: int) -> float:
     """Motion.circumradius of row ``i``: corner_radius(h + c, h - c, 2 w) [m]."""
     h = m[_HL, i]
@@ -163,15 +176,7 @@ def _first_contact(dx: float, dy: float, ddx: float, ddy: float, yaw_a: float, h
             p = cb * dy - sb * dx
             w = cb * ddy - sb * ddx
             rho = hw_b + hl_a * sin_d + hw_a * cos_d
-        if abs(w) < STILL_DISPLACEMENT:
-            inside = abs(p) <= rho
-            lo = -np.inf if inside else np.inf
-            hi = np.inf if inside else -np.inf
-        else:
-            s1 = (-rho - p) / w
-            s2 = (rho - p) / w
-            lo = _fmin(s1, s2)
-            hi = _fmax(s1, s2)
+        lo, hi = _slab(p, w, rho, STILL_DISPLACEMENT)
         if k == 0:
             enter = lo
             leave = hi
@@ -490,15 +495,7 @@ def _ray_entry(lx: float, ly: float, ex: float, ey: float, hl: float, hw: float)
     lo_x = hi_x = lo_y = hi_y = 0.0
     for axis in range(2):
         origin, direction, half = (lx, ex, hl) if axis == 0 else (ly, ey, hw)
-        if abs(direction) < _PARALLEL:
-            inside = abs(origin) <= half
-            lo = -np.inf if inside else np.inf
-            hi = np.inf if inside else -np.inf
-        else:
-            t1 = (-half - origin) / direction
-            t2 = (half - origin) / direction
-            lo = _fmin(t1, t2)
-            hi = _fmax(t1, t2)
+        lo, hi = _slab(origin, direction, half, _PARALLEL)
         if axis == 0:
             lo_x, hi_x = lo, hi
         else:
@@ -624,7 +621,7 @@ def _compiled() -> Any:
 
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         g = globals()
-        for name in ("_fmax", "_fmin", "_wrap", "_circumradius", "_model_accel",
+        for name in ("_fmax", "_fmin", "_slab", "_wrap", "_circumradius", "_model_accel",
                      "_model_curvature", "_first_contact", "_earliest", "_ttc_cv",
                      "_predicted_arclength", "_braked_arclength", "_path_cg", "_sweep",
                      "_grid_intervals", "_error_terms", "_ttc_batch", "_braked_batch",

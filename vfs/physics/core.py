@@ -184,6 +184,21 @@ def _pose(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, p: in
     return x, y, yaw, tx, ty, curvature
 
 
+def _put_pose(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, p: int,
+              idx: int, s: float, speed: float, st: np.ndarray, j: int) -> None:
+    """Write vehicle ``j``'s state at arc length ``s`` [m] and ``speed`` [m/s] into column
+    ``j`` of ``st`` (7, 2): x, y, yaw, vx, vy, yaw rate (speed x curvature), speed.
+    """
+    x, y, yaw, tx, ty, curv = _pose(knots, count, end_curvature, p, idx, s)
+    st[0, j] = x
+    st[1, j] = y
+    st[2, j] = yaw
+    st[3, j] = speed * tx
+    st[4, j] = speed * ty
+    st[5, j] = speed * curv
+    st[6, j] = speed
+
+
 def _state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_data: int,
            d: int, tau: float, dv0: float, dv1: float, ds0: float, ds1: float,
            ti: np.ndarray, si: np.ndarray, advance: bool, st: np.ndarray) -> None:
@@ -209,14 +224,7 @@ def _state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_da
             si[j] = _advance(knots, count, p, _S, si[j], s)
         else:
             si[j] = _search(knots, count, p, _S, s)
-        x, y, yaw, tx, ty, curv = _pose(knots, count, end_curvature, p, si[j], s)
-        st[0, j] = x
-        st[1, j] = y
-        st[2, j] = yaw
-        st[3, j] = speed * tx
-        st[4, j] = speed * ty
-        st[5, j] = speed * curv
-        st[6, j] = speed
+        _put_pose(knots, count, end_curvature, p, si[j], s, speed, st, j)
 
 
 def pose_corners(x: float, y: float, yaw: float, front: float, rear: float, width: float,
@@ -437,14 +445,7 @@ def _step_state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray,
         v = v_rec - dv[j]
         speed = v if v >= 0.0 or v != v else 0.0
         si[j] = _advance(knots, count, p, _S, si[j], s)
-        x, y, yaw, tx, ty, curv = _pose(knots, count, end_curvature, p, si[j], s)
-        st[0, j] = x
-        st[1, j] = y
-        st[2, j] = yaw
-        st[3, j] = speed * tx
-        st[4, j] = speed * ty
-        st[5, j] = speed * curv
-        st[6, j] = speed
+        _put_pose(knots, count, end_curvature, p, si[j], s, speed, st, j)
 
 
 def _bisect(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, dims: np.ndarray,
@@ -767,7 +768,7 @@ def _compiled() -> Any:
 
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         g = globals()
-        for name in ("_advance", "_search", "_clip01", "_record", "_pose", "_state",
+        for name in ("_advance", "_search", "_clip01", "_record", "_pose", "_put_pose", "_state",
                      "pose_corners", "_frame", "_frames_overlap", "_clip_stage",
                      "clipped_overlap", "_overlaps", "_corner_gap", "_distance",
                      "_outlines_of", "_step_state", "_bisect"):

@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vfs.bench.kernels import compiled_switch
 from vfs.physics import impact
 from vfs.physics.impact import CHUNK, ImpactConfig, solve_impact
 from vfs.scenarios.random import random_impact_configs
@@ -137,23 +138,15 @@ finite = st.floats(allow_nan=False, allow_infinity=False)
 def test_property_bit_identical_under_scaling(seed: int, scale: float, angle: float) -> None:
     """Arbitrary magnitudes (speeds and lever arms scaled) and contact-plane angles far
     outside (0, pi): the kernel equals the reference bit for bit."""
-    import os
-
     rng = np.random.default_rng(seed)
     config = random_impact_configs(rng, 64)
     config = with_fields(config, vx=np.clip(config.vx * scale, -150, 150),
                          vy=np.clip(config.vy * scale, -150, 150),
                          poi_x=config.poi_x * scale, poi_y=config.poi_y * scale,
                          cp_angle=config.cp_angle + angle)
-    before = os.environ.get("VFS_COMPILED")
-    try:
-        os.environ["VFS_COMPILED"] = "0"
-        ref = solve_impact(config, restitution_mode="normal" if seed % 2 else "impulse")
-        os.environ["VFS_COMPILED"] = "1"
-        got = solve_impact(config, restitution_mode="normal" if seed % 2 else "impulse")
-    finally:
-        if before is None:
-            os.environ.pop("VFS_COMPILED", None)
-        else:
-            os.environ["VFS_COMPILED"] = before
+    mode = "normal" if seed % 2 else "impulse"
+    with compiled_switch("0"):
+        ref = solve_impact(config, restitution_mode=mode)
+    with compiled_switch("1"):
+        got = solve_impact(config, restitution_mode=mode)
     assert_identical(ref, got)

@@ -230,6 +230,29 @@ def _runs(records: tuple[str, ...], bench: str, *keys: str) -> Callable[[Path], 
 
 RUNOUT_PROFILE = "benchmarks/results/core_37_runout_study_profile.txt"
 
+RUNMC_STEPS = "benchmarks/results/core_37_runmc_steps.txt"
+RUNMC_THREADS = "benchmarks/results/core_37_runmc_threads.txt"
+RUNMC_PROFILE = "benchmarks/results/core_37_runmc_profile.txt"
+RUNMC_MC = "benchmarks/results/core_37_runmc_mc_before.json"
+RUNMC_DIAGQ = "benchmarks/results/core_37_runmc_diagq_before.json"
+RUNMC_DIAG = "benchmarks/results/core_37_runmc_diag_full.json"
+
+
+def _runmc_steps(root: Path) -> dict[str, float]:
+    """The figures of the Monte-Carlo run-out's step count (``core_37_runmc_steps.py``)."""
+    text = (root / RUNMC_STEPS).read_text(encoding="utf-8")
+    pct = re.search(r"pcts 0/10/50/90/99/100 \[([^\]]*)\]", text)
+    distinct = re.search(r"distinct rows \(rows, distinct\): (.*)$", text, re.M)
+    assert pct is not None and distinct is not None
+    p = [float(v) for v in pct.group(1).split()]
+    out: dict[str, float] = {}
+    for k, v in re.findall(r"(calls|vehicles|sum|mean|ns/vehicle-step|run_to_rest cpu) "
+                           r"([\d.]+)", text):
+        out.setdefault(k, float(v))  # the first: "steered vehicles" comes later
+    out["median"], out["largest"] = p[2], p[5]
+    out["distinct"] = float(sum(int(d) for d in re.findall(r", (\d+)\)", distinct.group(1))))
+    return out
+
 
 def _profile(record: str, *functions: str) -> Callable[[Path], list[float]]:
     """Cumulative times [s] of functions (``file.py:function``) in a pstats listing."""
@@ -326,6 +349,75 @@ STUDY36_PARAMETERS = tuple(table1_label(r.outcome, r.group) for r in PAPER_TABLE
 
 #: The table: every quoted figure with its record.
 QUOTES: tuple[Quote, ...] = (
+    Quote("docs/performance.md",
+          r"the full `vfs bench\s+diagnose` " + NUMBER + r" s CPU \(" + NUMBER + r" s wall, load "
+          + NUMBER + r"\)",
+          RUNMC_DIAG, _bench(RUNMC_DIAG, "diagnose", "cpu_s", "wall_s", "load_average_1min"),
+          "runmc round: full diagnose"),
+    Quote("docs/performance.md",
+          r"the loaded machine\); " + NUMBER + r" s CPU at main 1d0b947 \(" + NUMBER
+          + r" variants\)",
+          RUNMC_DIAG, _bench(RUNMC_DIAG, "diagnose", "cpu_s", "variants"),
+          "issue-37 table: full diagnose at main 1d0b947"),
+    Quote("docs/performance.md",
+          r"pre-crash; " + NUMBER + r" s CPU at main 1d0b947, low load \| < 3 s \| the "
+          r"compiled run-out's " + NUMBER + r" M vehicle-steps \(" + NUMBER + r" s\)",
+          ",".join((RUNMC_MC, RUNMC_STEPS, RUNMC_PROFILE)),
+          lambda root: [*_bench(RUNMC_MC, "uncertainty", "uncertainty_cpu_seconds")(root),
+                        _runmc_steps(root)["sum"] / 1e6,
+                        *_profile(RUNMC_PROFILE, "core_runout.py:run_to_rest")(root)],
+          "issue-37 table: the Monte-Carlo at main 1d0b947"),
+    Quote("docs/performance.md",
+          r"\*\*" + NUMBER + r" s CPU\*\* \(" + NUMBER + r" s wall\),\s+`vfs bench diagnose "
+          r"--quick` " + NUMBER + r" s CPU \(load " + NUMBER + r"\)",
+          ",".join((RUNMC_MC, RUNMC_DIAGQ)),
+          lambda root: [*_bench(RUNMC_MC, "uncertainty", "uncertainty_cpu_seconds",
+                                "uncertainty_seconds")(root),
+                        *_bench(RUNMC_DIAGQ, "diagnose", "cpu_s", "load_average_1min")(root)],
+          "runmc round: Monte-Carlo and diagnose --quick"),
+    Quote("docs/performance.md",
+          r"the run-out's " + NUMBER + r" M vehicle-steps \(all\s+" + NUMBER
+          + r" vehicles distinct, none at the time limit\) take " + NUMBER + r"-" + NUMBER
+          + r" s of the Monte-Carlo at " + NUMBER + r" ns\s+each",
+          ",".join((RUNMC_STEPS, RUNMC_PROFILE)),
+          lambda root: [_runmc_steps(root)["sum"] / 1e6, _runmc_steps(root)["distinct"],
+                        _runmc_steps(root)["run_to_rest cpu"],
+                        *_profile(RUNMC_PROFILE, "core_runout.py:run_to_rest")(root),
+                        _runmc_steps(root)["ns/vehicle-step"]],
+          "runmc round: the run-out's vehicle-steps"),
+    Quote("docs/performance-kernels.md",
+          r"load average " + NUMBER + r";\s+`benchmarks/results/core_37_runmc_profile.txt`, CPU "
+          + NUMBER + r" s under the profiler\): of\s+`run_uncertainty` " + NUMBER
+          + r" s, the compiled run-out `run_to_rest` takes " + NUMBER + r" s, the\s+contact "
+          r"geometry `contact_geometry` " + NUMBER + r" s, sampling `sample_inputs` " + NUMBER
+          + r" s, `distinct_rows`\s+" + NUMBER + r" s",
+          RUNMC_PROFILE,
+          lambda root: [*_md_numbers(RUNMC_PROFILE, r"CPU ([\d.]+) s under the profiler; load "
+                                     r"average ([\d.]+)")(root)[::-1],
+                        *_profile(RUNMC_PROFILE, "bands.py:run_uncertainty",
+                                  "core_runout.py:run_to_rest", "geometry.py:contact_geometry",
+                                  "sampling.py:sample_inputs", "runout.py:distinct_rows")(root)],
+          "runmc round: the Monte-Carlo's profile at low load"),
+    Quote("docs/performance-kernels.md",
+          NUMBER + r" vehicles in " + NUMBER + r" batches, dt 20 ms, all\s+" + NUMBER
+          + r" rows distinct(?s:.*?)" + NUMBER + r" vehicle-steps \(mean\s+" + NUMBER
+          + r", median " + NUMBER + r", largest " + NUMBER + r" steps per vehicle\), " + NUMBER
+          + r" ns per vehicle-step. So the\s+one-thread floor of the run-out alone is "
+          + NUMBER + r" s",
+          RUNMC_STEPS,
+          lambda root: [_runmc_steps(root)[k] for k in (
+              "vehicles", "calls", "distinct", "sum", "mean", "median", "largest",
+              "ns/vehicle-step", "run_to_rest cpu")],
+          "runmc round: the Monte-Carlo run-out's steps"),
+    Quote("docs/performance-kernels.md",
+          r"\(load average " + NUMBER + r"\) " + NUMBER + r" s wall with 2 threads\s+against "
+          + NUMBER + r" s with one",
+          RUNMC_THREADS,
+          lambda root: _md_numbers(RUNMC_THREADS, r"(?s)load average ([\d.]+)(?<=.)|"
+                                   r"x")(root)[:1] + _md_numbers(
+              RUNMC_THREADS, r"(?s)2 threads: CPU [\d.]+ s, wall ([\d.]+) s")(root) + _md_numbers(
+              RUNMC_THREADS, r"one thread: CPU [\d.]+ s, wall ([\d.]+) s")(root),
+          "runmc round: numba threads"),
     Quote("docs/getting-started.md",
           r"`three-stage`\s+avoids " + NUMBER + r" % \[" + NUMBER + r" %, " + NUMBER
           + r" %\] of the\s+" + NUMBER + r" crashes and `ideal` " + NUMBER + r" % \["

@@ -764,6 +764,10 @@ numba_prange = range  # numba.prange inside the compiled kernel
 _kernel: Any = None
 _settle_kernel: Any = None
 
+#: Helpers inlined into the compiled kernels (those of every row and step).
+_INLINED = frozenset({"_advance", "_search", "_clip01", "_record", "_pose", "_put_pose",
+                      "_state", "_step_state"})
+
 
 def _compiled() -> Any:
     """The compiled replay kernel (compiled, or loaded from numba's cache, at the first
@@ -779,7 +783,11 @@ def _compiled() -> Any:
                      "pose_corners", "_frame", "_frames_overlap", "_clip_stage",
                      "clipped_overlap", "_overlaps", "_corner_gap", "_distance",
                      "_outlines_of", "_step_state", "_bisect"):
-            g[name] = numba.njit(**opts)(g[name])
+            # the helpers every row and step calls are inlined into the kernels (numba's
+            # IR): their calls cost about a third of the step (the same arithmetic, bit
+            # for bit); the contact geometry, called near contact only, is not (compile time)
+            inline = "always" if name in _INLINED else "never"
+            g[name] = numba.njit(inline=inline, **opts)(g[name])
         g["numba_prange"] = numba.prange
         _kernel = numba.njit(parallel=False, **opts)(_replay_rows)
         _settle_kernel = numba.njit(**opts)(_settle_rows)

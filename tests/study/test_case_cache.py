@@ -5,6 +5,7 @@ and without them, a rewritten database never served from them, the bounds kept.
 from __future__ import annotations
 
 import os
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -12,10 +13,14 @@ import pandas as pd
 import pytest
 
 from vfs.bench.study import generated_database
-from vfs.simulation import SimulationParams
+from vfs.database import load_database
+from vfs.simulation import CaseBatch, SimulationParams
+from vfs.study import inputs as study_inputs
+from vfs.study import run as study_run
 from vfs.study import run_study
 from vfs.study import tasks as study_tasks
-from vfs.study.case_cache import CaseCache, batch_bytes, folder_stamp
+from vfs.study.case_cache import BlockCache, CaseCache, batch_bytes, folder_stamp
+from vfs.study.inputs import study_input
 from vfs.study.tasks import RunTask, load_chunk
 
 
@@ -52,12 +57,48 @@ def test_study_equals_the_uncached_study(database: Path, tmp_path: Path,
     run_study(str(database), ["three-stage", "ideal"], tmp_path / "cached", **common)
     # one load per chunk set, two hits (the two systems) on each
     assert cache.misses >= 1 and cache.hits == 2 * cache.misses
+    # the validated blocks of the client (two here) serve the tasks: they read no file
+    blocks = BlockCache()
+    monkeypatch.setattr(study_tasks, "BLOCKS", blocks)
+    monkeypatch.setattr(study_inputs, "BLOCKS", blocks)
+    monkeypatch.setattr(study_run, "study_input", partial(study_input, block_cases=25))
+    read = []
+    monkeypatch.setattr(study_tasks, "load_database", lambda *a, **k: read.append(a))
+    monkeypatch.setattr(study_tasks, "CASES", CaseCache())
+    run_study(str(database), ["three-stage", "ideal"], tmp_path / "blocks", **common)
+    assert blocks.hits == 1 and not read
+    monkeypatch.undo()
+    # neither cache: every task reads its cases from the files
     monkeypatch.setattr(study_tasks, "CASES", CaseCache(entries=0))
+    monkeypatch.setattr(study_tasks, "BLOCKS", BlockCache(max_bytes=0))
+    monkeypatch.setattr(study_inputs, "BLOCKS", BlockCache(max_bytes=0))
     run_study(str(database), ["three-stage", "ideal"], tmp_path / "plain", **common)
     a = pd.read_parquet(tmp_path / "cached" / "runs.parquet")
     b = pd.read_parquet(tmp_path / "plain" / "runs.parquet")
     assert len(a) == 3 * 60 and a["collided"].any()
     pd.testing.assert_frame_equal(a, b, check_exact=True)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "blocks" / "runs.parquet"), b,
+                                  check_exact=True)
+
+
+def test_blocks_give_the_batch_of_the_files(database: Path) -> None:
+    blocks = BlockCache()
+    ids = np.arange(1, 61)
+    for part in (ids[:25], ids[25:50], ids[50:]):
+        blocks.put(str(database), part, load_database(database, where=_where(part)))
+    wanted = np.arange(20, 56)[::-1]  # three blocks, in another order
+    db = blocks.covering(str(database), wanted)
+    assert db is not None and blocks.hits == 1
+    assert _fields_equal(CaseBatch.from_database(db, wanted),
+                         CaseBatch.from_database(load_database(database, where=_where(wanted)),
+                                                 wanted))
+    assert blocks.covering(str(database), np.arange(55, 62)) is None  # 61 is in none
+    (database / "meta.json").touch()  # another stamp: not these blocks any more
+    assert blocks.covering(str(database), wanted) is None
+
+
+def _where(ids: np.ndarray) -> str:
+    return "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
 
 
 def test_a_rewritten_database_is_loaded_again(tmp_path: Path,

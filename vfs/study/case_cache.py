@@ -20,6 +20,12 @@ keeps the last batches of the process:
 
 Databases at an fsspec URL have no cheap stamp and are not cached; in-memory
 databases travel inside the tasks (nothing to load).
+
+A serial study also keeps the blocks its client validated
+(:func:`vfs.study.inputs.validate_selection` with ``keep``) in :data:`BLOCKS`
+(:class:`BlockCache`, the same key and byte bound): the tasks, which run in
+the same process, take their cases from them instead of reading the files a
+second time.  :func:`release` empties both caches (the end of a study).
 """
 
 from __future__ import annotations
@@ -34,7 +40,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
+from vfs.database import Database
+from vfs.database.schema import TABLE_NAMES
 from vfs.simulation import CaseBatch
 
 #: Batches a process keeps at most.
@@ -145,15 +154,95 @@ class CaseCache:
 CASES = CaseCache()
 
 
-def batch_key(location: str, fmt: str, case_ids: np.ndarray, impact_parameters: str
-              ) -> tuple[str, ...] | None:
-    """The cache key of a chunk's batch; None where the database is not cached (a URL)."""
+def _folder_key(location: str) -> tuple[str, str] | None:
+    """(resolved folder, stamp) of a database folder; None for a URL (never cached)."""
     folder = Path(location)
     if not folder.is_dir():
         return None
-    return (str(folder.resolve()), fmt, impact_parameters, ids_digest(case_ids),
-            repr(folder_stamp(folder)))
+    return str(folder.resolve()), repr(folder_stamp(folder))
 
 
-__all__ = ["CACHE_BYTES", "CACHE_ENTRIES", "CASES", "CaseCache", "batch_bytes", "batch_key",
-           "folder_stamp", "ids_digest"]
+def batch_key(location: str, fmt: str, case_ids: np.ndarray, impact_parameters: str
+              ) -> tuple[str, ...] | None:
+    """The cache key of a chunk's batch; None where the database is not cached (a URL)."""
+    folder = _folder_key(location)
+    if folder is None:
+        return None
+    return (*folder, fmt, impact_parameters, ids_digest(case_ids))
+
+
+def database_bytes(db: Database) -> int:
+    """Bytes of the four tables of ``db`` (columns' data, not the Python objects) [B]."""
+    return sum(int(df.memory_usage(index=False, deep=False).sum())
+               for df in db.tables().values())
+
+
+class BlockCache:
+    """Validated blocks of a Parquet database's selection (see the module's description).
+
+    Parameters
+    ----------
+    max_bytes : int
+        Table bytes kept at most [B] (:func:`database_bytes`); a block that would
+        exceed them is not kept.
+    """
+
+    def __init__(self, max_bytes: int = CACHE_BYTES) -> None:
+        self.max_bytes = int(max_bytes)
+        self._blocks: list[tuple[tuple[str, str], np.ndarray, Database, int]] = []
+        self._lock = threading.Lock()
+        self.hits = 0
+
+    def __len__(self) -> int:
+        return len(self._blocks)
+
+    def clear(self) -> None:
+        """Drop every block."""
+        with self._lock:
+            self._blocks.clear()
+
+    def put(self, location: str, case_ids: np.ndarray, db: Database) -> None:
+        """Keep block ``db`` (the cases ``case_ids`` of the database at ``location``, as
+        :func:`vfs.database.load_database` gave them), where it fits.
+        """
+        key = _folder_key(location)
+        if key is None:
+            return
+        size = database_bytes(db)
+        with self._lock:
+            if size + sum(b[3] for b in self._blocks) <= self.max_bytes:
+                self._blocks.append((key, np.asarray(case_ids).copy(), db, size))
+
+    def covering(self, location: str, case_ids: np.ndarray) -> Database | None:
+        """The kept blocks that hold the cases ``case_ids``, as one database (their rows in
+        the blocks' order, which is the files'); None unless every case is in a block of
+        the database's current files.
+        """
+        key = _folder_key(location)
+        if key is None:
+            return None
+        ids = np.asarray(case_ids)
+        with self._lock:
+            chosen = [b for b in self._blocks if b[0] == key and np.isin(b[1], ids).any()]
+        if not chosen or not np.isin(ids, np.concatenate([b[1] for b in chosen])).all():
+            return None
+        self.hits += 1
+        if len(chosen) == 1:
+            return chosen[0][2]
+        tables = {name: pd.concat([getattr(b[2], name) for b in chosen], ignore_index=True)
+                  for name in TABLE_NAMES}
+        return Database(**tables, meta=dict(chosen[0][2].meta))
+
+
+#: The validated blocks of a serial study's client (:func:`vfs.study.inputs.validate_selection`).
+BLOCKS = BlockCache()
+
+
+def release() -> None:
+    """Empty :data:`CASES` and :data:`BLOCKS` (the memory they hold goes back)."""
+    CASES.clear()
+    BLOCKS.clear()
+
+
+__all__ = ["BLOCKS", "CACHE_BYTES", "CACHE_ENTRIES", "CASES", "BlockCache", "CaseCache",
+           "batch_bytes", "batch_key", "database_bytes", "folder_stamp", "ids_digest", "release"]

@@ -30,7 +30,7 @@ from vfs.simulation import (
     results_table,
     simulate_cases,
 )
-from vfs.study.case_cache import CASES, batch_key
+from vfs.study.case_cache import BLOCKS, CASES, batch_key
 from vfs.study.layout import (
     BASELINE,
     BOOL_COLUMNS,
@@ -139,8 +139,10 @@ def _load_batch(location: str, fmt: str, ids: np.ndarray, impact_parameters: str
                 ) -> CaseBatch:
     """The cases ``ids`` of the database at ``location`` as a batch (no cache)."""
     if fmt == "parquet":
-        where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
-        db = load_database(location, where=where, validate=False)
+        db = BLOCKS.covering(location, ids)  # validated by this process's study already
+        if db is None:
+            where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
+            db = load_database(location, where=where, validate=False)
     else:
         stamp = max(p.stat().st_mtime for p in Path(location).iterdir())
         db = _whole_database(location, fmt, stamp)

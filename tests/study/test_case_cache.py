@@ -19,7 +19,13 @@ from vfs.study import inputs as study_inputs
 from vfs.study import run as study_run
 from vfs.study import run_study
 from vfs.study import tasks as study_tasks
-from vfs.study.case_cache import BlockCache, CaseCache, batch_bytes, folder_stamp
+from vfs.study.case_cache import (
+    BlockCache,
+    CaseCache,
+    batch_bytes,
+    folder_key,
+    folder_stamp,
+)
 from vfs.study.inputs import study_input
 from vfs.study.tasks import RunTask, load_chunk
 
@@ -85,7 +91,8 @@ def test_blocks_give_the_batch_of_the_files(database: Path) -> None:
     blocks = BlockCache()
     ids = np.arange(1, 61)
     for part in (ids[:25], ids[25:50], ids[50:]):
-        blocks.put(str(database), part, load_database(database, where=_where(part)))
+        blocks.put(folder_key(str(database)), part,
+                   load_database(database, where=_where(part)))
     wanted = np.arange(20, 56)[::-1]  # three blocks, in another order
     db = blocks.covering(str(database), wanted)
     assert db is not None and blocks.hits == 1

@@ -154,8 +154,11 @@ class CaseCache:
 CASES = CaseCache()
 
 
-def _folder_key(location: str) -> tuple[str, str] | None:
-    """(resolved folder, stamp) of a database folder; None for a URL (never cached)."""
+def folder_key(location: str) -> tuple[str, str] | None:
+    """(resolved folder, stamp) of a database folder; None for a URL (never cached).
+    Taken before the files are read: a file rewritten while they are read then gives
+    another key at the next look-up, and what was read is never served for it.
+    """
     folder = Path(location)
     if not folder.is_dir():
         return None
@@ -165,7 +168,7 @@ def _folder_key(location: str) -> tuple[str, str] | None:
 def batch_key(location: str, fmt: str, case_ids: np.ndarray, impact_parameters: str
               ) -> tuple[str, ...] | None:
     """The cache key of a chunk's batch; None where the database is not cached (a URL)."""
-    folder = _folder_key(location)
+    folder = folder_key(location)
     if folder is None:
         return None
     return (*folder, fmt, impact_parameters, ids_digest(case_ids))
@@ -201,11 +204,11 @@ class BlockCache:
         with self._lock:
             self._blocks.clear()
 
-    def put(self, location: str, case_ids: np.ndarray, db: Database) -> None:
-        """Keep block ``db`` (the cases ``case_ids`` of the database at ``location``, as
-        :func:`vfs.database.load_database` gave them), where it fits.
+    def put(self, key: tuple[str, str] | None, case_ids: np.ndarray, db: Database) -> None:
+        """Keep block ``db`` (the cases ``case_ids`` as :func:`vfs.database.load_database`
+        gave them from the folder of ``key``, :func:`folder_key` taken before reading),
+        where it fits; nothing for a None key (a URL).
         """
-        key = _folder_key(location)
         if key is None:
             return
         size = database_bytes(db)
@@ -218,7 +221,7 @@ class BlockCache:
         the blocks' order, which is the files'); None unless every case is in a block of
         the database's current files.
         """
-        key = _folder_key(location)
+        key = folder_key(location)
         if key is None:
             return None
         ids = np.asarray(case_ids)
@@ -245,4 +248,5 @@ def release() -> None:
 
 
 __all__ = ["BLOCKS", "CACHE_BYTES", "CACHE_ENTRIES", "CASES", "BlockCache", "CaseCache",
-           "batch_bytes", "batch_key", "database_bytes", "folder_stamp", "ids_digest", "release"]
+           "batch_bytes", "batch_key", "database_bytes", "folder_key", "folder_stamp", "ids_digest",
+           "release"]

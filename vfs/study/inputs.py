@@ -46,7 +46,7 @@ from vfs.database.io import is_url, iter_table, load_cases, orphan_problems, rea
 from vfs.database.schema import TABLE_NAMES
 from vfs.database.validation import validate_table
 from vfs.errors import DataError, DataProblem
-from vfs.study.case_cache import BLOCKS
+from vfs.study.case_cache import BLOCKS, folder_key
 from vfs.study.manifest import data_hash
 
 #: Cases validated at a time on the client (Parquet databases).
@@ -212,9 +212,9 @@ def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOC
     ids = selection.case_ids
     for start in range(0, ids.size, max(1, int(block_cases))):
         block = ids[start:start + block_cases]
+        key = folder_key(selection.folder) if keep else None
         db = load_database(selection.folder, where=_ids_predicate(block), validate=True)
-        if keep:
-            BLOCKS.put(selection.folder, block, db)
+        BLOCKS.put(key, block, db)
 
 
 def _nothing_selected(where: str | None) -> DataError:

@@ -112,6 +112,40 @@ IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
 AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
                   for k in ("before", "after", "before_quick", "after_quick"))
 AEB_PROFILE = "benchmarks/results/core_37_aeb_profile.txt"
+STUDYIO_BENCH = tuple(f"benchmarks/results/core_37_studyio_{k}.json"
+                      for k in ("before2", "after2", "before", "after"))
+STUDYIO_WARMUP = tuple(f"benchmarks/results/core_37_studyio_warmup_{k}.json"
+                       for k in ("before", "after"))
+STUDYIO_PROFILE = "benchmarks/results/core_37_studyio_profile.txt"
+
+
+def _studyio_study(root: Path) -> list[float]:
+    """Case-runs/s, CPU s and loads of the study-loading round's records, as quoted: the
+    back-to-back pair, then the round's first and last run."""
+    before2, after2, before, after = (_json(r, root)["study"] for r in STUDYIO_BENCH)
+    return [before2["case_runs_per_s_cpu"], after2["case_runs_per_s_cpu"], before2["cpu_s"],
+            after2["cpu_s"], before2["load_average_1min"], after2["load_average_1min"],
+            before["case_runs_per_s_cpu"], before["cpu_s"], before["load_average_1min"],
+            after["case_runs_per_s_cpu"], after["cpu_s"], after["load_average_1min"]]
+
+
+def _studyio_resume(root: Path) -> list[float]:
+    before2, after2 = (_json(r, root)["study"] for r in STUDYIO_BENCH[:2])
+    return [before2["resume_case_runs_per_s_cpu"], after2["resume_case_runs_per_s_cpu"],
+            before2["resume_cpu_s"], after2["resume_cpu_s"]]
+
+
+def _studyio_warmup(root: Path) -> list[float]:
+    before, after = (_json(r, root)["warmup"] for r in STUDYIO_WARMUP)
+    return [before["cold_cpu_s"], after["cold_cpu_s"], before["compile_cpu_s"],
+            after["compile_cpu_s"], before["load_average_1min"], after["load_average_1min"]]
+
+
+def _cumulative(record: str, function: str) -> Callable[[Path], list[float]]:
+    """The cumulative time [s] of ``function`` (``file.py:line(name)`` tail) in a cProfile
+    text record."""
+    return _md_numbers(record, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ \S+"
+                       + re.escape(function).replace(r"LINE", r"\d+"))
 
 
 def _aeb_study(root: Path) -> list[float]:
@@ -545,6 +579,44 @@ QUOTES: tuple[Quote, ...] = (
                         *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
                                      r"\S+simulation.py:\d+\(simulate_cases\)")(root)],
           "profile of the study with the compiled AEB controller"),
+    Quote("docs/performance.md",
+          r"back to back against the branch point 1d0b947: " + NUMBER + r" -> \*\*" + NUMBER
+          + r" case-runs/s\*\* \(" + NUMBER + r" -> " + NUMBER + r" s CPU, loads " + NUMBER
+          + r" and " + NUMBER + r"\): [\d.]+x; at the start of that round " + NUMBER + r" \("
+          + NUMBER + r" s, load " + NUMBER + r"\), at its end " + NUMBER + r" \(" + NUMBER
+          + r" s, load " + NUMBER + r"\)",
+          ",".join(STUDYIO_BENCH), _studyio_study, "study case-runs/s after the loading round"),
+    Quote("docs/performance.md",
+          r"after the loading round " + NUMBER + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
+          + NUMBER + r" -> " + NUMBER + r" s CPU, back to back\)",
+          ",".join(STUDYIO_BENCH[:2]), _studyio_resume, "resume case-runs/s, loading round"),
+    Quote("docs/performance.md",
+          r"back to back against 1d0b947, cold " + NUMBER + r" -> \*\*" + NUMBER
+          + r" s CPU\*\* \(compiling " + NUMBER + r" -> " + NUMBER + r" s; loads " + NUMBER
+          + r" and " + NUMBER + r";",
+          ",".join(STUDYIO_WARMUP), _studyio_warmup, "cold start with the inlined helpers"),
+    Quote("docs/performance.md",
+          r"core_37_studyio_profile.txt`, CPU time under the profiler at load " + NUMBER
+          + r", " + NUMBER + r" s in all\): `simulate_cases` " + NUMBER + r" s, of it the "
+          r"compiled step `_settle_rows` " + NUMBER + r" s",
+          STUDYIO_PROFILE,
+          lambda root: [*_md_numbers(STUDYIO_PROFILE, r"load average ([\d.]+)")(root),
+                        *_md_numbers(STUDYIO_PROFILE, r"in ([\d.]+) seconds")(root),
+                        *_cumulative(STUDYIO_PROFILE, "simulation.py:LINE(simulate_cases)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "core.py:LINE(_settle_rows)")(root)],
+          "profile after the loading round: the step"),
+    Quote("docs/performance.md",
+          r"the controller's `demand` " + NUMBER + r" s \(its kernels about half\), the replay "
+          r"with numba's cache " + NUMBER + r" s and the run-out " + NUMBER + r" s; before the "
+          r"tasks the validation of the selection \(`study_input` " + NUMBER + r" s, of it "
+          r"`check_database` " + NUMBER + r" s",
+          STUDYIO_PROFILE,
+          lambda root: [*_cumulative(STUDYIO_PROFILE, "controller.py:LINE(demand)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "core.py:LINE(replay_precrash)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "simulation.py:LINE(runout_stage)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "inputs.py:LINE(study_input)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "checks.py:LINE(check_database)")(root)],
+          "profile after the loading round: controller, replay, run-out, validation"),
 
     *(Quote("docs/compare.md", _study36_table1(parameter)[0], STUDY36,
             _study36_table1(parameter)[1], f"study36 seeds 0-4: {parameter}")

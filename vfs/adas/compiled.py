@@ -670,7 +670,8 @@ def assess(ego: Motion | np.ndarray, obj: Motion | np.ndarray, case: np.ndarray,
     model = MODEL_CODES[str(aeb.prediction)]
     release = RELEASE_CODES[str(aeb.release)]
     ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
-    active = np.ascontiguousarray(stage[case, col])
+    # stage[case, col] by one take of the (case, participant) rows (faster than two indices)
+    active = np.take(stage.reshape(-1, stage.shape[-1]), 2 * case + col, axis=0)
     horizon = np.empty(m)
     near = np.zeros(m, dtype=np.bool_)
     geo = np.zeros((8, m))

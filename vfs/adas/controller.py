@@ -44,6 +44,7 @@ from vfs.physics.precrash import (
     PrecrashObservation,
     friction_limited_deceleration,
 )
+from vfs.physics.precrash_contact import take_rows
 
 if TYPE_CHECKING:
     from vfs.simulation import CaseBatch
@@ -234,18 +235,18 @@ class AEBController:
                                       if cycle > 0.0 else -np.inf)
         self._act(t)
         rows = obs.rows
-        acting = self._acting[rows]
+        acting = take_rows(self._acting, rows)
         full = friction_limited_deceleration(obs.road_friction, self.aeb.full_deceleration)[:, None]
         out = np.where(acting[..., 2], full, 0.0)
         out = np.maximum(out, np.where(acting[..., 1], self.aeb.partial_deceleration, 0.0))
         if self.driver is not None:
-            on = t >= self._driver_start[rows] - _TIME_SLACK
-            first = on & np.isnan(self._driver_time[rows])
+            on = t >= take_rows(self._driver_start, rows) - _TIME_SLACK
+            first = on & np.isnan(take_rows(self._driver_time, rows))
             if first.any():
                 ri, ci = np.nonzero(first)
                 self._driver_time[rows[ri], ci] = t
-            out = np.maximum(out, np.where(on, self._driver_decel[rows], 0.0))
-        return np.where(self.equipped[rows], out, 0.0)
+            out = np.maximum(out, np.where(on, take_rows(self._driver_decel, rows), 0.0))
+        return np.where(take_rows(self.equipped, rows), out, 0.0)
 
     def _act(self, t: float) -> None:
         """Let the queued decisions whose latency has passed act; record first times."""
@@ -272,7 +273,7 @@ class AEBController:
         """
         aeb, sensor = self.aeb, self.aeb.sensor
         rows = obs.rows
-        ri, ji = np.nonzero(self.equipped[rows])
+        ri, ji = np.nonzero(take_rows(self.equipped, rows))
         if ri.size and core_enabled():
             case = rows[ri]
             a, b = self._packed_pairs(obs, ri, ji)

@@ -167,10 +167,6 @@ def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
         ehl = half * (ef + er)
         ohl = half * (of + orr)
         ohw = half * ow
-        gap = _gap_row(np.float64(ecx), np.float64(ecy), np.float64(np.float32(yaw[i, e])),
-                       np.float64(ehl), np.float64(half * ew), np.float64(ocx),
-                       np.float64(ocy), np.float64(np.float32(yaw[i, o])), np.float64(ohl),
-                       np.float64(ohw), ux, uy)
         dx = ocx - ef * ce
         dy = ocy - ef * se
         dvx = np.float32(vx[i, o]) - np.float32(vx[i, e])
@@ -180,7 +176,6 @@ def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
         rel_vx = ce * dvx + se * dvy
         rel_vy = -se * dvx + ce * dvy
         closing = -(dx * dvx + dy * dvy) / _maximum(np.sqrt(dx * dx + dy * dy), eps_norm)
-        ttc = gap / np.float64(_maximum(closing, eps_closing)) if closing > 0.0 else 10.0
         if second:
             seen = seen_in[i] == 1
         else:
@@ -203,10 +198,22 @@ def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
                 aux[i, 3] = ocy
                 aux[i, 4] = ohl
                 aux[i, 5] = ohw
+        # the gap (4 cos and sin) only where it is observed: unseen, gap x 0 is 0 or NaN
+        # (cleared to 0) whatever the gap (>= 0), and the TTC is TTC_NONE
+        gap = 0.0
+        ttc = 10.0
+        if seen:
+            gap = _gap_row(np.float64(ecx), np.float64(ecy),
+                           np.float64(np.float32(yaw[i, e])), np.float64(ehl),
+                           np.float64(half * ew), np.float64(ocx), np.float64(ocy),
+                           np.float64(np.float32(yaw[i, o])), np.float64(ohl),
+                           np.float64(ohw), ux, uy)
+            if closing > 0.0:
+                ttc = gap / np.float64(_maximum(closing, eps_closing))
         sf = np.float32(1.0) if seen else np.float32(0.0)
         cols = (np.float32(speed[i, e]), np.float32(accel[i, e]), sf,
                 np.float32(gap * (1.0 if seen else 0.0)), rel_x * sf, rel_y * sf,
-                rel_vx * sf, rel_vy * sf, np.float32(ttc if seen else 10.0),
+                rel_vx * sf, rel_vy * sf, np.float32(ttc),
                 np.float32(mu[i]) if friction else np.float32(0.0))
         for k in range(10):
             v = _clip32(cols[k], low[k], high[k])
@@ -227,7 +234,7 @@ def _kernel() -> Any:
         _minimum = jit(_minimum)
         _corner_distance = jit(_corner_distance)
         _clip32 = jit(_clip32)
-        _gap_row = numba.njit(cache=True, nogil=True, error_model="numpy")(_gap_row)
+        _gap_row = jit(_gap_row)
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         _compiled.append(numba.njit(**opts)(_gap_loop))
         _compiled.append(numba.njit(**opts)(_sensor_rows))

@@ -321,7 +321,9 @@ class EpisodeBatch:
         """Deceleration demand (n, 2) [m/s^2] of the running rows for slot actions (S,)."""
         run = self.run
         rows = run.rows
-        a = np.clip(np.nan_to_num(actions[self.row_slot[rows]], nan=0.0), 0.0, 1.0)
+        a = actions[self.row_slot[rows]]
+        # NaN -> 0, then [0, 1] (numpy.nan_to_num's +-inf -> +-max clip alike; one call less)
+        a = np.clip(np.where(np.isnan(a), 0.0, a), 0.0, 1.0)
         d = np.zeros((rows.shape[0], 2))
         d[:, self.config.ego - 1] = a * run.limit[rows, 0]
         return d
@@ -367,9 +369,10 @@ class EpisodeBatch:
                 ended_rows.append(fin[run.collided[fin]])
                 trunc_rows.append(fin[~run.collided[fin]])
             # standstill: ego stopped, the object stopped for good; nothing moves any more
-            tau = run.local_time(rows)
-            still = (run.state.speed[:, e] <= STANDSTILL) & ~run.pending[rows] & (tau > 0.0) \
-                & (tau >= self.other_rest_from[rows])
+            still = run.state.speed[:, e] <= STANDSTILL
+            if still.any():  # the other conditions only where the ego stands still
+                tau = run.local_time(rows)
+                still &= ~run.pending[rows] & (tau > 0.0) & (tau >= self.other_rest_from[rows])
             if still.any():
                 r = rows[still]
                 run.stop(r, keep_state=True)

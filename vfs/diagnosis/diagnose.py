@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.blas import one_blas_thread
 from vfs.diagnosis.calibrate import (
     CalibrationData,
     CVResult,
@@ -464,6 +465,7 @@ def resolve_candidates(effects: str | Iterable[str] | None) -> list[str]:
     return list(dict.fromkeys(names))
 
 
+@one_blas_thread
 def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
              params: SimulationParams | None = None,
              progress: Callable[[str], None] | None = None, **settings: Any) -> Diagnosis:

@@ -117,13 +117,38 @@ def _clip32(v: Any, lo: Any, hi: Any) -> Any:
     return v
 
 
+#: Margins of :func:`_outside_wedge`: angle [rad] and distance beyond the circle [m].
+WEDGE_MARGIN = 1e-3
+WEDGE_CLEARANCE = 0.5
+
+
+def _outside_wedge(dx: float, dy: float, bx: float, by: float, dist: float, radius: float,
+                   half_angle: float) -> bool:
+    """Whether a circle (centre (dx, dy) [m] from the sensor at distance ``dist``, radius
+    ``radius`` [m]) lies wholly outside the wedge of half opening ``half_angle`` [rad]
+    < pi about the boresight (bx, by), by at least :data:`WEDGE_MARGIN`.
+
+    The circle subtends the bearings within asin(radius / dist) of its centre's; where
+    they all lie beyond the wedge, no point of the outline inside the circle is in the
+    field of view, so :func:`vfs.adas.sensor.outline_visible` says "not seen".  The
+    margins (1 mrad, the sensor at least :data:`WEDGE_CLEARANCE` outside the circle) are
+    far above the rounding of the float32 exact test (about 1e-5 m at 150 m), so the two
+    decide alike; the rows near the wedge's edges go to the exact test.
+    """
+    if dist < radius + WEDGE_CLEARANCE:
+        return False
+    off = abs(math.atan2(dx * by - dy * bx, dx * bx + dy * by))
+    return off - math.asin(radius / dist) > half_angle + WEDGE_MARGIN
+
+
 def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
                  ys: np.ndarray, speed: np.ndarray, accel: np.ndarray, vx: np.ndarray,
                  vy: np.ndarray, mu: np.ndarray, rows: np.ndarray, ef_all: np.ndarray,
                  er_all: np.ndarray, ew_all: np.ndarray, of_all: np.ndarray,
                  or_all: np.ndarray, ow_all: np.ndarray, e: int, o: int,
                  boresight: bool, bx: np.ndarray, by: np.ndarray, mount_x: Any,
-                 mount_y: Any, narrow: bool, cos_half: Any, max_range: Any, friction: bool,
+                 mount_y: Any, narrow: bool, half_angle: float, cos_half: Any,
+                 max_range: Any, friction: bool,
                  low: np.ndarray, high: np.ndarray, ux: np.ndarray, uy: np.ndarray,
                  seen_in: np.ndarray, second: bool, out: np.ndarray, unsure: np.ndarray,
                  aux: np.ndarray) -> None:
@@ -189,7 +214,12 @@ def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
             dist = np.sqrt(dxs * dxs + dys * dys)
             ahead = (dxs * bxi + dys * byi) >= cos_half * dist if narrow else True
             seen = dist <= max_range and ahead
-            open_ = not seen and dist - np.sqrt(ohl * ohl + ohw * ohw) <= max_range
+            radius = np.sqrt(ohl * ohl + ohw * ohw)  # of the object's bounding circle
+            open_ = not seen and dist - radius <= max_range
+            if open_ and narrow:
+                open_ = not _outside_wedge(np.float64(dxs), np.float64(dys),
+                                           np.float64(bxi), np.float64(byi),
+                                           np.float64(dist), np.float64(radius), half_angle)
             unsure[i] = 1 if open_ else 0
             if open_:
                 aux[i, 0] = sx
@@ -228,12 +258,13 @@ def _kernel() -> Any:
     if not _compiled:
         import numba
 
-        global _maximum, _minimum, _corner_distance, _gap_row, _clip32
+        global _maximum, _minimum, _corner_distance, _gap_row, _clip32, _outside_wedge
         jit = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
         _maximum = jit(_maximum)
         _minimum = jit(_minimum)
         _corner_distance = jit(_corner_distance)
         _clip32 = jit(_clip32)
+        _outside_wedge = jit(_outside_wedge)
         _gap_row = jit(_gap_row)
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         _compiled.append(numba.njit(**opts)(_gap_loop))

@@ -250,7 +250,7 @@ def _observe_sensor_compiled(p: PrecrashObservation, vx: np.ndarray, vy: np.ndar
     low, high = _OBS_BOUNDS
     args = (p.x, p.y, p.yaw, yc, ys, p.speed, p.accel, vx, vy, p.road_friction, rows,
             *dims, e, o, boresight, bx, by, f32(sn.mount_x), f32(sn.mount_y),
-            half < math.pi, f32(math.cos(half)), f32(sn.range), bool(cfg.observe_friction),
+            half < math.pi, half, f32(math.cos(half)), f32(sn.range), bool(cfg.observe_friction),
             low, high, *UNIT_CORNERS)
     kernel = sensor_kernel()
     kernel(*args, seen_in, False, out, unsure, aux)

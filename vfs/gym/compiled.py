@@ -1,4 +1,14 @@
-"""Optional compiled (numba) kernel of the observation's gap between the outlines.
+"""Compiled (numba) kernels of the observation: the gap between the outlines and the
+whole sensor observation.
+
+:func:`sensor_kernel` computes the sensor observation of
+:func:`vfs.gym.observation.observe_reference` row by row in one call per step: the same
+float32 products and sums in the same order, the gap and the TTC in float64 as there, the
+cos and sin of the yaws and of the boresight taken from numpy (float32, as the reference
+evaluates them), and the exact visibility test left to the reference's numpy function
+for the objects near the edges of the field of view (:func:`_outside_wedge` decides the
+clear cases, by a margin far above the rounding).  ``tests/gym/test_fast_observation.py``
+compares the two bit for bit along whole episodes.
 
 :func:`vfs.physics.geometry.rectangle_distance` is the reference.  It builds
 the corners of both rectangles as (N, 4, 2) arrays, transforms them into the
@@ -165,8 +175,8 @@ def _sensor_rows(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, yc: np.ndarray,
     the row is skipped).
     """
     half = np.float32(0.5)
-    eps_norm = np.float32(1e-9)
-    eps_closing = np.float32(1e-12)
+    eps_norm: Any = np.float32(1e-9)
+    eps_closing: Any = np.float32(1e-12)
     for i in range(x.shape[0]):
         if second and seen_in[i] < 0:
             continue

@@ -17,6 +17,7 @@ from vfs.adas.threat import Motion, time_to_collision
 from vfs.gym.compiled import UNIT_CORNERS, rectangle_distance_compiled, sensor_kernel
 from vfs.physics.geometry import rectangle_distance
 from vfs.physics.numba_support import enabled as compiled_enabled
+from vfs.physics.numba_support import run_kernel
 from vfs.physics.precrash import PrecrashObservation
 
 if TYPE_CHECKING:
@@ -224,6 +225,10 @@ def observe(p: PrecrashObservation, dims: Dimensions, cfg: ObservationSettings) 
     return observe_reference(p, dims, cfg)
 
 
+#: Non-empty once the sensor kernel ran in this process (:func:`_observe_sensor_compiled`).
+_KERNEL_LOADED: list[bool] = []
+
+
 def _observe_sensor_compiled(p: PrecrashObservation, vx: np.ndarray, vy: np.ndarray,
                              dims: Dimensions, cfg: ObservationSettings) -> np.ndarray:
     """:func:`observe_reference` of the sensor observation by the compiled kernel
@@ -253,7 +258,12 @@ def _observe_sensor_compiled(p: PrecrashObservation, vx: np.ndarray, vy: np.ndar
             half < math.pi, half, f32(math.cos(half)), f32(sn.range), bool(cfg.observe_friction),
             low, high, *UNIT_CORNERS)
     kernel = sensor_kernel()
-    kernel(*args, seen_in, False, out, unsure, aux)
+    if _KERNEL_LOADED:
+        kernel(*args, seen_in, False, out, unsure, aux)
+    else:  # the first call says when numba compiled the kernel instead of loading its cache
+        run_kernel(kernel, "sensor observation of the gym", *args, seen_in, False, out,
+                   unsure, aux)
+        _KERNEL_LOADED.append(True)
     if n and unsure.any():  # the exact visibility test of the reference (numpy)
         u = np.flatnonzero(unsure)
         a = aux[u]

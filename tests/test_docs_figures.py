@@ -239,6 +239,22 @@ def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]
     return read
 
 
+GYM2_BENCH = ("benchmarks/results/core_37_gym2_before.json",
+              "benchmarks/results/core_37_gym2_after.json")
+
+
+def _gym2_cpu(root: Path) -> list[float]:
+    """Single and 32,768-env steps per CPU-second (k for the vectors), before then after,
+    then the 8,192 and 1,024 envs' before -> after (k), as quoted."""
+    before, after = (_json(r, root)["gym_env"] for r in GYM2_BENCH)
+    return [before["single_steps_per_cpu_s"], before["vector_32768_steps_per_cpu_s"] / 1e3,
+            after["single_steps_per_cpu_s"], after["vector_32768_steps_per_cpu_s"] / 1e3,
+            before["vector_8192_steps_per_cpu_s"] / 1e3,
+            after["vector_8192_steps_per_cpu_s"] / 1e3,
+            before["vector_1024_steps_per_cpu_s"] / 1e3,
+            after["vector_1024_steps_per_cpu_s"] / 1e3]
+
+
 RUNOUT_STUDY = tuple(f"benchmarks/results/core_37_runout_study_{w}.json"
                      for w in ("before", "before2", "after", "after2"))
 RUNOUT_DIAG = tuple(f"benchmarks/results/core_37_runout_diagnose_quick_{w}.json"
@@ -555,6 +571,25 @@ QUOTES: tuple[Quote, ...] = (
           r"vehicles, where numpy's\s+fixed cost vanishes: " + NUMBER + r"x",
           RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "speed_up", "mc_speed_up"),
           "compiled run-out: speed-ups in the text"),
+    Quote("docs/performance.md",
+          r"`core_37_gym2_after.json`: " + NUMBER + r" / " + NUMBER + r" k -> \*\*" + NUMBER
+          + r" / " + NUMBER + r" k steps/s\*\* \(single [\d.]+x, goal met; 32,768 envs [\d.]+x\); "
+          r"8,192 envs " + NUMBER + r" k -> " + NUMBER + r" k, 1,024 envs " + NUMBER + r" k -> "
+          + NUMBER + r" k",
+          f"{GYM2_BENCH[0]},{GYM2_BENCH[1]}", _gym2_cpu,
+          "gym single and vector env steps per CPU-second, before and after (gym2)"),
+    Quote("docs/gym.md",
+          r"`AEBEnv`, single \| " + NUMBER + r" \|\n.*SyncVectorEnv.* \| " + NUMBER
+          + r" \|\n.*1,024 envs \| " + NUMBER + r" \|\n.*8,192 envs \| " + NUMBER
+          + r" \|\n.*32,768 envs \| " + NUMBER + r" \|",
+          GYM2_BENCH[1],
+          _bench(GYM2_BENCH[1], "gym_env", "single_steps_per_s", "sync_vector_8_steps_per_s",
+                 "vector_1024_steps_per_s", "vector_8192_steps_per_s",
+                 "vector_32768_steps_per_s"),
+          "gym environments' steps per second"),
+    Quote("docs/gym.md", r"a single `AEBEnv` runs at " + NUMBER + r" s/s", GYM2_BENCH[1],
+          _bench(GYM2_BENCH[1], "gym_env", "single_simulated_s_per_s"),
+          "simulated seconds per second of the single env"),
     Quote("docs/performance.md",
           r"numpy\s+reference: " + NUMBER + r" M/s \(load " + NUMBER + r"\) \| \*\*" + NUMBER
           + r" M/s\*\* compiled",

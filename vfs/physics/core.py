@@ -424,32 +424,28 @@ def _outlines_of(st: np.ndarray, dims: np.ndarray, d: int, o1: np.ndarray,
 
 def _step_state(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, n_data: int,
                 d: int, kk: int, dt: float, dv: np.ndarray, ds: np.ndarray, gap: np.ndarray,
-                ti: np.ndarray, si: np.ndarray, i: int, st: np.ndarray,
-                rec: np.ndarray) -> None:
+                ti: np.ndarray, si: np.ndarray, st: np.ndarray, rec: np.ndarray) -> None:
     """One step of a row on its own clock (step ``kk``, time kk dt [s]): advance the record
     indices ``ti`` and the arc-length reduction ``ds`` (trapezoidal rule of
     min(dv, v_rec)), the state of both vehicles into ``st`` (7, 2), the recorded speed
-    and acceleration into ``rec`` (2, 2) (PrecrashRun._settle, one row).  ``dv`` .. ``si``
-    are (m, 2) arrays of which row ``i`` is the row's (indexed here: a view per row and
-    step would cost more than the step's arithmetic).
+    and acceleration into ``rec`` (2, 2) (PrecrashRun._settle, one row).
     """
     tau = kk * dt
     for j in range(2):
         p = d + j * n_data
-        ti[i, j] = _advance(knots, count, p, _T, ti[i, j], tau)
-        s_rec, v_rec, a_rec = _record(knots, count, p, ti[i, j], tau)
+        ti[j] = _advance(knots, count, p, _T, ti[j], tau)
+        s_rec, v_rec, a_rec = _record(knots, count, p, ti[j], tau)
         rec[0, j] = v_rec
         rec[1, j] = a_rec
-        dvj = dv[i, j]
-        gap_now = dvj if dvj <= v_rec or dvj != dvj else v_rec
+        gap_now = dv[j] if dv[j] <= v_rec or dv[j] != dv[j] else v_rec
         if kk > 0:
-            ds[i, j] = ds[i, j] + 0.5 * dt * (gap[i, j] + gap_now)
-        gap[i, j] = gap_now
-        s = s_rec - ds[i, j]
-        v = v_rec - dvj
+            ds[j] = ds[j] + 0.5 * dt * (gap[j] + gap_now)
+        gap[j] = gap_now
+        s = s_rec - ds[j]
+        v = v_rec - dv[j]
         speed = v if v >= 0.0 or v != v else 0.0
-        si[i, j] = _advance(knots, count, p, _S, si[i, j], s)
-        _put_pose(knots, count, end_curvature, p, si[i, j], s, speed, st, j)
+        si[j] = _advance(knots, count, p, _S, si[j], s)
+        _put_pose(knots, count, end_curvature, p, si[j], s, speed, st, j)
 
 
 def _bisect(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray, dims: np.ndarray,
@@ -523,9 +519,6 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
         prev_ds = np.zeros(2)
         prev_ti = np.zeros(2, dtype=np.int64)
         prev_si = np.zeros(2, dtype=np.int64)
-        # the same memory as (1, 2) rows for _step_state
-        track = (dv.reshape((1, 2)), ds.reshape((1, 2)), gap.reshape((1, 2)))
-        indices = (ti.reshape((1, 2)), si.reshape((1, 2)))
         best_centre = math.inf
         best_time = math.nan
         min_distance = math.inf
@@ -548,8 +541,8 @@ def _replay_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
             tau = kk * dt
             prev_tau = (kk - 1) * dt
             # ---- kinematics at this step (record_pair, state_at_arclength)
-            _step_state(knots, count, end_curvature, n_data, d, kk, dt, track[0], track[1],
-                        track[2], indices[0], indices[1], 0, st, rec)
+            _step_state(knots, count, end_curvature, n_data, d, kk, dt, dv, ds, gap, ti, si,
+                        st, rec)
             ended = False
             # ---- impact time reached
             if pending and impact_time <= tau + 1e-12:
@@ -693,8 +686,8 @@ def _settle_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
         k = kk[i]
         tau = k * dt
         prev_tau = (k - 1) * dt
-        _step_state(knots, count, end_curvature, n_data, d, k, dt, dv, ds, gap, t_index,
-                    s_index, i, st, rec)
+        _step_state(knots, count, end_curvature, n_data, d, k, dt, dv[i], ds[i], gap[i],
+                    t_index[i], s_index[i], st, rec)
         for f in range(7):
             st_out[f, i, 0] = st[f, 0]
             st_out[f, i, 1] = st[f, 1]
@@ -761,12 +754,11 @@ def _settle_rows(knots: np.ndarray, count: np.ndarray, end_curvature: np.ndarray
 
 numba_prange = range  # numba.prange inside the compiled kernel
 
+#: Building blocks compiled inline into the kernels (each row's step).
+_INLINED = frozenset({"_advance", "_clip01", "_record", "_pose", "_put_pose", "_step_state"})
+
 _kernel: Any = None
 _settle_kernel: Any = None
-
-#: Helpers inlined into the compiled kernels (those of every row and step).
-_INLINED = frozenset({"_advance", "_search", "_clip01", "_record", "_pose", "_put_pose",
-                      "_state", "_step_state"})
 
 
 def _compiled() -> Any:
@@ -783,9 +775,9 @@ def _compiled() -> Any:
                      "pose_corners", "_frame", "_frames_overlap", "_clip_stage",
                      "clipped_overlap", "_overlaps", "_corner_gap", "_distance",
                      "_outlines_of", "_step_state", "_bisect"):
-            # the helpers every row and step calls are inlined into the kernels (numba's
-            # IR): their calls cost about a third of the step (the same arithmetic, bit
-            # for bit); the contact geometry, called near contact only, is not (compile time)
+            # the building blocks of every row's step inlined (numba IR, the same
+            # arithmetic): the step kernel runs some 40 % faster without the calls and the
+            # array views they take (issue 37, benchmarks/results/core_37_gym2_profile.txt)
             inline = "always" if name in _INLINED else "never"
             g[name] = numba.njit(inline=inline, **opts)(g[name])
         g["numba_prange"] = numba.prange

@@ -614,6 +614,9 @@ class PrecrashRun(PrecrashCases):
         self.v_rec, self.a_rec = rec[0], rec[1]
         tau = kk * dt
         ended: list[np.ndarray] = []
+        if not event.any():  # no contact, no impact (EVENT_NONE is 0): the rows' ends only
+            self._end_rows(ended, tau)
+            return
         new = event == core.EVENT_CONTACT
         if new.any():
             r = rows[new]

@@ -641,17 +641,16 @@ QUOTES: tuple[Quote, ...] = (
                         *_cumulative(STUDYIO_PROFILE, "core.py:LINE(_settle_rows)")(root)],
           "profile after the loading round: the step"),
     Quote("docs/performance.md",
-          r"the controller's `demand` " + NUMBER + r" s \(its kernels about half\), the replay "
-          r"with numba's cache " + NUMBER + r" s and the run-out " + NUMBER + r" s; before the "
-          r"tasks the validation of the selection \(`study_input` " + NUMBER + r" s, of it "
-          r"`check_database` " + NUMBER + r" s",
+          r"the controller's `demand` " + NUMBER + r" s \(its kernels about half\), the "
+          r"replay with numba's cache " + NUMBER + r" s; before the tasks the validation of the "
+          r"selection \(`study_input` " + NUMBER + r" s, of it `check_database` " + NUMBER
+          + r" s",
           STUDYIO_PROFILE,
           lambda root: [*_cumulative(STUDYIO_PROFILE, "controller.py:LINE(demand)")(root),
                         *_cumulative(STUDYIO_PROFILE, "core.py:LINE(replay_precrash)")(root),
-                        *_cumulative(STUDYIO_PROFILE, "simulation.py:LINE(runout_stage)")(root),
                         *_cumulative(STUDYIO_PROFILE, "inputs.py:LINE(study_input)")(root),
                         *_cumulative(STUDYIO_PROFILE, "checks.py:LINE(check_database)")(root)],
-          "profile after the loading round: controller, replay, run-out, validation"),
+          "profile after the loading round: controller, replay, validation"),
 
     *(Quote("docs/compare.md", _study36_table1(parameter)[0], STUDY36,
             _study36_table1(parameter)[1], f"study36 seeds 0-4: {parameter}")

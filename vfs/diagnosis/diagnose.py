@@ -139,9 +139,8 @@ def stratified_residuals(data: CalibrationData, residuals: np.ndarray,
                          strata: Sequence[str] = STRATA_FEATURES) -> pd.DataFrame:
     """Residual statistics per stratum of each stratifying feature (long table).
 
-    Columns: feature, stratum, output, column, n, bias (mean residual) and
-    rmse in the output's report unit, rmse_std (RMSE of the standardised
-    residuals of the output).
+    Columns: feature, stratum, output, column, n, bias (mean residual) and rmse in the
+    output's report unit, rmse_std (RMSE of the standardised residuals of the output).
     """
     rows: list[dict[str, Any]] = []
     errors = data.case_errors(residuals)

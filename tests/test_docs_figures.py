@@ -109,6 +109,18 @@ def _mutation_latest(module: str) -> Callable[[Path], list[float]]:
 
 
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
+IMPACT_BREAKDOWN = "benchmarks/results/core_37_impact_breakdown.json"
+SESSION3_START = "benchmarks/results/core_37_session3_start.json"
+
+
+def _breakdown(root: Path) -> list[float]:
+    """Load, kernel [ms], ns per impact, arctan2, PDOF kernel, fresh and reused arrays [ms]
+    and the kernel again, as quoted."""
+    b = _json(IMPACT_BREAKDOWN, root)
+    ms = [1e3 * b[k] for k in ("arctan2_s", "finish_s", "fresh_result_arrays_s",
+                               "reused_arrays_write_s")]
+    return [b["load_average_1min"], 1e3 * b["kernel_s"], b["kernel_ns_per_impact"], *ms,
+            1e3 * b["kernel_s"]]
 AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
                   for k in ("before", "after", "before_quick", "after_quick"))
 AEB_PROFILE = "benchmarks/results/core_37_aeb_profile.txt"
@@ -598,6 +610,20 @@ QUOTES: tuple[Quote, ...] = (
                         _json(IMPACT_BENCH, root)["impact"]["load_average"],
                         _json(IMPACT_BENCH, root)["impact"]["impacts_per_s"] / 1e6],
           "impacts per second, compiled and numpy reference"),
+    Quote("docs/performance.md",
+          r"start of the next round: \*\*" + NUMBER + r" M/s\*\* \(load " + NUMBER
+          + r", record `core_37_session3_start.json`\)",
+          SESSION3_START, _bench(SESSION3_START, "impact", "impacts_per_s*1e-6",
+                                 "load_average"),
+          "impacts per second on an idle machine, unchanged code"),
+    Quote("docs/performance.md",
+          r"100,000 impacts, load " + NUMBER + r"\): the kernel " + NUMBER + r" ms \("
+          + NUMBER + r" ns per impact: .*numpy's arctan2 " + NUMBER + r" ms, the PDOF kernel "
+          + NUMBER + r" ms, and writing the result's fresh arrays \(20 MB\) " + NUMBER
+          + r" ms\s+against " + NUMBER + r" ms for arrays written before.* the kernel alone is "
+          + NUMBER,
+          IMPACT_BREAKDOWN, _breakdown,
+          "where the time of one impact call goes"),
     Quote("docs/performance.md",
           r"back to back against main [0-9a-f]{7} \(with the compiled run-out\): " + NUMBER
           + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("

@@ -109,9 +109,55 @@ def _mutation_latest(module: str) -> Callable[[Path], list[float]]:
 
 
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
+IMPACT_BREAKDOWN = "benchmarks/results/core_37_impact_breakdown.json"
+SESSION3_START = "benchmarks/results/core_37_session3_start.json"
+
+
+def _breakdown(root: Path) -> list[float]:
+    """Load, kernel [ms], ns per impact, arctan2, PDOF kernel, fresh and reused arrays [ms]
+    and the kernel again, as quoted."""
+    b = _json(IMPACT_BREAKDOWN, root)
+    ms = [1e3 * b[k] for k in ("arctan2_s", "finish_s", "fresh_result_arrays_s",
+                               "reused_arrays_write_s")]
+    return [b["load_average_1min"], 1e3 * b["kernel_s"], b["kernel_ns_per_impact"], *ms,
+            1e3 * b["kernel_s"]]
 AEB_BENCH = tuple(f"benchmarks/results/core_37_aeb_{k}.json"
                   for k in ("before", "after", "before_quick", "after_quick"))
 AEB_PROFILE = "benchmarks/results/core_37_aeb_profile.txt"
+STUDYIO_BENCH = tuple(f"benchmarks/results/core_37_studyio_{k}.json"
+                      for k in ("before2", "after2", "before", "after"))
+STUDYIO_WARMUP = tuple(f"benchmarks/results/core_37_studyio_warmup_{k}.json"
+                       for k in ("before", "after"))
+STUDYIO_PROFILE = "benchmarks/results/core_37_studyio_profile.txt"
+
+
+def _studyio_study(root: Path) -> list[float]:
+    """Case-runs/s, CPU s and loads of the study-loading round's records, as quoted: the
+    back-to-back pair, then the round's first and last run."""
+    before2, after2, before, after = (_json(r, root)["study"] for r in STUDYIO_BENCH)
+    return [before2["case_runs_per_s_cpu"], after2["case_runs_per_s_cpu"], before2["cpu_s"],
+            after2["cpu_s"], before2["load_average_1min"], after2["load_average_1min"],
+            before["case_runs_per_s_cpu"], before["cpu_s"], before["load_average_1min"],
+            after["case_runs_per_s_cpu"], after["cpu_s"], after["load_average_1min"]]
+
+
+def _studyio_resume(root: Path) -> list[float]:
+    before2, after2 = (_json(r, root)["study"] for r in STUDYIO_BENCH[:2])
+    return [before2["resume_case_runs_per_s_cpu"], after2["resume_case_runs_per_s_cpu"],
+            before2["resume_cpu_s"], after2["resume_cpu_s"]]
+
+
+def _studyio_warmup(root: Path) -> list[float]:
+    before, after = (_json(r, root)["warmup"] for r in STUDYIO_WARMUP)
+    return [before["cold_cpu_s"], after["cold_cpu_s"], before["compile_cpu_s"],
+            after["compile_cpu_s"], before["load_average_1min"], after["load_average_1min"]]
+
+
+def _cumulative(record: str, function: str) -> Callable[[Path], list[float]]:
+    """The cumulative time [s] of ``function`` (``file.py:line(name)`` tail) in a cProfile
+    text record."""
+    return _md_numbers(record, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ \S+"
+                       + re.escape(function).replace(r"LINE", r"\d+"))
 
 
 def _aeb_study(root: Path) -> list[float]:
@@ -203,6 +249,22 @@ def _bench(record: str, bench: str, *keys: str) -> Callable[[Path], list[float]]
             out.append(float(data[name]) * (float(scale) if scale else 1.0))
         return out
     return read
+
+
+GYM2_BENCH = ("benchmarks/results/core_37_gym2_before.json",
+              "benchmarks/results/core_37_gym2_after.json")
+
+
+def _gym2_cpu(root: Path) -> list[float]:
+    """Single and 32,768-env steps per CPU-second (k for the vectors), before then after,
+    then the 8,192 and 1,024 envs' before -> after (k), as quoted."""
+    before, after = (_json(r, root)["gym_env"] for r in GYM2_BENCH)
+    return [before["single_steps_per_cpu_s"], before["vector_32768_steps_per_cpu_s"] / 1e3,
+            after["single_steps_per_cpu_s"], after["vector_32768_steps_per_cpu_s"] / 1e3,
+            before["vector_8192_steps_per_cpu_s"] / 1e3,
+            after["vector_8192_steps_per_cpu_s"] / 1e3,
+            before["vector_1024_steps_per_cpu_s"] / 1e3,
+            after["vector_1024_steps_per_cpu_s"] / 1e3]
 
 
 RUNOUT_STUDY = tuple(f"benchmarks/results/core_37_runout_study_{w}.json"
@@ -614,6 +676,25 @@ QUOTES: tuple[Quote, ...] = (
           RUNOUT_MICRO, _bench(RUNOUT_MICRO, "runout", "speed_up", "mc_speed_up"),
           "compiled run-out: speed-ups in the text"),
     Quote("docs/performance.md",
+          r"`core_37_gym2_after.json`: " + NUMBER + r" / " + NUMBER + r" k -> \*\*" + NUMBER
+          + r" / " + NUMBER + r" k steps/s\*\* \(single [\d.]+x, goal met; 32,768 envs [\d.]+x\); "
+          r"8,192 envs " + NUMBER + r" k -> " + NUMBER + r" k, 1,024 envs " + NUMBER + r" k -> "
+          + NUMBER + r" k",
+          f"{GYM2_BENCH[0]},{GYM2_BENCH[1]}", _gym2_cpu,
+          "gym single and vector env steps per CPU-second, before and after (gym2)"),
+    Quote("docs/gym.md",
+          r"`AEBEnv`, single \| " + NUMBER + r" \|\n.*SyncVectorEnv.* \| " + NUMBER
+          + r" \|\n.*1,024 envs \| " + NUMBER + r" \|\n.*8,192 envs \| " + NUMBER
+          + r" \|\n.*32,768 envs \| " + NUMBER + r" \|",
+          GYM2_BENCH[1],
+          _bench(GYM2_BENCH[1], "gym_env", "single_steps_per_s", "sync_vector_8_steps_per_s",
+                 "vector_1024_steps_per_s", "vector_8192_steps_per_s",
+                 "vector_32768_steps_per_s"),
+          "gym environments' steps per second"),
+    Quote("docs/gym.md", r"a single `AEBEnv` runs at " + NUMBER + r" s/s", GYM2_BENCH[1],
+          _bench(GYM2_BENCH[1], "gym_env", "single_simulated_s_per_s"),
+          "simulated seconds per second of the single env"),
+    Quote("docs/performance.md",
           r"numpy\s+reference: " + NUMBER + r" M/s \(load " + NUMBER + r"\) \| \*\*" + NUMBER
           + r" M/s\*\* compiled",
           IMPACT_BENCH,
@@ -621,6 +702,20 @@ QUOTES: tuple[Quote, ...] = (
                         _json(IMPACT_BENCH, root)["impact"]["load_average"],
                         _json(IMPACT_BENCH, root)["impact"]["impacts_per_s"] / 1e6],
           "impacts per second, compiled and numpy reference"),
+    Quote("docs/performance.md",
+          r"start of the next round: \*\*" + NUMBER + r" M/s\*\* \(load " + NUMBER
+          + r", record `core_37_session3_start.json`\)",
+          SESSION3_START, _bench(SESSION3_START, "impact", "impacts_per_s*1e-6",
+                                 "load_average"),
+          "impacts per second on an idle machine, unchanged code"),
+    Quote("docs/performance.md",
+          r"100,000 impacts, load " + NUMBER + r"\): the kernel " + NUMBER + r" ms \("
+          + NUMBER + r" ns per impact: .*numpy's arctan2 " + NUMBER + r" ms, the PDOF kernel "
+          + NUMBER + r" ms, and writing the result's fresh arrays \(20 MB\) " + NUMBER
+          + r" ms\s+against " + NUMBER + r" ms for arrays written before.* the kernel alone is "
+          + NUMBER,
+          IMPACT_BREAKDOWN, _breakdown,
+          "where the time of one impact call goes"),
     Quote("docs/performance.md",
           r"back to back against main [0-9a-f]{7} \(with the compiled run-out\): " + NUMBER
           + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
@@ -637,6 +732,43 @@ QUOTES: tuple[Quote, ...] = (
                         *_md_numbers(AEB_PROFILE, r"[\d.]+ +[\d.]+ +[\d.]+ +([\d.]+) +[\d.]+ "
                                      r"\S+simulation.py:\d+\(simulate_cases\)")(root)],
           "profile of the study with the compiled AEB controller"),
+    Quote("docs/performance.md",
+          r"back to back against the branch point 1d0b947: " + NUMBER + r" -> \*\*" + NUMBER
+          + r" case-runs/s\*\* \(" + NUMBER + r" -> " + NUMBER + r" s CPU, loads " + NUMBER
+          + r" and " + NUMBER + r"\): [\d.]+x; at the start of that round " + NUMBER + r" \("
+          + NUMBER + r" s, load " + NUMBER + r"\), at its end " + NUMBER + r" \(" + NUMBER
+          + r" s, load " + NUMBER + r"\)",
+          ",".join(STUDYIO_BENCH), _studyio_study, "study case-runs/s after the loading round"),
+    Quote("docs/performance.md",
+          r"after the loading round " + NUMBER + r" -> \*\*" + NUMBER + r" case-runs/s\*\* \("
+          + NUMBER + r" -> " + NUMBER + r" s CPU, back to back\)",
+          ",".join(STUDYIO_BENCH[:2]), _studyio_resume, "resume case-runs/s, loading round"),
+    Quote("docs/performance.md",
+          r"back to back against 1d0b947, cold " + NUMBER + r" -> \*\*" + NUMBER
+          + r" s CPU\*\* \(compiling " + NUMBER + r" -> " + NUMBER + r" s; loads " + NUMBER
+          + r" and " + NUMBER + r";",
+          ",".join(STUDYIO_WARMUP), _studyio_warmup, "cold start with the inlined helpers"),
+    Quote("docs/performance.md",
+          r"core_37_studyio_profile.txt`, CPU time under the profiler at load " + NUMBER
+          + r", " + NUMBER + r" s in all\): `simulate_cases` " + NUMBER + r" s, of it the "
+          r"compiled step `_settle_rows` " + NUMBER + r" s",
+          STUDYIO_PROFILE,
+          lambda root: [*_md_numbers(STUDYIO_PROFILE, r"load average ([\d.]+)")(root),
+                        *_md_numbers(STUDYIO_PROFILE, r"in ([\d.]+) seconds")(root),
+                        *_cumulative(STUDYIO_PROFILE, "simulation.py:LINE(simulate_cases)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "core.py:LINE(_settle_rows)")(root)],
+          "profile after the loading round: the step"),
+    Quote("docs/performance.md",
+          r"the controller's `demand` " + NUMBER + r" s \(its kernels about half\), the "
+          r"replay with numba's cache " + NUMBER + r" s; before the tasks the validation of the "
+          r"selection \(`study_input` " + NUMBER + r" s, of it `check_database` " + NUMBER
+          + r" s",
+          STUDYIO_PROFILE,
+          lambda root: [*_cumulative(STUDYIO_PROFILE, "controller.py:LINE(demand)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "core.py:LINE(replay_precrash)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "inputs.py:LINE(study_input)")(root),
+                        *_cumulative(STUDYIO_PROFILE, "checks.py:LINE(check_database)")(root)],
+          "profile after the loading round: controller, replay, validation"),
 
     *(Quote("docs/compare.md", _study36_table1(parameter)[0], STUDY36,
             _study36_table1(parameter)[1], f"study36 seeds 0-4: {parameter}")

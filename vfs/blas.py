@@ -14,8 +14,13 @@ for the processes it starts), unless the user chose a thread count with one of
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import ParamSpec, TypeVar
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 #: Environment variables by which a user chooses the thread count of a library's pool
 #: (BLAS and OpenMP pools; Arrow's CPU pool follows ``OMP_NUM_THREADS``); respected.
@@ -42,6 +47,24 @@ def single_threaded_blas() -> Iterator[None]:
         yield
 
 
+def one_blas_thread(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Decorator: ``func`` runs under :func:`single_threaded_blas`.
+
+    For the public entry points of vfs's jobs (:func:`vfs.diagnosis.diagnose.diagnose`,
+    :func:`vfs.uncertainty.bands.run_uncertainty`, ...), so that a call from Python (a
+    notebook, a script) gets what the command line gets: under load, OpenBLAS's threads
+    made the diagnosis's 80 x 80 eigenproblems some 30 times slower (600 generated
+    cases, 2 cores at load 3: 139 s CPU from Python against 61 s from the command line;
+    ``numpy.linalg.eigh`` 53 s against 2.8 s).  Costs about 0.5 ms per call.
+    """
+    @functools.wraps(func)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with single_threaded_blas():
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
 @contextlib.contextmanager
 def single_threaded_workers() -> Iterator[None]:
     """Processes started inside this block get :data:`WORKER_THREAD_VARIABLES` = 1.
@@ -59,5 +82,5 @@ def single_threaded_workers() -> Iterator[None]:
             os.environ.pop(name, None)
 
 
-__all__ = ["THREAD_VARIABLES", "WORKER_THREAD_VARIABLES", "single_threaded_blas",
-           "single_threaded_workers"]
+__all__ = ["THREAD_VARIABLES", "WORKER_THREAD_VARIABLES", "one_blas_thread",
+           "single_threaded_blas", "single_threaded_workers"]

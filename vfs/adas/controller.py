@@ -44,6 +44,7 @@ from vfs.physics.precrash import (
     PrecrashObservation,
     friction_limited_deceleration,
 )
+from vfs.physics.precrash_contact import take_rows
 
 if TYPE_CHECKING:
     from vfs.simulation import CaseBatch
@@ -130,6 +131,13 @@ class AEBController:
         self._front = np.stack([v1.cg_to_front, v2.cg_to_front], axis=1)  # [m]
         self._rear = np.stack([v1.cg_to_rear, v2.cg_to_rear], axis=1)  # [m]
         self._width = np.stack([v1.width, v2.width], axis=1)  # [m]
+        # the outline rows of a packed Motion (vfs.adas.compiled.pack) of every (case,
+        # participant), flat index 2 case + participant: half length and half width
+        # enlarged by the box margins, centre offset [m] (the numbers _pairs gives)
+        ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
+        self._outline = np.stack([0.5 * (self._front + self._rear) + ml,
+                                  0.5 * self._width + mw,
+                                  0.5 * (self._front - self._rear)]).reshape(3, 2 * n)
         thresholds = np.array([np.nan if x is None else x for x in aeb.thresholds], float)
         self._thresholds = thresholds  # (3,) [s]
         self._release_thresholds = np.where(np.isnan(thresholds), np.inf,
@@ -227,18 +235,18 @@ class AEBController:
                                       if cycle > 0.0 else -np.inf)
         self._act(t)
         rows = obs.rows
-        acting = self._acting[rows]
+        acting = take_rows(self._acting, rows)
         full = friction_limited_deceleration(obs.road_friction, self.aeb.full_deceleration)[:, None]
         out = np.where(acting[..., 2], full, 0.0)
         out = np.maximum(out, np.where(acting[..., 1], self.aeb.partial_deceleration, 0.0))
         if self.driver is not None:
-            on = t >= self._driver_start[rows] - _TIME_SLACK
-            first = on & np.isnan(self._driver_time[rows])
+            on = t >= take_rows(self._driver_start, rows) - _TIME_SLACK
+            first = on & np.isnan(take_rows(self._driver_time, rows))
             if first.any():
                 ri, ci = np.nonzero(first)
                 self._driver_time[rows[ri], ci] = t
-            out = np.maximum(out, np.where(on, self._driver_decel[rows], 0.0))
-        return np.where(self.equipped[rows], out, 0.0)
+            out = np.maximum(out, np.where(on, take_rows(self._driver_decel, rows), 0.0))
+        return np.where(take_rows(self.equipped, rows), out, 0.0)
 
     def _act(self, t: float) -> None:
         """Let the queued decisions whose latency has passed act; record first times."""
@@ -265,12 +273,13 @@ class AEBController:
         """
         aeb, sensor = self.aeb, self.aeb.sensor
         rows = obs.rows
-        ri, ji = np.nonzero(self.equipped[rows])
+        ri, ji = np.nonzero(take_rows(self.equipped, rows))
         if ri.size and core_enabled():
             case = rows[ri]
-            ego, obj = self._pairs(obs, ri, ji)
-            compiled.assess(ego, obj, case, ji, self._front[case, ji], obs.road_friction[ri],
-                            self._stage, self._ttc, aeb, self.brake, self._dt, self._draw)
+            a, b = self._packed_pairs(obs, ri, ji)
+            compiled.assess(a, b, case, ji, self._front.reshape(-1)[2 * case + ji],
+                            obs.road_friction[ri], self._stage, self._ttc, aeb, self.brake,
+                            self._dt, self._draw)
         elif ri.size:
             case = rows[ri]
             front = self._front[case, ji]
@@ -332,6 +341,26 @@ class AEBController:
                      0.5 * (o_front + o_rear) + ml, 0.5 * o_width + mw,
                      0.5 * (o_front - o_rear))
         return ego, obj
+
+    def _packed_pairs(self, obs: PrecrashObservation, ri: np.ndarray,
+                      ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_pairs` packed for the compiled kernels (:func:`vfs.adas.compiled.pack`,
+        (10, m) each), gathered at once: the same numbers.
+        """
+        # the direction of motion is undefined at standstill: take the yaw there
+        heading = np.where(obs.speed > 0.0, obs.heading, obs.yaw)
+        kin = np.stack([obs.x, obs.y, obs.yaw, heading, obs.speed, obs.accel,
+                        obs.yaw_rate]).reshape(7, -1)  # (7, 2 n): flat index 2 row + column
+        ego = 2 * ri + ji
+        obj = ego ^ 1  # the other participant of the row
+        flat = 2 * obs.rows[ri]
+        m = ri.shape[0]
+        a, b = np.empty((10, m)), np.empty((10, m))
+        np.take(kin, ego, axis=1, out=a[:7])
+        np.take(self._outline, flat + ji, axis=1, out=a[7:])
+        np.take(kin, obj, axis=1, out=b[:7])
+        np.take(self._outline, flat + (1 - ji), axis=1, out=b[7:])
+        return a, b
 
     def _needed_horizon(self, active: np.ndarray, speed: np.ndarray) -> np.ndarray:
         """Horizon [s] per ego up to which the TTC can still change the decision.

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vfs.blas import one_blas_thread
 from vfs.diagnosis.calibrate import (
     CalibrationData,
     CVResult,
@@ -138,9 +139,8 @@ def stratified_residuals(data: CalibrationData, residuals: np.ndarray,
                          strata: Sequence[str] = STRATA_FEATURES) -> pd.DataFrame:
     """Residual statistics per stratum of each stratifying feature (long table).
 
-    Columns: feature, stratum, output, column, n, bias (mean residual) and
-    rmse in the output's report unit, rmse_std (RMSE of the standardised
-    residuals of the output).
+    Columns: feature, stratum, output, column, n, bias (mean residual) and rmse in the
+    output's report unit, rmse_std (RMSE of the standardised residuals of the output).
     """
     rows: list[dict[str, Any]] = []
     errors = data.case_errors(residuals)
@@ -464,6 +464,7 @@ def resolve_candidates(effects: str | Iterable[str] | None) -> list[str]:
     return list(dict.fromkeys(names))
 
 
+@one_blas_thread
 def diagnose(db: Any, spec: DiagnoseSpec | None = None, *,
              params: SimulationParams | None = None,
              progress: Callable[[str], None] | None = None, **settings: Any) -> Diagnosis:

@@ -53,6 +53,7 @@ import numpy as np
 import pandas as pd
 
 from vfs.atomic import write_text
+from vfs.blas import one_blas_thread
 from vfs.diagnosis.calibrate import CalibrationData, VariantSimulator
 from vfs.diagnosis.choices import DEFAULT_CHANNELS, parse_channels
 from vfs.diagnosis.features import case_features
@@ -506,6 +507,7 @@ def _refine_all(data: CalibrationData, sim: VariantSimulator,
     return done
 
 
+@one_blas_thread
 def identify(data: CalibrationData, channels: str | Iterable[str] | None = None,
              grid_points: int = 21, sim: VariantSimulator | None = None,
              refine: bool = True, zoom_starts: int = 0,

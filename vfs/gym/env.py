@@ -321,7 +321,9 @@ class EpisodeBatch:
         """Deceleration demand (n, 2) [m/s^2] of the running rows for slot actions (S,)."""
         run = self.run
         rows = run.rows
-        a = np.clip(np.nan_to_num(actions[self.row_slot[rows]], nan=0.0), 0.0, 1.0)
+        a = actions[self.row_slot[rows]]
+        # NaN -> 0, then [0, 1] (numpy.nan_to_num's +-inf -> +-max clip alike; one call less)
+        a = np.clip(np.where(np.isnan(a), 0.0, a), 0.0, 1.0)
         d = np.zeros((rows.shape[0], 2))
         d[:, self.config.ego - 1] = a * run.limit[rows, 0]
         return d
@@ -367,15 +369,19 @@ class EpisodeBatch:
                 ended_rows.append(fin[run.collided[fin]])
                 trunc_rows.append(fin[~run.collided[fin]])
             # standstill: ego stopped, the object stopped for good; nothing moves any more
-            tau = run.local_time(rows)
-            still = (run.state.speed[:, e] <= STANDSTILL) & ~run.pending[rows] & (tau > 0.0) \
-                & (tau >= self.other_rest_from[rows])
+            still = run.state.speed[:, e] <= STANDSTILL
+            if still.any():  # the other conditions only where the ego stands still
+                tau = run.local_time(rows)
+                still &= ~run.pending[rows] & (tau > 0.0) & (tau >= self.other_rest_from[rows])
             if still.any():
                 r = rows[still]
                 run.stop(r, keep_state=True)
                 ended_rows.append(r)
         terminated = np.zeros(s, dtype=bool)
         truncated = np.zeros(s, dtype=bool)
+        if not ended_rows and not trunc_rows:  # no episode ended (most steps)
+            return {"reward": reward, "terminated": terminated, "truncated": truncated,
+                    "ended": np.zeros(0, np.int64)}
         ended = np.concatenate(ended_rows) if ended_rows else np.zeros(0, np.int64)
         trunc = np.concatenate(trunc_rows) if trunc_rows else np.zeros(0, np.int64)
         terminated[self.row_slot[ended]] = True
@@ -506,6 +512,7 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
         step = self.config.simulation.precrash.dt * self.config.action_repeat
         self.metadata = {**self.metadata, "render_fps": round(1.0 / step, 3)}
         self._row = -1
+        self._case_id: Any = None
         self._done = True
         self._trace: EpisodeTrace | None = None
         self._frames: FrameRenderer | None = None
@@ -520,12 +527,13 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
         self.core.assign(slots, rows)
         self.core.start_now(rows)
         self._row = int(rows[0])
+        self._case_id = self.core.case_id(self._row)
         self._done = False
         if self.render_mode is not None:
             self._trace = start_trace(self.core, self._row)
             record_step(self._trace, self.core, self._row, 0.0)
         obs = self.core.observations()[0]
-        return obs, {"case_id": self.core.case_id(self._row), "t": 0.0}
+        return obs, {"case_id": self._case_id, "t": 0.0}
 
     def step(self, action: npt.ArrayLike) -> tuple[np.ndarray, float, bool, bool,
                                                    dict[str, Any]]:
@@ -534,10 +542,11 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ParameterError("step() after the episode ended; call reset()")
         a = np.asarray(action, float).reshape(-1)[:1]
         out = self.core.step_rows(a)
-        core, row = self.core, np.array([self._row])
+        core = self.core
         term, trunc = bool(out["terminated"][0]), bool(out["truncated"][0])
-        info: dict[str, Any] = {"case_id": core.case_id(self._row)}
+        info: dict[str, Any] = {"case_id": self._case_id}
         if term or trunc:
+            row = np.array([self._row])
             self._done = True
             obs = core.observations(row)[0]
             ep = core.episode_info(row, out.get("impact"), out.get("impact_rows"),
@@ -552,7 +561,8 @@ class AEBEnv(gym.Env[np.ndarray, np.ndarray]):
                     "crash avoided" if info.get("avoided") else "no collision")
         else:
             obs = core.observations()[0]
-            info["t"] = float(core.run.local_time(row)[0])
+            run = core.run
+            info["t"] = float((run.k - run.k0[self._row]) * run.dt)  # run.local_time
             if self._trace is not None:
                 record_step(self._trace, core, self._row, float(np.clip(a[0], 0.0, 1.0)))
         return obs, float(out["reward"][0]), term, trunc, info

@@ -14,9 +14,10 @@ import numpy as np
 from vfs.adas.params import SensorParams
 from vfs.adas.sensor import outline_visible
 from vfs.adas.threat import Motion, time_to_collision
-from vfs.gym.compiled import rectangle_distance_compiled
+from vfs.gym.compiled import UNIT_CORNERS, rectangle_distance_compiled, sensor_kernel
 from vfs.physics.geometry import rectangle_distance
 from vfs.physics.numba_support import enabled as compiled_enabled
+from vfs.physics.numba_support import run_kernel
 from vfs.physics.precrash import PrecrashObservation
 
 if TYPE_CHECKING:
@@ -213,6 +214,72 @@ def threat_entries(p: PrecrashObservation, dims: Dimensions, ego: int, gap: np.n
 def observe(p: PrecrashObservation, dims: Dimensions, cfg: ObservationSettings) -> np.ndarray:
     """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
 
+    :func:`observe_reference`; the sensor observation without threat entries (the
+    default) by the compiled kernel (:func:`vfs.gym.compiled.sensor_kernel`) where
+    :func:`vfs.physics.numba_support.enabled`: the same numbers bit for bit
+    (``tests/gym/test_fast_observation.py``), without some hundred numpy calls per step.
+    """
+    if (compiled_enabled() and not cfg.privileged and not cfg.threat_features
+            and p.vx is not None and p.vy is not None):
+        return _observe_sensor_compiled(p, p.vx, p.vy, dims, cfg)
+    return observe_reference(p, dims, cfg)
+
+
+#: Non-empty once the sensor kernel ran in this process (:func:`_observe_sensor_compiled`).
+_KERNEL_LOADED: list[bool] = []
+
+
+def _observe_sensor_compiled(p: PrecrashObservation, vx: np.ndarray, vy: np.ndarray,
+                             dims: Dimensions, cfg: ObservationSettings) -> np.ndarray:
+    """:func:`observe_reference` of the sensor observation by the compiled kernel
+    (``vx``, ``vy``: ``p.vx``, ``p.vy``, not None).
+    """
+    rows = p.rows
+    n = rows.shape[0]
+    e, o = cfg.ego - 1, 2 - cfg.ego
+    f32 = np.float32
+    yaw32 = p.yaw.astype(f32)
+    yc, ys = np.cos(yaw32), np.sin(yaw32)
+    sn = cfg.sensor
+    boresight = bool(sn.mount_yaw)
+    if boresight:
+        b = yaw32[:, e] + f32(sn.mount_yaw)
+        bx, by = np.cos(b), np.sin(b)
+    else:
+        bx = by = yc[:0, e]
+    half = 0.5 * sn.field_of_view
+    out = np.empty((n, 10), f32)
+    unsure = np.empty(n, np.int8)
+    aux = np.empty((n, 6), f32)
+    seen_in = np.empty(0, np.int8)
+    low, high = _OBS_BOUNDS
+    args = (p.x, p.y, p.yaw, yc, ys, p.speed, p.accel, vx, vy, p.road_friction, rows,
+            *dims, e, o, boresight, bx, by, f32(sn.mount_x), f32(sn.mount_y),
+            half < math.pi, half, f32(math.cos(half)), f32(sn.range), bool(cfg.observe_friction),
+            low, high, *UNIT_CORNERS)
+    kernel = sensor_kernel()
+    if _KERNEL_LOADED:
+        kernel(*args, seen_in, False, out, unsure, aux)
+    else:  # the first call says when numba compiled the kernel instead of loading its cache
+        run_kernel(kernel, "sensor observation of the gym", *args, seen_in, False, out,
+                   unsure, aux)
+        _KERNEL_LOADED.append(True)
+    if n and unsure.any():  # the exact visibility test of the reference (numpy)
+        u = np.flatnonzero(unsure)
+        a = aux[u]
+        bu = np.arctan2(by[u], bx[u]) if boresight else np.arctan2(ys[u, e], yc[u, e])
+        seen_in = np.full(n, -1, np.int8)
+        seen_in[u] = outline_visible(a[:, 0], a[:, 1], bu, sn.field_of_view, sn.range,
+                                     a[:, 2], a[:, 3], np.arctan2(ys[u, o], yc[u, o]),
+                                     a[:, 4], a[:, 5])
+        kernel(*args, seen_in, True, out, unsure, aux)
+    return out
+
+
+def observe_reference(p: PrecrashObservation, dims: Dimensions,
+                      cfg: ObservationSettings) -> np.ndarray:
+    """Observations (n, d) float32 of the cases ``p.rows`` (docs/gym.md, "Observation").
+
     Sensor observation (:data:`OBSERVATION_NAMES`): ego speed [m/s] and
     longitudinal acceleration [m/s^2]; whether the object's outline is in
     the sensor's field of view (1/0); when it is: the gap between the
@@ -303,5 +370,5 @@ __all__ = [
     "OBSERVATION_HIGH", "OBSERVATION_LOW", "OBSERVATION_NAMES", "OBSERVATION_UNITS",
     "PRIVILEGED_HIGH", "PRIVILEGED_LOW", "PRIVILEGED_NAMES", "THREAT_HIGH", "THREAT_LOW",
     "THREAT_NAMES", "THREAT_UNITS", "TTC_NONE", "Dimensions", "miss_distance_cv", "observe",
-    "threat_entries",
+    "observe_reference", "threat_entries",
 ]

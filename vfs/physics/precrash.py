@@ -62,6 +62,7 @@ from vfs.physics.precrash_contact import (
     put_rows,
     record_pair,
     state_at_arclength,
+    take_rows,
     take_state,
 )
 from vfs.physics.precrash_result import KinematicState, PrecrashResult
@@ -222,7 +223,7 @@ class _Track:
 
     def take(self, keep: np.ndarray) -> None:
         for name in self.FIELDS:
-            setattr(self, name, getattr(self, name)[keep])
+            setattr(self, name, take_rows(getattr(self, name), keep))
 
 
 # ----------------------------------------------------------------------------
@@ -445,12 +446,13 @@ class PrecrashRun(PrecrashCases):
 
     def _keep(self, keep: np.ndarray) -> None:
         """Drop the running rows where ``keep`` is False."""
+        keep = np.flatnonzero(keep)  # one index for the twenty-odd arrays
         self.rows = self.rows[keep]
         self.state = take_state(self.state, keep)
-        self.v_rec, self.a_rec = self.v_rec[keep], self.a_rec[keep]
+        self.v_rec, self.a_rec = take_rows(self.v_rec, keep), take_rows(self.a_rec, keep)
         self.track.take(keep)
-        self.prev_dv, self.prev_ds = self.prev_dv[keep], self.prev_ds[keep]
-        self.prev_ti, self.prev_si = self.prev_ti[keep], self.prev_si[keep]
+        self.prev_dv, self.prev_ds = take_rows(self.prev_dv, keep), take_rows(self.prev_ds, keep)
+        self.prev_ti, self.prev_si = take_rows(self.prev_ti, keep), take_rows(self.prev_si, keep)
         self.active = None
 
     # ------------------------------------------------------------------ one step
@@ -612,6 +614,9 @@ class PrecrashRun(PrecrashCases):
         self.v_rec, self.a_rec = rec[0], rec[1]
         tau = kk * dt
         ended: list[np.ndarray] = []
+        if not event.any():  # no contact, no impact (EVENT_NONE is 0): the rows' ends only
+            self._end_rows(ended, tau)
+            return
         new = event == core.EVENT_CONTACT
         if new.any():
             r = rows[new]
@@ -713,15 +718,15 @@ class PrecrashRun(PrecrashCases):
         self._save_previous()
         if demand is not None:
             demand = np.asarray(demand, float)
-            new_decel = actuator_step(track.decel, demand, self.limit[rows], self.params.brake,
-                                      dt)
+            new_decel = actuator_step(track.decel, demand, take_rows(self.limit, rows),
+                                      self.params.brake, dt)
         else:
             new_decel = track.decel
         mean_decel = 0.5 * (track.decel + new_decel)
         braking = mean_decel > 0
         track.dv = track.dv + dt * np.where(braking, np.maximum(0.0, self.a_rec + mean_decel),
                                             0.0)
-        started = (new_decel > 0) & np.isnan(self.brake_start[rows])
+        started = (new_decel > 0) & np.isnan(take_rows(self.brake_start, rows))
         if started.any():
             ri, ci = np.nonzero(started)
             self.brake_start[rows[ri], ci] = self.local_time(rows)[ri]

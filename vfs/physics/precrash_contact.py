@@ -163,9 +163,24 @@ def put_rows(dst: KinematicState, rows: np.ndarray, src: KinematicState) -> None
         a[rows] = b
 
 
+def take_rows(a: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``a[index]`` for a 1-d boolean mask or integer index of the rows (first axis) of
+    ``a``: the same rows, by :func:`numpy.compress` or :func:`numpy.take` (several times
+    faster than fancy indexing on arrays of more than one dimension, paid per step).
+    """
+    index = np.asarray(index)
+    if index.ndim != 1 or a.ndim == 0:
+        return a[index]
+    if index.dtype == np.bool_:
+        if index.shape[0] != a.shape[0]:
+            return a[index]  # the IndexError of a wrong mask
+        return np.compress(index, a, axis=0)
+    return np.take(a, index, axis=0)
+
+
 def take_state(state: KinematicState, mask: np.ndarray) -> KinematicState:
     """Rows of a state (by mask or index)."""
-    return KinematicState(*(a[mask] for a in state))
+    return KinematicState(*(take_rows(a, mask) for a in state))
 
 
 def bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
@@ -195,4 +210,4 @@ def bisect_contact(paths: PathArrays, v1: VehicleArrays, v2: VehicleArrays,
 __all__ = ["GRAZE_SAMPLES", "SEPARATION_MARGIN", "active_rows", "bisect_contact",
            "kinematics_at", "largest_overlap", "nan_state", "outlines", "overlap_area",
            "overlapping", "put_rows", "record_pair", "state_at_arclength",
-           "take_state"]
+           "take_rows", "take_state"]

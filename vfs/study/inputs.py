@@ -46,6 +46,7 @@ from vfs.database.io import is_url, iter_table, load_cases, orphan_problems, rea
 from vfs.database.schema import TABLE_NAMES
 from vfs.database.validation import validate_table
 from vfs.errors import DataError, DataProblem
+from vfs.study.case_cache import BLOCKS, folder_key
 from vfs.study.manifest import data_hash
 
 #: Cases validated at a time on the client (Parquet databases).
@@ -117,7 +118,7 @@ def streamed_data_hash(location: str, case_ids: np.ndarray) -> str:
 
 def study_input(source: str | os.PathLike[str] | Database, where: str | None = None,
                 *, block_cases: int = VALIDATION_BLOCK, validate: bool = True,
-                hash: bool = True) -> StudyInput:
+                hash: bool = True, keep: bool = False) -> StudyInput:
     """Open a study's database and select its cases (see the module's description).
 
     Parameters
@@ -138,6 +139,9 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
         Compute the data hash of a Parquet selection now (default); with False
         ``data_hash`` is left empty for :func:`selection_hash` (a new parallel
         study computes it with the validation).
+    keep : bool
+        Keep the validated blocks for the tasks of this process
+        (:func:`validate_selection`; a serial study).
 
     Returns
     -------
@@ -174,7 +178,7 @@ def study_input(source: str | os.PathLike[str] | Database, where: str | None = N
     folder = location if is_url(location) else str(Path(location).resolve())
     chosen = StudyInput(cases, meta, "", fmt, folder, reference, validated=False)
     if validate:  # before the hash reads every row: the data are known to be readable
-        validate_selection(chosen, block_cases)
+        validate_selection(chosen, block_cases, keep=keep)
         chosen = dataclasses.replace(chosen, validated=True)
     if hash:
         chosen = dataclasses.replace(chosen, data_hash=streamed_data_hash(location, ids))
@@ -188,12 +192,15 @@ def selection_hash(selection: StudyInput) -> str:
     return streamed_data_hash(selection.folder, selection.case_ids)
 
 
-def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOCK) -> None:
+def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOCK,
+                       keep: bool = False) -> None:
     """Validate the selected cases of a Parquet database in blocks of ``block_cases``.
 
     :func:`vfs.database.load_database` with ``validate=True`` on each block (every
     check of the schema is per case, so blocks find what the whole would); nothing
-    to do for a selection already validated.
+    to do for a selection already validated.  With ``keep`` the validated blocks
+    stay in :data:`vfs.study.case_cache.BLOCKS` (within its byte bound) for the
+    tasks of a serial study, which then read no file again.
 
     Raises
     ------
@@ -204,8 +211,10 @@ def validate_selection(selection: StudyInput, block_cases: int = VALIDATION_BLOC
         return
     ids = selection.case_ids
     for start in range(0, ids.size, max(1, int(block_cases))):
-        load_database(selection.folder, where=_ids_predicate(ids[start:start + block_cases]),
-                      validate=True)
+        block = ids[start:start + block_cases]
+        key = folder_key(selection.folder) if keep else None
+        db = load_database(selection.folder, where=_ids_predicate(block), validate=True)
+        BLOCKS.put(key, block, db)
 
 
 def _nothing_selected(where: str | None) -> DataError:

@@ -46,6 +46,7 @@ from vfs.database import Database
 from vfs.database.metadata import field_metadata
 from vfs.errors import ParameterError, SimulationError
 from vfs.simulation import CaseBatch
+from vfs.study.case_cache import release as release_cases
 from vfs.study.executors import EXECUTORS, ExecutorOptions, cpu_count
 from vfs.study.faults import record_fault
 from vfs.study.inputs import StudyInput, selection_hash, study_input, validate_selection
@@ -320,16 +321,22 @@ def run_study(db: str | os.PathLike[str] | Database | StudySpec,
     # workers only a new study's data hash is computed while they run (_Validation)
     defer = spec.engine != "serial"
     resuming = spec.resume and (spec.out / MANIFEST_FILE).exists()
-    selection = study_input(spec.db, spec.where, validate=True, hash=not defer or resuming)
-    ids = selection.case_ids  # never empty (study_input refuses)
-    size = spec.chunk_size
-    plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
-                 system_objs, [str(s.name) for s in system_objs], started)
-    lock = acquire_lock(spec.out)
+    # a serial study's tasks run here: they take their cases from the validated blocks
+    # (vfs.study.case_cache), which are let go when the study ends
     try:
-        return _run_locked(plan)
+        selection = study_input(spec.db, spec.where, validate=True,
+                                hash=not defer or resuming, keep=not defer)
+        ids = selection.case_ids  # never empty (study_input refuses)
+        size = spec.chunk_size
+        plan = _Plan(spec, selection, [ids[i:i + size] for i in range(0, ids.size, size)],
+                     system_objs, [str(s.name) for s in system_objs], started)
+        lock = acquire_lock(spec.out)
+        try:
+            return _run_locked(plan)
+        finally:
+            lock.unlink(missing_ok=True)
     finally:
-        lock.unlink(missing_ok=True)
+        release_cases()
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from vfs.simulation import (
     results_table,
     simulate_cases,
 )
+from vfs.study.case_cache import BLOCKS, CASES, batch_key
 from vfs.study.layout import (
     BASELINE,
     BOOL_COLUMNS,
@@ -116,7 +117,10 @@ def load_chunk(task: RunTask) -> CaseBatch:
 
     Parquet databases are read case-selectively (duckdb on the files, or
     pyarrow with a ``case_id`` filter for a URL: only the chunk's rows); CSV
-    and PCM folders are loaded whole once per process.
+    and PCM folders are loaded whole once per process.  The batches of a
+    database folder are kept for the next tasks of the same cases (the other
+    systems of the chunk set) in :data:`vfs.study.case_cache.CASES`, keyed by
+    the folder's files and their modification times (read-only arrays).
     """
     if task.batch is not None:
         return task.batch
@@ -124,13 +128,25 @@ def load_chunk(task: RunTask) -> CaseBatch:
         raise ParameterError("a chunk task needs a database reference or a batch")
     location = database_location(task.db)  # this worker's own install for "default"
     ids = np.asarray(task.case_ids)
-    if task.db_format == "parquet":
-        where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
-        db = load_database(location, where=where, validate=False)
+    key = batch_key(location, task.db_format, ids, task.impact_parameters)
+    if key is None:
+        return _load_batch(location, task.db_format, ids, task.impact_parameters)
+    return CASES.get(key, lambda: _load_batch(location, task.db_format, ids,
+                                              task.impact_parameters))
+
+
+def _load_batch(location: str, fmt: str, ids: np.ndarray, impact_parameters: str
+                ) -> CaseBatch:
+    """The cases ``ids`` of the database at ``location`` as a batch (no cache)."""
+    if fmt == "parquet":
+        db = BLOCKS.covering(location, ids)  # validated by this process's study already
+        if db is None:
+            where = "case_id IN (" + ", ".join(str(int(i)) for i in ids) + ")"
+            db = load_database(location, where=where, validate=False)
     else:
         stamp = max(p.stat().st_mtime for p in Path(location).iterdir())
-        db = _whole_database(location, task.db_format, stamp)
-    return CaseBatch.from_database(db, ids, impact_parameters=task.impact_parameters)
+        db = _whole_database(location, fmt, stamp)
+    return CaseBatch.from_database(db, ids, impact_parameters=impact_parameters)
 
 
 def error_text(exc: BaseException) -> str:

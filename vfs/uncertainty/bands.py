@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
+from vfs.blas import one_blas_thread
 from vfs.physics.impact import IMPACT_FULL, IMPACT_NONE, IMPACT_SLIDING, impact_type_names
 from vfs.uncertainty.cases import CaseSet, recorded_outcomes
 from vfs.uncertainty.config import INPUT_NAMES, INPUTS, UncertaintyConfig, default_config
@@ -148,6 +149,7 @@ def _quantiles(values: np.ndarray, kind: str) -> dict[str, np.ndarray]:
             "rel_half_width": rel, "n": np.isfinite(values).sum(axis=0)}
 
 
+@one_blas_thread
 def run_uncertainty(cases: CaseSet, config: UncertaintyConfig | None = None,
                     n_samples: int = 1000, seed: int | np.random.Generator | None = 0,
                     keep_samples: bool = False, sampling: str = DEFAULT_SAMPLING,

@@ -60,6 +60,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtr, ndtri
 
+from vfs.blas import one_blas_thread
 from vfs.errors import ParameterError
 from vfs.physics.impact import impact_type_names
 from vfs.uncertainty.cases import CaseSet
@@ -609,6 +610,7 @@ def _chains(problem: _Problem, start: _Batch, settings: ReconstructSettings,
     return records, steps, (moves / tries if tries else math.nan)
 
 
+@one_blas_thread
 def reconstruct(cases: CaseSet, case_id: object, config: UncertaintyConfig | None = None,
                 observation: ObservationSettings | None = None,
                 settings: ReconstructSettings | None = None,

@@ -20,6 +20,7 @@ orig = cr.run_to_rest
 
 
 def keep(par, state, consts, max_steps, per_sample, lt, record, pairs):
+    """The run-out kernel's entry, keeping a copy of each batch."""
     batches.append((par.copy(), tuple(a.copy() for a in state), consts, max_steps,
                     per_sample, lt, record, pairs))
     return orig(par, state, consts, max_steps, per_sample, lt, record, pairs)
@@ -33,10 +34,12 @@ serial, _ = cr._compiled()
 
 
 def run(kernel, b):
+    """Run one kept batch with ``kernel``; its state and outputs."""
     par, state, consts, max_steps, per_sample, lt, record, pairs = b
     n = par.shape[0]
     st = np.zeros((n, cr._NST))
-    for f, a in zip((cr._X, cr._Y, cr._YAW, cr._VX, cr._VY, cr._R), state):
+    for f, a in zip((cr._X, cr._Y, cr._YAW, cr._VX, cr._VY, cr._R), state,
+                    strict=True):
         st[:, f] = a
     st[:, cr._VX_PREV:cr._R_PREV + 1] = st[:, cr._VX:cr._R + 1]
     out = (np.zeros(n, np.int64), np.zeros(n, np.bool_), np.zeros(n, np.int64),
@@ -54,7 +57,8 @@ for name, kernel in (("one thread", serial), (f"{numba.get_num_threads()} thread
     print(f"{name}: CPU {time.process_time() - c0:.2f} s, wall {time.perf_counter() - t0:.2f} s")
     if name == "one thread":
         ref = outs
-same = all(np.array_equal(a, b, equal_nan=True) for o, r in zip(outs, ref) for a, b in zip(o, r))
+same = all(np.array_equal(a, b, equal_nan=True) for o, r in zip(outs, ref, strict=True)
+           for a, b in zip(o, r, strict=True))
 print("bit-identical to one thread:", same)
 print(f"batches {len(batches)}, vehicles {sum(b[0].shape[0] for b in batches)}; "
       f"load average {os.getloadavg()[0]:.2f} on 2 cores shared with other jobs")

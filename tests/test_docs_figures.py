@@ -111,6 +111,7 @@ def _mutation_latest(module: str) -> Callable[[Path], list[float]]:
 IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
 IMPACT_BREAKDOWN = "benchmarks/results/core_37_impact_breakdown.json"
 SESSION3_START = "benchmarks/results/core_37_session3_start.json"
+SESSION3_END = "benchmarks/results/core_37_session3_end.json"
 
 
 def _breakdown(root: Path) -> list[float]:
@@ -708,6 +709,48 @@ QUOTES: tuple[Quote, ...] = (
           SESSION3_START, _bench(SESSION3_START, "impact", "impacts_per_s*1e-6",
                                  "load_average"),
           "impacts per second on an idle machine, unchanged code"),
+    Quote("docs/performance.md",
+          r"unchanged main\s+\(`core_37_session3_start.json`, load " + NUMBER
+          + r"\), and at its end\s+\(`core_37_session3_end.json`, load " + NUMBER + r"\)",
+          f"{SESSION3_START},{SESSION3_END}",
+          lambda root: [*_bench(SESSION3_START, "study", "load_average_1min")(root),
+                        *_bench(SESSION3_END, "study", "load_average_1min")(root)],
+          "loads of the idle-machine benchmarks at the round's start and end"),
+    Quote("docs/performance.md",
+          r"one core, CPU time \| " + NUMBER + r" case-runs/s \| " + NUMBER
+          + r" case-runs/s \| >= 5,000 \|\n\| the same, resume \| " + NUMBER
+          + r" case-runs/s \| " + NUMBER + r" case-runs/s",
+          f"{SESSION3_START},{SESSION3_END}",
+          lambda root: [*_bench(SESSION3_START, "study", "case_runs_per_s_cpu")(root),
+                        *_bench(SESSION3_END, "study", "case_runs_per_s_cpu")(root),
+                        *_bench(SESSION3_START, "study", "resume_case_runs_per_s_cpu")(root),
+                        *_bench(SESSION3_END, "study", "resume_case_runs_per_s_cpu")(root)],
+          "study case-runs per CPU-second at the round's start and end, idle machine"),
+    Quote("docs/performance.md",
+          r"1,000 samples, CPU time \| " + NUMBER + r" s \| " + NUMBER + r" s \| < 3 s \|\n"
+          r".*steps per CPU-second \| " + NUMBER + r" / " + NUMBER + r" k \| " + NUMBER
+          + r" / " + NUMBER + r" k \|.*\n\| impacts \| " + NUMBER + r" M/s \| " + NUMBER
+          + r" M/s .*\n.*cold start, CPU time \| \| " + NUMBER + r" s once",
+          f"{SESSION3_START},{SESSION3_END}",
+          lambda root: [
+              *_bench(SESSION3_START, "uncertainty", "uncertainty_cpu_seconds")(root),
+              *_bench(SESSION3_END, "uncertainty", "uncertainty_cpu_seconds")(root),
+              *_bench(SESSION3_START, "gym_env", "single_steps_per_cpu_s",
+                      "vector_32768_steps_per_cpu_s*1e-3")(root),
+              *_bench(SESSION3_END, "gym_env", "single_steps_per_cpu_s",
+                      "vector_32768_steps_per_cpu_s*1e-3")(root),
+              *_bench(SESSION3_START, "impact", "impacts_per_s*1e-6")(root),
+              *_bench(SESSION3_END, "impact", "impacts_per_s*1e-6")(root),
+              *_bench(SESSION3_END, "warmup", "cold_cpu_s")(root)],
+          "Monte-Carlo, gym, impacts and cold start at the round's start and end, idle"),
+    Quote("docs/performance-kernels.md",
+          r"\(`benchmarks/results/core_37_runmc_threads_idle.txt`\): " + NUMBER
+          + r" s wall with one thread, " + NUMBER + r" s\s+with 2 threads",
+          "benchmarks/results/core_37_runmc_threads_idle.txt",
+          lambda root: [float(v) for v in re.findall(
+              r"wall ([\d.]+) s", (root / "benchmarks/results/core_37_runmc_threads_idle.txt")
+              .read_text())],
+          "the run-out with numba threads on the idle machine"),
     Quote("docs/performance.md",
           r"100,000 impacts, load " + NUMBER + r"\): the kernel " + NUMBER + r" ms \("
           + NUMBER + r" ns per impact: .*numpy's arctan2 " + NUMBER + r" ms, the PDOF kernel "

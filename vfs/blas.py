@@ -53,7 +53,7 @@ def one_blas_thread(func: Callable[_P, _R]) -> Callable[_P, _R]:
     For the public entry points of vfs's jobs (:func:`vfs.diagnosis.diagnose.diagnose`,
     :func:`vfs.uncertainty.bands.run_uncertainty`, ...), so that a call from Python (a
     notebook, a script) gets what the command line gets: under load, OpenBLAS's threads
-    made the diagnosis's 80 x 80 eigenproblems some 30 times slower (600 generated
+    made the diagnosis's 80 x 80 eigenproblems some 20 times slower (600 generated
     cases, 2 cores at load 3: 139 s CPU from Python against 61 s from the command line;
     ``numpy.linalg.eigh`` 53 s against 2.8 s).  Costs about 0.5 ms per call.
     """

@@ -248,6 +248,23 @@ def _path_cg(m: np.ndarray, i: int, u: float, k: float, curved: bool) -> tuple[f
             m[_Y, i] + chord * (sh * cos_h + ch * sin_h))
 
 
+def _sweep_point(a: np.ndarray, b: np.ndarray, i: int, t: float, acc_a: float, k_a: float,
+                 acc_b: float, k_b: float, curved_a: bool, curved_b: bool, braked: bool,
+                 delay: float, decel: float) -> tuple[float, float, float, float, float, float]:
+    """Arc lengths [m] of both predictions of pair ``i`` at time ``t`` [s] (A braked at
+    ``decel`` after ``delay`` where ``braked``) and their CG positions [m]:
+    (ua, ub, xa, ya, xb, yb).
+    """
+    if braked:
+        ua = _braked_arclength(a[_SPEED, i], delay, decel, t)
+    else:
+        ua = _predicted_arclength(a[_SPEED, i], acc_a, t)
+    ub = _predicted_arclength(b[_SPEED, i], acc_b, t)
+    xa, ya = _path_cg(a, i, ua, k_a, curved_a)
+    xb, yb = _path_cg(b, i, ub, k_b, curved_b)
+    return ua, ub, xa, ya, xb, yb
+
+
 def _sweep(a: np.ndarray, b: np.ndarray, i: int, model: int, start: float, end: float,
            step: float, intervals: int, curved_a: bool, curved_b: bool, braked: bool,
            delay: float, decel: float, bound: float) -> float:
@@ -263,26 +280,16 @@ def _sweep(a: np.ndarray, b: np.ndarray, i: int, model: int, start: float, end: 
     reach_r = _circumradius(a, i) + _circumradius(b, i)
     best = np.inf
     t0 = _fmin(start + 0.0 * step, end)
-    if braked:
-        ua0 = _braked_arclength(a[_SPEED, i], delay, decel, t0)
-    else:
-        ua0 = _predicted_arclength(a[_SPEED, i], acc_a, t0)
-    ub0 = _predicted_arclength(b[_SPEED, i], acc_b, t0)
-    xa0, ya0 = _path_cg(a, i, ua0, k_a, curved_a)
-    xb0, yb0 = _path_cg(b, i, ub0, k_b, curved_b)
+    ua0, ub0, xa0, ya0, xb0, yb0 = _sweep_point(a, b, i, t0, acc_a, k_a, acc_b, k_b, curved_a,
+                                                curved_b, braked, delay, decel)
     for j in range(intervals):
         if not t0 < end:
             break  # this and the later intervals are not counted
         if t0 > best:
             break  # every later contact is later than the one found
         t1 = _fmin(start + float(j + 1) * step, end)
-        if braked:
-            ua1 = _braked_arclength(a[_SPEED, i], delay, decel, t1)
-        else:
-            ua1 = _predicted_arclength(a[_SPEED, i], acc_a, t1)
-        ub1 = _predicted_arclength(b[_SPEED, i], acc_b, t1)
-        xa1, ya1 = _path_cg(a, i, ua1, k_a, curved_a)
-        xb1, yb1 = _path_cg(b, i, ub1, k_b, curved_b)
+        ua1, ub1, xa1, ya1, xb1, yb1 = _sweep_point(a, b, i, t1, acc_a, k_a, acc_b, k_b,
+                                                    curved_a, curved_b, braked, delay, decel)
         sep_x = xb0 - xa0
         sep_y = yb0 - ya0
         reach = reach_r + bound * (t1 - t0)
@@ -623,7 +630,8 @@ def _compiled() -> Any:
         g = globals()
         for name in ("_fmax", "_fmin", "_slab", "_wrap", "_circumradius", "_model_accel",
                      "_model_curvature", "_first_contact", "_earliest", "_ttc_cv",
-                     "_predicted_arclength", "_braked_arclength", "_path_cg", "_sweep",
+                     "_predicted_arclength", "_braked_arclength", "_path_cg", "_sweep_point",
+                     "_sweep",
                      "_grid_intervals", "_error_terms", "_ttc_batch", "_braked_batch",
                      "_ray_entry"):
             g[name] = numba.njit(**opts)(g[name])

@@ -321,31 +321,16 @@ class AEBController:
     def _pairs(self, obs: PrecrashObservation, ri: np.ndarray,
                ji: np.ndarray) -> tuple[Motion, Motion]:
         """The egos (running row ``ri``, participant ``ji``) and their objects, outlines
-        enlarged by the box margins [m].
+        enlarged by the box margins [m]: the rows of :meth:`_packed_pairs`.
         """
-        aeb = self.aeb
-        oi = 1 - ji
-        case = obs.rows[ri]
-        front, rear, width = (self._front[case, ji], self._rear[case, ji],
-                              self._width[case, ji])
-        o_front, o_rear, o_width = (self._front[case, oi], self._rear[case, oi],
-                                    self._width[case, oi])
-        ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
-        # the direction of motion is undefined at standstill: take the yaw there
-        heading = np.where(obs.speed > 0.0, obs.heading, obs.yaw)
-        ego = Motion(obs.x[ri, ji], obs.y[ri, ji], obs.yaw[ri, ji], heading[ri, ji],
-                     obs.speed[ri, ji], obs.accel[ri, ji], obs.yaw_rate[ri, ji],
-                     0.5 * (front + rear) + ml, 0.5 * width + mw, 0.5 * (front - rear))
-        obj = Motion(obs.x[ri, oi], obs.y[ri, oi], obs.yaw[ri, oi], heading[ri, oi],
-                     obs.speed[ri, oi], obs.accel[ri, oi], obs.yaw_rate[ri, oi],
-                     0.5 * (o_front + o_rear) + ml, 0.5 * o_width + mw,
-                     0.5 * (o_front - o_rear))
-        return ego, obj
+        a, b = self._packed_pairs(obs, ri, ji)
+        return Motion(*a), Motion(*b)
 
     def _packed_pairs(self, obs: PrecrashObservation, ri: np.ndarray,
                       ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_pairs` packed for the compiled kernels (:func:`vfs.adas.compiled.pack`,
-        (10, m) each), gathered at once: the same numbers.
+        """The egos (running row ``ri``, participant ``ji``) and their objects packed for
+        the compiled kernels (:func:`vfs.adas.compiled.pack`: the fields of
+        :class:`vfs.adas.threat.Motion` as rows, (10, m) each), gathered at once.
         """
         # the direction of motion is undefined at standstill: take the yaw there
         heading = np.where(obs.speed > 0.0, obs.heading, obs.yaw)

@@ -60,6 +60,23 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
     gym.add_parsers,
 )
 
+#: The top-level commands each group of :data:`COMMAND_GROUPS` declares (same order):
+#: ``vfs study ...`` builds the study group's parsers only (tests/cli/test_help.py checks
+#: that the two agree).
+GROUP_COMMANDS: tuple[tuple[str, ...], ...] = (
+    ("impact",),
+    ("run-case",),
+    ("bench",),
+    ("db",),
+    ("generate",),
+    ("study", "report"),
+    ("compare",),
+    ("diagnose", "calibrate", "ledger"),
+    ("identify", "learn"),
+    ("uncertainty", "sensitivity", "reconstruct"),
+    ("evaluate-policy",),
+)
+
 
 #: Shown below the command list of ``vfs --help``.
 EXAMPLES = """examples:
@@ -74,8 +91,18 @@ EXAMPLES = """examples:
 documentation: README.md and docs/ (mkdocs build), exit codes: README.md"""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every command."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser with every command.
+
+    Parameters
+    ----------
+    command : str, optional
+        A top-level command (``"study"``): only the sub-parsers of its group
+        (:data:`GROUP_COMMANDS`) are built, which imports only what that group's
+        options name (``vfs study`` does not import the uncertainty, diagnosis or gym
+        modules to build its parser); every command for None or an unknown name
+        (``vfs --help`` and the "did you mean" of a mistyped command list them all).
+    """
     from vfs.cli.common import Parser
     from vfs.version import __version__
 
@@ -86,15 +113,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"vfs {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for add in COMMAND_GROUPS:  # readers declare --strict (common.add_input_option)
+    groups = [add for add, names in zip(COMMAND_GROUPS, GROUP_COMMANDS, strict=True)
+              if command in names] or COMMAND_GROUPS
+    for add in groups:  # readers declare --strict (common.add_input_option)
         add(subparsers)
     return parser  # -v/-q: declared once, by every sub-parser (vfs.cli.common.Parser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vfs`` console script (and ``python -m vfs``)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    # the command's own group only: the first word (never after an option: "vfs -h study"
+    # is the help of every command)
+    parser = build_parser(words[0] if words and not words[0].startswith("-") else None)
+    args = parser.parse_args(words)
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
@@ -148,4 +180,4 @@ def _run(args: argparse.Namespace) -> int:
     return int(args.func(args))
 
 
-__all__ = ["COMMAND_GROUPS", "EXAMPLES", "build_parser", "main"]
+__all__ = ["COMMAND_GROUPS", "EXAMPLES", "GROUP_COMMANDS", "build_parser", "main"]

@@ -16,13 +16,13 @@ from vfs.cli.common import (
     out_folder,
     out_option,
 )
-from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 from vfs.errors import ParameterError
 from vfs.settings import cli_kwargs, declared
 
 if TYPE_CHECKING:  # pragma: no cover
     from vfs.database import Database
     from vfs.diagnosis.diagnose import Diagnosis
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
 
 #: Settings of ``--quick`` (small grids, 3 folds, fewer bootstrap samples).
 QUICK = {"folds": 3, "grid": 5, "zoom": 2, "n_boot": 500}
@@ -32,6 +32,8 @@ FLAGS = {"grid": "grid_points", "zoom": "zoom_rounds"}
 
 def _option(name: str, **kwargs: Any) -> dict[str, Any]:
     """Argparse keywords of the declared setting ``name`` of :class:`DiagnoseSpec`."""
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec  # not imported by other commands
+
     return cli_kwargs(declared(DiagnoseSpec)[FLAGS.get(name, name)]) | kwargs
 
 
@@ -52,13 +54,15 @@ def _settings(args: argparse.Namespace) -> dict[str, int]:
         for k, v in QUICK.items():
             if getattr(args, k) is None:
                 s[k] = v
+    from vfs.diagnosis.diagnose_spec import DiagnoseSpec
+
     specs = declared(DiagnoseSpec)
     return {k: (specs[FLAGS.get(k, k)].default if v is None else int(v)) for k, v in s.items()}
 
 
 def diagnose_spec(args: argparse.Namespace, database: str = "") -> DiagnoseSpec:
     """The :class:`vfs.diagnosis.diagnose_spec.DiagnoseSpec` of the flags of ``vfs diagnose``."""
-    from vfs.diagnosis.diagnose_spec import MAX_STEPS
+    from vfs.diagnosis.diagnose_spec import MAX_STEPS, DiagnoseSpec
 
     s = _settings(args)
     steps = args.max_steps if args.max_steps is not None else (

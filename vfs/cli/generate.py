@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import time
 
-from vfs.effects import registered_effects
 from vfs.errors import ParameterError
 
 
@@ -26,6 +25,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     """Generate, write and summarise a synthetic database."""
     from dataclasses import replace
 
+    from vfs.effects import registered_effects
     from vfs.scenarios.generator import generate_database, get_preset, write_generated
 
     if args.list_effects:

@@ -24,18 +24,24 @@ def paths_from_trajectories(trajectories: pd.DataFrame, case_ids: npt.ArrayLike,
     yaw, speed and optionally accel (docs/data-format.md).
     """
     case_ids = np.asarray(case_ids)
-    tr = trajectories[trajectories["participant"] == participant]
+    # row positions and columns as arrays: no frame is copied (nor its attrs)
+    rows = np.flatnonzero(np.asarray(trajectories["participant"] == participant, dtype=bool))
     order = pd.Index(case_ids)
-    group = order.get_indexer(tr["case_id"].to_numpy())
+    group = order.get_indexer(trajectories["case_id"].to_numpy()[rows])
     keep = group >= 0
-    tr = tr[keep]
+    rows = rows[keep]
     group = group[keep]
     missing = np.setdiff1d(np.arange(len(case_ids)), group)
     if missing.size:
         raise DataError([DataProblem("trajectories", "", None, case_ids[i],
                                      f"participant {participant} has no trajectory")
                          for i in missing[:20]])
-    sort = np.lexsort((tr["t"].to_numpy(), group))
-    tr = tr.iloc[sort]
-    accel = tr["accel"].to_numpy(float) if "accel" in tr.columns else None
-    return pack_paths(tr["t"], tr["x"], tr["y"], tr["yaw"], tr["speed"], group[sort], accel)
+    sort = np.lexsort((trajectories["t"].to_numpy()[rows], group))
+    rows = rows[sort]
+
+    def column(name: str) -> np.ndarray:
+        return np.asarray(trajectories[name], float)[rows]
+
+    accel = column("accel") if "accel" in trajectories.columns else None
+    return pack_paths(column("t"), column("x"), column("y"), column("yaw"), column("speed"),
+                      group[sort], accel)

@@ -156,15 +156,13 @@ def pack_paths(
     n = int(group.max()) + 1 if group.size else 0
     count = np.bincount(group, minlength=n)
     start = np.concatenate([[0], np.cumsum(count)[:-1]])
-    pos = np.arange(t.size) - start[group]
     m = int(count.max()) if n else 0
 
+    # sample of each padded cell: path i's sample j, its last one repeated into the padding
+    cells = start[:n, None] + np.minimum(np.arange(m)[None, :], (count - 1)[:, None])
+
     def pad(values: np.ndarray) -> np.ndarray:
-        out = np.empty((n, m))
-        out[group, pos] = values
-        # repeat each path's last sample into the padding
-        cols = np.minimum(np.arange(m)[None, :], (count - 1)[:, None])
-        return np.take_along_axis(out, cols, axis=1)
+        return values[cells]
 
     pt, px, py = pad(t), pad(np.asarray(x, float)), pad(np.asarray(y, float))
     pyaw = np.unwrap(pad(np.asarray(yaw, float)), axis=1)
@@ -192,7 +190,8 @@ def pack_paths(
         pa = pad(np.asarray(accel, float))
         pa = np.where(np.isnan(pa), fd, pa)
     end_curvature = _end_curvature(pt, ps, pyaw, count)
-    knots = np.stack([pt.T, ps.T, px.T, py.T, pyaw.T, heading.T, pv.T, pa.T], axis=-1)
+    # stacked as (n, m, 8) (contiguous reads), then one copy to the C-ordered (m, n, 8)
+    knots = np.stack([pt, ps, px, py, pyaw, heading, pv, pa], axis=-1).transpose(1, 0, 2)
     return PathArrays(np.ascontiguousarray(knots), count, t0, end_curvature)
 
 

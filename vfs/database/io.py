@@ -32,7 +32,7 @@ import pyarrow.parquet as pq
 
 from vfs.atomic import with_field_metadata, write_folder
 from vfs.database.database import Database
-from vfs.database.metadata import extra_column_metadata, field_metadata
+from vfs.database.metadata import extra_column_metadata, field_metadata, with_units
 from vfs.database.schema import (
     SCHEMA_VERSION,
     TABLE_NAMES,
@@ -262,6 +262,22 @@ def _readable_parquet(name: str, file: Any, problems: list[DataProblem],
     return True
 
 
+def _to_pandas(table: pa.Table | pa.RecordBatch) -> pd.DataFrame:
+    """``table.to_pandas()`` without the ``attrs`` a file written from pandas stores (its
+    ``"attributes"``): the raw frames are converted and checked before the loaders give
+    them their SI units (:func:`vfs.database.metadata.with_units`), and pandas deep-copies
+    a frame's ``attrs`` into every frame derived from it (each column access).
+    """
+    frame = table.to_pandas()
+    frame.attrs = {}
+    return frame
+
+
+def _si_frame(frame: pd.DataFrame, table: str) -> pd.DataFrame:
+    """A table read from a file, normalised, in SI units and with them in ``attrs``."""
+    return with_units(table_from_file_units(normalise_table(frame, table), table), table)
+
+
 def _read_parquet_tables(
     folder: Path, where: str | None, problems: list[DataProblem],
     names: Iterable[str] = TABLE_NAMES,
@@ -278,7 +294,7 @@ def _read_parquet_tables(
         frames = {}
         for name, file in present.items():
             try:
-                frames[name] = pq.read_table(file).to_pandas()
+                frames[name] = _to_pandas(pq.read_table(file))
             except (OSError, ValueError, pa.ArrowException) as exc:
                 problems.append(unreadable_parquet(name, file, exc))
     elif "cases" not in present:
@@ -352,7 +368,7 @@ def _select_parquet(files: dict[str, Path], where: str,
             except duckdb.Error as exc:  # a damaged data page behind a readable footer
                 problems.append(unreadable_parquet(name, file, exc))
                 continue
-            frames[name] = table.to_pandas()
+            frames[name] = _to_pandas(table)
         return frames
     finally:
         con.close()
@@ -403,7 +419,8 @@ def _read_parquet_tables_url(
             keep = pc.field("case_id").isin(ids)
             tables = {name: cases.filter(keep) if name == "cases" else read(name, keep)
                       for name in present if name in names}
-    frames = {name: table.to_pandas() for name, table in tables.items() if table is not None}
+    frames = {name: _to_pandas(table) for name, table in tables.items()
+              if table is not None}
     return {name: frames.get(name, empty_table(name)) for name in TABLE_NAMES}
 
 
@@ -526,7 +543,7 @@ def load_cases(path: str | os.PathLike[str], where: str | None = None) -> pd.Dat
         frames = _read_parquet_tables(folder, where, problems, names=("cases",))
     if problems:
         raise DataError(problems)
-    return table_from_file_units(normalise_table(frames["cases"], "cases"), "cases")
+    return _si_frame(frames["cases"], "cases")
 
 
 def orphan_problems(path: str | os.PathLike[str]) -> list[DataProblem]:
@@ -622,10 +639,9 @@ def iter_table(path: str | os.PathLike[str], table: str, case_ids: np.ndarray | 
             if keep is not None:
                 batch = batch.filter(pc.is_in(batch.column("case_id"), value_set=keep))
             empty = False
-            yield table_from_file_units(normalise_table(batch.to_pandas(), table), table)
+            yield _si_frame(_to_pandas(batch), table)
         if empty:
-            frame = file.schema_arrow.empty_table().to_pandas()
-            yield table_from_file_units(normalise_table(frame, table), table)
+            yield _si_frame(_to_pandas(file.schema_arrow.empty_table()), table)
 
 
 def select_cases(db: Database, where: str) -> Database:

@@ -317,20 +317,48 @@ def _check_reconstruction(db: Any, traj: pd.DataFrame, lim: PlausibilityLimits,
 
 def _interpolate(traj: pd.DataFrame, p: int, case_ids: np.ndarray,
                  times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of participant ``p`` of ``case_ids`` at ``times`` (linear in t) [m]."""
-    sub = traj.loc[traj["participant"] == p, ["case_id", "t", "x", "y"]]
-    want = pd.DataFrame({"case_id": case_ids, "t": times, "_k": np.arange(case_ids.size)})
-    want = want.sort_values("t")
-    side = {}
-    for direction, tag in (("backward", "0"), ("forward", "1")):
-        known = sub.rename(columns={"x": f"x{tag}", "y": f"y{tag}"}).assign(
-            **{f"t{tag}": sub["t"]}).sort_values("t")
-        side[tag] = pd.merge_asof(want, known, on="t", by="case_id",
-                                  direction=direction).sort_values("_k")
-    t0, x0, y0 = (side["0"][c].to_numpy(float) for c in ("t0", "x0", "y0"))
-    t1, x1, y1 = (side["1"][c].to_numpy(float) for c in ("t1", "x1", "y1"))
-    order = np.argsort(want["_k"].to_numpy())
-    t = want["t"].to_numpy(float)[order]
+    """Positions of participant ``p`` of ``case_ids`` at ``times`` (linear in t) [m].
+
+    Between the last sample at or before each time and the first at or after it (the
+    as-of matches of ``pandas.merge_asof`` by case, backward and forward), by one sort of
+    the samples and the queries together; NaN for a case without samples of ``p``.
+    """
+    mine = np.flatnonzero(np.asarray(traj["participant"] == p, dtype=bool))
+    cases = pd.Index(traj["case_id"].to_numpy()[mine]).unique()
+    g_data = cases.get_indexer(traj["case_id"].to_numpy()[mine])
+    g_want = cases.get_indexer(np.asarray(case_ids))
+    t_data = np.asarray(traj["t"], float)[mine]
+    x_data = np.asarray(traj["x"], float)[mine]
+    y_data = np.asarray(traj["y"], float)[mine]
+    times = np.asarray(times, float)
+    n, k = t_data.size, times.size
+    group = np.concatenate([g_data, g_want])
+    t_all = np.concatenate([t_data, times])
+    found = []
+    for backward in (True, False):
+        # samples before queries at equal times for the backward match (t_sample <= t),
+        # after them for the forward one (t_sample >= t)
+        kind = np.concatenate([np.full(n, 0 if backward else 1), np.full(k, 1 if backward else 0)])
+        order = np.lexsort((kind, t_all, group))
+        is_data = order < n
+        if backward:  # the last sample at or before each position of the sorted order
+            last = np.maximum.accumulate(np.where(is_data, np.arange(order.size), -1))
+        else:  # the first sample at or after it
+            big = order.size
+            last = np.minimum.accumulate(np.where(is_data, np.arange(order.size), big)[::-1])[::-1]
+            last[last == big] = -1
+        match = np.full(k, -1)
+        query = ~is_data
+        at = last[query]
+        rows = np.where(at >= 0, order[np.maximum(at, 0)], -1)
+        same = (rows >= 0) & (group[np.maximum(rows, 0)] == group[order[query]])
+        match[order[query] - n] = np.where(same, rows, -1)
+        ok = (match >= 0) & (g_want >= 0)
+        pick = np.maximum(match, 0)
+        found.append([np.where(ok, a[pick], np.nan) if n else np.full(k, np.nan)
+                      for a in (t_data, x_data, y_data)])
+    (t0, x0, y0), (t1, x1, y1) = found
+    t = times
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(t1 > t0, (t - t0) / (t1 - t0), 0.0)
     w = np.nan_to_num(np.clip(w, 0.0, 1.0))

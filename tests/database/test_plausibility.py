@@ -143,3 +143,52 @@ def test_validate_strict_turns_warnings_into_errors(db, tmp_path, capsys):
     tr.loc[tr.case_id == 7, "speed"] *= KMH_PER_MS
     with pytest.raises(DataError, match="km/h"):
         save_database(_with(db, trajectories=tr), tmp_path / "kmh")
+
+
+def _interpolate_reference(traj, p, case_ids, times):
+    """Linear interpolation between the as-of samples of pandas.merge_asof (backward and
+    forward by case): the reference of the sort-based matching in the checks."""
+    import pandas as pd
+
+    sub = traj.loc[traj["participant"] == p, ["case_id", "t", "x", "y"]]
+    want = pd.DataFrame({"case_id": case_ids, "t": times, "_k": np.arange(case_ids.size)})
+    want = want.sort_values("t")
+    side = {}
+    for direction, tag in (("backward", "0"), ("forward", "1")):
+        known = sub.rename(columns={"x": f"x{tag}", "y": f"y{tag}"}).assign(
+            **{f"t{tag}": sub["t"]}).sort_values("t")
+        side[tag] = pd.merge_asof(want, known, on="t", by="case_id",
+                                  direction=direction).sort_values("_k")
+    t0, x0, y0 = (side["0"][c].to_numpy(float) for c in ("t0", "x0", "y0"))
+    t1, x1, y1 = (side["1"][c].to_numpy(float) for c in ("t1", "x1", "y1"))
+    t = np.asarray(times, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(t1 > t0, (t - t0) / (t1 - t0), 0.0)
+    w = np.nan_to_num(np.clip(w, 0.0, 1.0))
+    return x0 + w * (x1 - x0), y0 + w * (y1 - y0)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_positions_at_impact_times_match_merge_asof_interpolation(seed):
+    import pandas as pd
+
+    from vfs.database import plausibility
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for case in range(int(rng.integers(1, 8))):
+        for p in (1, 2):
+            if p == 2 and rng.random() < 0.2:
+                continue  # a case without participant 2: NaN positions
+            t = np.sort(rng.choice(np.arange(0.0, 10.0, 0.5), size=int(rng.integers(1, 7)),
+                                   replace=False))
+            rows += [(case * 7 + 3, p, ti, rng.normal(), rng.normal()) for ti in t]
+    traj = pd.DataFrame(rows, columns=["case_id", "participant", "t", "x", "y"])
+    traj = traj.sample(frac=1.0, random_state=seed).reset_index(drop=True)  # any row order
+    ids = rng.choice(traj["case_id"].unique(), size=int(rng.integers(1, 9)))
+    times = rng.choice(np.arange(-1.0, 11.0, 0.25), size=ids.size)  # on samples, between, out
+    for p in (1, 2):
+        got = plausibility._interpolate(traj, p, ids, times)  # noqa: SLF001
+        want = _interpolate_reference(traj, p, ids, times)
+        for a, b in zip(got, want, strict=True):
+            np.testing.assert_array_equal(a, b)

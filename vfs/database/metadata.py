@@ -142,7 +142,7 @@ def field_metadata(columns: Iterable[str], *, table: str | None = None,
     return out
 
 
-class ColumnTexts(dict):  # type: ignore[type-arg]
+class ColumnTexts(dict[str, str]):
     """A read-only ``column -> text`` dict: the units and descriptions in ``frame.attrs``.
 
     pandas deep-copies a frame's ``attrs`` into every frame derived from it (each column

@@ -168,17 +168,23 @@ def pack_paths(
     pyaw = np.unwrap(pad(np.asarray(yaw, float)), axis=1)
     pv = pad(np.asarray(speed, float))
     t0 = pt[:, 0].copy()
-    pt = pt - t0[:, None]
-    seg = np.hypot(np.diff(px, axis=1), np.diff(py, axis=1))
+    pt -= t0[:, None]
+    # (the temporaries are few and reused: a first call's fresh memory costs page faults)
+    dx, dy = np.diff(px, axis=1), np.diff(py, axis=1)
+    seg = np.hypot(dx, dy)
     ps = np.concatenate([np.zeros((n, 1)), np.cumsum(seg, axis=1)], axis=1)
     # direction of motion per segment; zero-length segments keep the yaw
-    dir_seg = np.arctan2(np.diff(py, axis=1), np.diff(px, axis=1))
+    dir_seg = np.arctan2(dy, dx)
+    del dx, dy
     moving = seg > 1e-9
     heading = np.concatenate([dir_seg, dir_seg[:, -1:]], axis=1) if m > 1 else pyaw.copy()
     heading = np.where(np.concatenate([moving, moving[:, -1:]], axis=1) if m > 1 else False,
                        heading, pyaw)
     # unwrap relative to the yaw so that heading and yaw stay close
-    heading = pyaw + np.angle(np.exp(1j * (heading - pyaw)))
+    turn = np.multiply(1j, heading - pyaw)
+    heading = np.angle(np.exp(turn, out=turn))
+    del turn
+    heading += pyaw
     # acceleration: record where given, else central differences of speed
     dv = np.gradient(pv, axis=1) if m > 1 else np.zeros_like(pv)
     dt = np.gradient(pt, axis=1) if m > 1 else np.ones_like(pt)
@@ -190,9 +196,11 @@ def pack_paths(
         pa = pad(np.asarray(accel, float))
         pa = np.where(np.isnan(pa), fd, pa)
     end_curvature = _end_curvature(pt, ps, pyaw, count)
-    # stacked as (n, m, 8) (contiguous reads), then one copy to the C-ordered (m, n, 8)
-    knots = np.stack([pt, ps, px, py, pyaw, heading, pv, pa], axis=-1).transpose(1, 0, 2)
-    return PathArrays(np.ascontiguousarray(knots), count, t0, end_curvature)
+    # written field by field into the C-ordered (m, n, 8) array (no stacked copy)
+    knots = np.empty((m, n, len(KNOT_FIELDS)))
+    for k, values in enumerate((pt, ps, px, py, pyaw, heading, pv, pa)):
+        knots[:, :, k] = values.T
+    return PathArrays(knots, count, t0, end_curvature)
 
 
 def concat_paths(first: PathArrays, second: PathArrays) -> PathArrays:

@@ -130,6 +130,31 @@ STUDYIO_BENCH = tuple(f"benchmarks/results/core_37_studyio_{k}.json"
 STUDYIO_WARMUP = tuple(f"benchmarks/results/core_37_studyio_warmup_{k}.json"
                        for k in ("before", "after"))
 STUDYIO_PROFILE = "benchmarks/results/core_37_studyio_profile.txt"
+STARTUP_BENCH = tuple(f"benchmarks/results/core_37_startup_{k}.json"
+                      for k in ("before", "after", "before2", "after2"))
+STARTUP_AB = "benchmarks/results/core_37_startup_ab.json"
+STARTUP_PROFILE = "benchmarks/results/core_37_startup_profile.txt"
+
+
+def _startup_ab(root: Path) -> list[float]:
+    """Medians (CPU s, case-runs/s) and the pairs of the interleaved fixed-costs runs."""
+    ab = _json(STARTUP_AB, root)
+    return [ab["before_median_cpu_s"], ab["after_median_cpu_s"],
+            ab["before_median_case_runs_per_s_cpu"], ab["after_median_case_runs_per_s_cpu"],
+            ab["pairs_after_faster"], ab["pairs"]]
+
+
+def _startup_bench(root: Path) -> list[float]:
+    """The fixed-costs round's `vfs bench study` pairs and its start, as quoted."""
+    before, after, before2, after2 = (_json(r, root)["study"] for r in STARTUP_BENCH)
+    return [before["case_runs_per_s_cpu"], after["case_runs_per_s_cpu"], before["cpu_s"],
+            after["cpu_s"], before2["case_runs_per_s_cpu"], after2["case_runs_per_s_cpu"],
+            before["startup_cpu_s"], after["startup_cpu_s"]]
+
+
+def _startup_part(label: str) -> Callable[[Path], list[float]]:
+    """Before and after of one part in the fixed-costs profile's table."""
+    return _md_numbers(STARTUP_PROFILE, rf"^# +{re.escape(label)} +([\d.]+) +([\d.]+)$")
 
 
 def _studyio_study(root: Path) -> list[float]:
@@ -791,6 +816,29 @@ QUOTES: tuple[Quote, ...] = (
           + r" s CPU\*\* \(compiling " + NUMBER + r" -> " + NUMBER + r" s; loads " + NUMBER
           + r" and " + NUMBER + r";",
           ",".join(STUDYIO_WARMUP), _studyio_warmup, "cold start with the inlined helpers"),
+    Quote("docs/performance.md",
+          r"median \*\*" + NUMBER + r" -> " + NUMBER + r" s CPU\*\* \(" + NUMBER + r" -> "
+          + NUMBER + r" case-runs/s\), the\s+branch faster in " + NUMBER + r" of " + NUMBER
+          + r" pairs", STARTUP_AB, _startup_ab, "fixed costs: interleaved study runs"),
+    Quote("docs/performance.md",
+          r"`vfs bench study` back to back: " + NUMBER + r" -> " + NUMBER + r" case-runs/s\s+\("
+          + NUMBER + r" -> " + NUMBER + r" s\), a second pair " + NUMBER + r" and " + NUMBER
+          + r" \(a single run moves by more than the gain at this\s+load\); the start of "
+          r"`vfs study --help` " + NUMBER + r" -> " + NUMBER + r" s CPU",
+          ",".join(STARTUP_BENCH), _startup_bench, "fixed costs: vfs bench study and its start"),
+    Quote("docs/performance.md",
+          r"Under the profiler: `build_parser`\s+" + NUMBER + r" -> " + NUMBER
+          + r" s, `copy.deepcopy` " + NUMBER + r" -> " + NUMBER + r" s, `study_input` " + NUMBER
+          + r" -> " + NUMBER + r" s",
+          STARTUP_PROFILE,
+          lambda root: [*_startup_part("build_parser")(root),
+                        *_startup_part("copy.deepcopy (pandas attrs)")(root),
+                        *_startup_part("study_input")(root)],
+          "fixed costs: the profile's parts"),
+    Quote("docs/performance.md",
+          r"check, once: `check_database` " + NUMBER + r" s under the profiler\)",
+          STARTUP_PROFILE, lambda root: _startup_part("check_database")(root)[1:],
+          "fixed costs: the validation after"),
     Quote("docs/performance.md",
           r"core_37_studyio_profile.txt`, CPU time under the profiler at load " + NUMBER
           + r", " + NUMBER + r" s in all\): `simulate_cases` " + NUMBER + r" s, of it the "

@@ -141,3 +141,55 @@ def test_one_measurement_of_random_states_equals_the_numpy_path(
         assert np.array_equal(ref_ttc, ttc, equal_nan=True)
         found_any |= bool(np.isfinite(ref_ttc).any())
     assert found_any
+
+
+def _far_observation(rng: np.random.Generator, n: int) -> PrecrashObservation:
+    """Pairs 20-120 m apart that close in on each other: participant 2 ahead of
+    participant 1 (crossing, head-on, from behind, with lateral offsets), at speeds that
+    bring it within reach late in the horizon, so the sampled sweeps run over long
+    stretches out of reach before the outlines meet or pass.
+    """
+    distance = rng.uniform(20.0, 120.0, n)
+    bearing = rng.uniform(-0.4, 0.4, n)
+    yaw1 = rng.uniform(-np.pi, np.pi, n)
+    yaw2 = yaw1 + rng.choice([0.0, np.pi, 0.5 * np.pi, -0.5 * np.pi, 2.5], n)
+    x = np.stack([np.zeros(n), distance * np.cos(yaw1 + bearing)], axis=1)
+    y = np.stack([np.zeros(n), distance * np.sin(yaw1 + bearing)], axis=1)
+    yaw = np.stack([yaw1, yaw2], axis=1)
+    speed = np.stack([rng.uniform(5.0, 40.0, n), rng.uniform(0.0, 25.0, n)], axis=1)
+    yaw_rate = np.where(rng.random((n, 2)) < 0.5, 0.0, rng.normal(0.0, 0.1, (n, 2)))
+    return PrecrashObservation(rows=np.arange(n), t=0.0, x=x, y=y, yaw=yaw, heading=yaw,
+                               speed=speed, accel=rng.choice([0.0, -4.0, 1.5], (n, 2)),
+                               yaw_rate=yaw_rate, deceleration=np.zeros((n, 2)),
+                               road_friction=rng.uniform(0.3, 1.1, n))
+
+
+@pytest.mark.parametrize("name", ["ideal", "ideal-ctra", "ideal-ctrv-never-lag",
+                                  "three-stage"])
+def test_long_sweeps_out_of_reach_equal_the_numpy_path(
+        name: str, batch: CaseBatch, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The kernels' sweeps leave out the intervals that cannot be within reach (the
+    separation shrinks at most by the speed bound); the reference steps through every
+    interval.  Over long approaches the decisions and TTCs stay equal bit for bit, and
+    some contacts are found late in the horizon (the skip lands before them).
+    """
+    system = VARIANTS[name]
+    rng = np.random.default_rng(zlib.crc32(b"far" + name.encode()))
+    n = batch.size
+    late = 0
+    for _ in range(8):
+        obs = _far_observation(rng, n)
+        states = []
+        for compiled in (False, True):
+            controller = system.controller(batch, np.array([True, True]))
+            assert isinstance(controller, AEBController)
+            controller.reset(n, np.random.default_rng(9))
+            controller._dt = 0.01  # noqa: SLF001
+            monkeypatch.setattr(controller_module, "core_enabled", lambda c=compiled: c)
+            controller._measure(obs)  # noqa: SLF001
+            states.append((controller._stage.copy(), controller._ttc.copy()))  # noqa: SLF001
+        (ref_stage, ref_ttc), (stage, ttc) = states
+        assert np.array_equal(ref_stage, stage)
+        assert np.array_equal(ref_ttc, ttc, equal_nan=True)
+        late += int(np.count_nonzero(np.isfinite(ref_ttc) & (ref_ttc > 1.5)))
+    assert late > 0

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from tests.generated import bit_differences, cases_of_every_type
+from vfs.adas import compiled as compiled_module
 from vfs.adas import controller as controller_module
 from vfs.adas.controller import AEBController
 from vfs.adas.definition import AEBSystem
@@ -193,3 +194,30 @@ def test_long_sweeps_out_of_reach_equal_the_numpy_path(
         assert np.array_equal(ref_ttc, ttc, equal_nan=True)
         late += int(np.count_nonzero(np.isfinite(ref_ttc) & (ref_ttc > 1.5)))
     assert late > 0
+
+
+@pytest.mark.parametrize("equipped", [(True, True), (True, False), (False, True)])
+def test_compiled_pairs_equal_the_numpy_gather(equipped: tuple[bool, bool],
+                                               batch: CaseBatch) -> None:
+    """The compiled gather of egos and objects (:func:`vfs.adas.compiled.gather_pairs`)
+    packs the same numbers as the controller's numpy gather, for a subset of running rows
+    in shuffled order, standstills (heading replaced by the yaw) and box margins.
+    """
+    system = VARIANTS["three-stage-ca-ttc"]
+    controller = system.controller(batch, np.array(equipped))
+    assert isinstance(controller, AEBController)
+    rng = np.random.default_rng(17)
+    full = _observation(rng, batch.size)
+    rows = rng.permutation(batch.size)[: batch.size // 2 + 1]
+    obs = full._replace(rows=rows, **{f: getattr(full, f)[rows] for f in (
+        "x", "y", "yaw", "heading", "speed", "accel", "yaw_rate", "deceleration",
+        "road_friction")})
+    ri, ji = np.nonzero(controller.equipped[rows])
+    ref = controller._packed_pairs(obs, ri, ji)  # noqa: SLF001
+    got = compiled_module.gather_pairs(obs.x, obs.y, obs.yaw, obs.heading, obs.speed,
+                                       obs.accel, obs.yaw_rate,
+                                       controller._outline, obs.rows, ri, ji)  # noqa: SLF001
+    assert (obs.speed == 0.0).any()
+    for r, g in zip(ref, got, strict=True):
+        assert r.shape == g.shape == (10, ri.size)
+        assert np.array_equal(r, g)

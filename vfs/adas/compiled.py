@@ -659,6 +659,77 @@ def _assess(ego: np.ndarray, obj: np.ndarray, case: np.ndarray, col: np.ndarray,
         ttc_state[c, j] = value
 
 
+def _gather_pairs(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, heading: np.ndarray,
+                  speed: np.ndarray, accel: np.ndarray, yaw_rate: np.ndarray,
+                  outline: np.ndarray, rows: np.ndarray, ri: np.ndarray, ji: np.ndarray,
+                  a: np.ndarray, b: np.ndarray) -> None:
+    """The egos (running row ``ri``, participant ``ji``) and their objects packed into
+    ``a`` and ``b`` (10, m) (``AEBController._packed_pairs``): the observation's fields
+    (flat (2 n,): index 2 row + participant), the heading replaced by the yaw at
+    standstill, and the outline rows (3, 2 N) of the case's participants.
+    """
+    for q in range(ri.shape[0]):
+        for side in range(2):
+            out = a if side == 0 else b
+            j = ji[q] if side == 0 else 1 - ji[q]
+            e = 2 * ri[q] + j
+            out[_X, q] = x[e]
+            out[_Y, q] = y[e]
+            out[_YAW, q] = yaw[e]
+            out[_HEADING, q] = heading[e] if speed[e] > 0.0 else yaw[e]
+            out[_SPEED, q] = speed[e]
+            out[_ACCEL, q] = accel[e]
+            out[_YAW_RATE, q] = yaw_rate[e]
+            f = 2 * rows[ri[q]] + j
+            out[_HL, q] = outline[0, f]
+            out[_HW, q] = outline[1, f]
+            out[_OFF, q] = outline[2, f]
+
+
+_gather_kernel: Any = None
+
+
+def gather_pairs(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, heading: np.ndarray,
+                 speed: np.ndarray, accel: np.ndarray, yaw_rate: np.ndarray,
+                 outline: np.ndarray, rows: np.ndarray, ri: np.ndarray,
+                 ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The packed egos and objects (10, m) each (:func:`pack` rows) of the running rows
+    ``ri``, participants ``ji``, in one compiled pass (numpy's gathers are
+    ``AEBController._packed_pairs``' reference).
+
+    Parameters
+    ----------
+    x, y, yaw, heading, speed, accel, yaw_rate : ndarray (n, 2)
+        The observation's fields [m, rad, m/s, m/s^2, rad/s] of the n running rows.
+    outline : ndarray (3, 2 N)
+        Half length, half width (box margins included) and centre offset [m] of every
+        (case, participant), flat index 2 case + participant.
+    rows : ndarray of int (n,)
+        The running rows' cases.
+    ri, ji : ndarray of int (m,)
+        Running row and participant of each ego.
+    """
+    global _gather_kernel
+    if _gather_kernel is None:
+        require_numba()
+        import numba
+
+        _gather_kernel = numba.njit(cache=True, nogil=True, error_model="numpy")(_gather_pairs)
+    m = ri.shape[0]
+    a, b = np.empty((10, m)), np.empty((10, m))
+
+    def flat(v: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(v, dtype=np.float64).reshape(-1)
+
+    run_kernel(_gather_kernel, "AEB controller's pairs", flat(x), flat(y), flat(yaw),
+               flat(heading), flat(speed), flat(accel), flat(yaw_rate),
+               np.ascontiguousarray(outline, dtype=np.float64),
+               np.ascontiguousarray(rows, dtype=np.int64),
+               np.ascontiguousarray(ri, dtype=np.int64),
+               np.ascontiguousarray(ji, dtype=np.int64), a, b)
+    return a, b
+
+
 _kernels: Any = None
 
 

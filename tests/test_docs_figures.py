@@ -840,6 +840,15 @@ QUOTES: tuple[Quote, ...] = (
           STARTUP_PROFILE, lambda root: _startup_part("check_database")(root)[1:],
           "fixed costs: the validation after"),
     Quote("docs/performance.md",
+          r"minor page faults fell from " + NUMBER + r" to " + NUMBER + r" and\s+its system time "
+          r"from " + NUMBER + r" to " + NUMBER + r" s in the first of three pairs",
+          "benchmarks/results/core_37_startup_malloc.json",
+          lambda root: [*(_json("benchmarks/results/core_37_startup_malloc.json", root)["pairs"][0]
+                          [k]["minor_faults"] for k in ("default", "raised")),
+                        *(_json("benchmarks/results/core_37_startup_malloc.json", root)["pairs"][0]
+                          [k]["sys_s"] for k in ("default", "raised"))],
+          "fixed costs: page faults with raised allocator thresholds"),
+    Quote("docs/performance.md",
           r"core_37_studyio_profile.txt`, CPU time under the profiler at load " + NUMBER
           + r", " + NUMBER + r" s in all\): `simulate_cases` " + NUMBER + r" s, of it the "
           r"compiled step `_settle_rows` " + NUMBER + r" s",

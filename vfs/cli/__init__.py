@@ -61,7 +61,7 @@ COMMAND_GROUPS: tuple[Callable[[argparse._SubParsersAction], object], ...] = (
 )
 
 #: The top-level commands each group of :data:`COMMAND_GROUPS` declares (same order):
-#: ``vfs study ...`` builds the study group's parsers only (tests/cli/test_help.py checks
+#: ``vfs study ...`` builds the study group's parsers only (tests/cli/test_lazy_parsers.py checks
 #: that the two agree).
 GROUP_COMMANDS: tuple[tuple[str, ...], ...] = (
     ("impact",),

@@ -33,12 +33,23 @@ or later.  ``tests/physics/test_core_runout.py`` compares every output on genera
 every accident type to 1e-9 m (1e-9 rad, 1e-9 J relative) and one time step, and reports
 the share of bit-identical values.
 
-The kernels run in one thread (``parallel=False``): the studies run cases in processes, and
-a process that has started numba's threads must not fork.  numba compiles them at the first
-call (``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`
-says when it compiled).  numba's cache is keyed on this file alone: the pair kernel compiles
-:func:`vfs.physics.core.clipped_overlap` and :func:`vfs.physics.core.pose_corners` into
-itself, so after an edit of those, delete ``vfs/physics/__pycache__/core_runout*`` (the
+Threads.  Every loop exists twice: in one thread (``parallel=False``) and with the vehicles
+(the pairs) in numba's threads (``parallel=True``, ``prange``).  A vehicle (a pair) writes
+only its own rows and its arithmetic does not depend on the thread that runs it, so the
+outputs are bit-identical for any thread count (``tests/physics/test_runout_threads.py``).
+:func:`run_to_rest` takes the threaded loop with :func:`vfs.threads.compute_threads`
+threads (``VFS_THREADS``; one per core by default, 1 in a study's worker processes) and
+the one-thread loop where that is 1, where the batch has one row, or where another Python
+thread of the process is running a threaded loop at that moment
+(:func:`vfs.physics.numba_support.kernel_threads`: numba's default threading layer must
+not be entered by two threads at once).  numba's threads are started at the first
+threaded call; the study's pools start their workers from a fork server or by spawning,
+never by forking this process.  numba compiles each loop at its first call
+(``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`
+says when it compiled): a process that never runs threaded (a study worker) never
+compiles the threaded loops.  numba's cache is keyed on this file alone: the pair kernel
+compiles :func:`vfs.physics.core.clipped_overlap` and :func:`vfs.physics.core.pose_corners`
+into itself, so after an edit of those, delete ``vfs/physics/__pycache__/core_runout*`` (the
 tests would show the stale copy as a disagreement with the reference).
 """
 

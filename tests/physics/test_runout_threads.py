@@ -158,3 +158,45 @@ def test_a_bad_setting_is_refused_at_the_launch(monkeypatch: pytest.MonkeyPatch)
     cars, state, mu, brake, _ = _draw(3, 4)
     with pytest.raises(SettingsError, match=THREADS_VARIABLE):
         run_out(cars, state, mu, None, brake)
+
+
+_WORKQUEUE_RUN = """
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numba
+import numpy as np
+
+from tests.physics.test_core_runout import _draw
+from vfs.physics.runout import run_out
+
+draws = [_draw(seed, 120) for seed in (21, 22, 23, 24)]
+run = lambda d: run_out(d[0], d[1], d[2], None, d[3], **d[4])
+os.environ["VFS_THREADS"] = "1"
+ref = [run(d) for d in draws]
+os.environ["VFS_THREADS"] = "2"
+with ThreadPoolExecutor(4) as pool:
+    for _ in range(3):
+        for a, b in zip(ref, pool.map(run, draws), strict=True):
+            assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(a, b, strict=True))
+print(numba.threading_layer())
+"""
+
+
+def test_launches_from_several_python_threads_on_numbas_workqueue_layer() -> None:
+    """The same on numba's own "workqueue" layer (the default where no OpenMP or TBB runtime
+    is found; this machine may pick OpenMP): it aborts the whole process when two threads
+    enter it at once, so this runs in a child process."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue", VFS_COMPILED="1",
+               PYTHONPATH=os.pathsep.join(filter(None, [str(root),
+                                                        os.environ.get("PYTHONPATH")])))
+    proc = subprocess.run([sys.executable, "-c", _WORKQUEUE_RUN], cwd=root, env=env,
+                          capture_output=True, text=True, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.split()[-1] == "workqueue"

@@ -41,8 +41,8 @@ outputs are bit-identical for any thread count (``tests/physics/test_runout_thre
 threads (``VFS_THREADS``; one per core by default, 1 in a study's worker processes) and
 the one-thread loop where that is 1, where the batch has one row, or where another Python
 thread of the process is running a threaded loop at that moment
-(:func:`vfs.physics.numba_support.kernel_threads`: numba's default threading layer must
-not be entered by two threads at once).  numba's threads are started at the first
+(:func:`vfs.physics.numba_support.kernel_threads`: numba's "workqueue" threading layer
+must not be entered by two threads at once).  numba's threads are started at the first
 threaded call; the study's pools start their workers from a fork server or by spawning,
 never by forking this process.  numba compiles each loop at its first call
 (``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`

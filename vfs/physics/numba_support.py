@@ -78,10 +78,11 @@ def kernel_threads(iterations: int) -> Iterator[int]:
     or 1, where the caller runs its one-thread kernel instead.
 
     1 also where another thread of this process is running a threaded kernel at that
-    moment (dask's threaded scheduler, a thread pool): numba's default threading layer,
-    its own "workqueue" (the only one a pip install of numba is sure to have: tbb and omp
-    need libraries that may be missing), aborts the process when two threads launch
-    parallel kernels at once.  So one threaded launch runs at a time, whatever the
+    moment (dask's threaded scheduler, a thread pool): numba's own "workqueue" threading
+    layer, the one it falls back to where no OpenMP or TBB runtime is found (a pip install
+    is sure of no other), aborts the process when two threads launch parallel kernels at
+    once; ``numba.threading_layer()`` is known only after the first launch, so the rule
+    holds for every layer.  So one threaded launch runs at a time, whatever the
     layer, and the others run in one thread each at the same time (the one-thread
     kernels release the GIL).  Inside the block ``numba.set_num_threads`` holds the
     count (numba keeps it per calling thread); it is restored on exit.

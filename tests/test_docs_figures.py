@@ -864,6 +864,15 @@ QUOTES: tuple[Quote, ...] = (
           ",".join(ROTHREADS_DIAG), _runs(ROTHREADS_DIAG, "diagnose", "wall_s", "cpu_s"),
           "run-out threads: diagnose --quick before and after"),
     Quote("docs/performance.md",
+          r"the full `vfs bench diagnose` \(600\s+cases, load " + NUMBER + r"\) " + NUMBER
+          + r" s -> " + NUMBER + r" s wall, " + NUMBER + r" s -> " + NUMBER + r" s CPU",
+          f"{ROTHREADS}diagnose_before.json,{ROTHREADS}diagnose_after.json",
+          lambda root: [_json(f"{ROTHREADS}diagnose_after.json", root)["diagnose"][
+              "load_average_1min"], *(
+              _json(f"{ROTHREADS}diagnose_{w}.json", root)["diagnose"][k]
+              for k in ("wall_s", "cpu_s") for w in ("before", "after"))],
+          "run-out threads: the full diagnosis before and after"),
+    Quote("docs/performance.md",
           r"`vfs bench warmup` " + NUMBER + r" s -> " + NUMBER + r" s CPU\s+\(" + NUMBER
           + r" s -> " + NUMBER + r" s compiling\); later processes load the cache in "
           + NUMBER + r" s CPU instead of " + NUMBER + r" s",

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from tests.generated import bit_differences, cases_of_every_type
+from vfs.adas import compiled as compiled_module
 from vfs.adas import controller as controller_module
 from vfs.adas.controller import AEBController
 from vfs.adas.definition import AEBSystem
@@ -141,3 +142,82 @@ def test_one_measurement_of_random_states_equals_the_numpy_path(
         assert np.array_equal(ref_ttc, ttc, equal_nan=True)
         found_any |= bool(np.isfinite(ref_ttc).any())
     assert found_any
+
+
+def _far_observation(rng: np.random.Generator, n: int) -> PrecrashObservation:
+    """Pairs 20-120 m apart that close in on each other: participant 2 ahead of
+    participant 1 (crossing, head-on, from behind, with lateral offsets), at speeds that
+    bring it within reach late in the horizon, so the sampled sweeps run over long
+    stretches out of reach before the outlines meet or pass.
+    """
+    distance = rng.uniform(20.0, 120.0, n)
+    bearing = rng.uniform(-0.4, 0.4, n)
+    yaw1 = rng.uniform(-np.pi, np.pi, n)
+    yaw2 = yaw1 + rng.choice([0.0, np.pi, 0.5 * np.pi, -0.5 * np.pi, 2.5], n)
+    x = np.stack([np.zeros(n), distance * np.cos(yaw1 + bearing)], axis=1)
+    y = np.stack([np.zeros(n), distance * np.sin(yaw1 + bearing)], axis=1)
+    yaw = np.stack([yaw1, yaw2], axis=1)
+    speed = np.stack([rng.uniform(5.0, 40.0, n), rng.uniform(0.0, 25.0, n)], axis=1)
+    yaw_rate = np.where(rng.random((n, 2)) < 0.5, 0.0, rng.normal(0.0, 0.1, (n, 2)))
+    return PrecrashObservation(rows=np.arange(n), t=0.0, x=x, y=y, yaw=yaw, heading=yaw,
+                               speed=speed, accel=rng.choice([0.0, -4.0, 1.5], (n, 2)),
+                               yaw_rate=yaw_rate, deceleration=np.zeros((n, 2)),
+                               road_friction=rng.uniform(0.3, 1.1, n))
+
+
+@pytest.mark.parametrize("name", ["ideal", "ideal-ctra", "ideal-ctrv-never-lag",
+                                  "three-stage"])
+def test_long_sweeps_out_of_reach_equal_the_numpy_path(
+        name: str, batch: CaseBatch, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The kernels' sweeps leave out the intervals that cannot be within reach (the
+    separation shrinks at most by the speed bound); the reference steps through every
+    interval.  Over long approaches the decisions and TTCs stay equal bit for bit, and
+    some contacts are found late in the horizon (the skip lands before them).
+    """
+    system = VARIANTS[name]
+    rng = np.random.default_rng(zlib.crc32(b"far" + name.encode()))
+    n = batch.size
+    late = 0
+    for _ in range(8):
+        obs = _far_observation(rng, n)
+        states = []
+        for compiled in (False, True):
+            controller = system.controller(batch, np.array([True, True]))
+            assert isinstance(controller, AEBController)
+            controller.reset(n, np.random.default_rng(9))
+            controller._dt = 0.01  # noqa: SLF001
+            monkeypatch.setattr(controller_module, "core_enabled", lambda c=compiled: c)
+            controller._measure(obs)  # noqa: SLF001
+            states.append((controller._stage.copy(), controller._ttc.copy()))  # noqa: SLF001
+        (ref_stage, ref_ttc), (stage, ttc) = states
+        assert np.array_equal(ref_stage, stage)
+        assert np.array_equal(ref_ttc, ttc, equal_nan=True)
+        late += int(np.count_nonzero(np.isfinite(ref_ttc) & (ref_ttc > 1.5)))
+    assert late > 0
+
+
+@pytest.mark.parametrize("equipped", [(True, True), (True, False), (False, True)])
+def test_compiled_pairs_equal_the_numpy_gather(equipped: tuple[bool, bool],
+                                               batch: CaseBatch) -> None:
+    """The compiled gather of egos and objects (:func:`vfs.adas.compiled.gather_pairs`)
+    packs the same numbers as the controller's numpy gather, for a subset of running rows
+    in shuffled order, standstills (heading replaced by the yaw) and box margins.
+    """
+    system = VARIANTS["three-stage-ca-ttc"]
+    controller = system.controller(batch, np.array(equipped))
+    assert isinstance(controller, AEBController)
+    rng = np.random.default_rng(17)
+    full = _observation(rng, batch.size)
+    rows = rng.permutation(batch.size)[: batch.size // 2 + 1]
+    obs = full._replace(rows=rows, **{f: getattr(full, f)[rows] for f in (
+        "x", "y", "yaw", "heading", "speed", "accel", "yaw_rate", "deceleration",
+        "road_friction")})
+    ri, ji = np.nonzero(controller.equipped[rows])
+    ref = controller._packed_pairs(obs, ri, ji)  # noqa: SLF001
+    got = compiled_module.gather_pairs(obs.x, obs.y, obs.yaw, obs.heading, obs.speed,
+                                       obs.accel, obs.yaw_rate,
+                                       controller._outline, obs.rows, ri, ji)  # noqa: SLF001
+    assert (obs.speed == 0.0).any()
+    for r, g in zip(ref, got, strict=True):
+        assert r.shape == g.shape == (10, ri.size)
+        assert np.array_equal(r, g)

@@ -71,6 +71,10 @@ _PARALLEL = 1e-12
 #: (vfs.adas.threat).
 _GROUP_BOUNDS = (4.5, 16.5, 64.5)
 
+#: Margin [m] of the sweep's skip of intervals out of reach (rounding of the positions is
+#: some 1e-12 m): an interval is left out only where it is this much farther than needed.
+_SKIP_MARGIN = 1e-6
+
 #: Sampling step [s] and time after standstill [s] of the last-moment rule's sweep
 #: (the defaults of vfs.adas.threat.braked_contact).
 BRAKED_STEP = 0.1
@@ -154,7 +158,16 @@ def _model_curvature(m: np.ndarray, i: int, model: int) -> float:
 def _first_contact(dx: float, dy: float, ddx: float, ddy: float, yaw_a: float, hl_a: float,
                    hw_a: float, yaw_b: float, hl_b: float, hw_b: float) -> float:
     """:func:`vfs.physics.geometry.first_contact` of one pair (docs/aeb.md eq. 3.1)."""
-    ca, sa, cb, sb = math.cos(yaw_a), math.sin(yaw_a), math.cos(yaw_b), math.sin(yaw_b)
+    return _first_contact_cs(dx, dy, ddx, ddy, math.cos(yaw_a), math.sin(yaw_a), hl_a, hw_a,
+                             math.cos(yaw_b), math.sin(yaw_b), hl_b, hw_b)
+
+
+def _first_contact_cs(dx: float, dy: float, ddx: float, ddy: float, ca: float, sa: float,
+                      hl_a: float, hw_a: float, cb: float, sb: float, hl_b: float,
+                      hw_b: float) -> float:
+    """:func:`_first_contact` with the cosines and sines of both yaws given (a sweep's
+    straight predictions keep their yaws: computed once per pair, not per interval).
+    """
     cos_d = abs(ca * cb + sa * sb)
     sin_d = abs(sa * cb - ca * sb)
     enter = 0.0
@@ -212,8 +225,8 @@ def _ttc_cv(a: np.ndarray, b: np.ndarray, i: int, horizon: float) -> float:
     dy = b[_Y, i] + b[_OFF, i] * sb - a[_Y, i] - a[_OFF, i] * sa
     rvx = b[_SPEED, i] * math.cos(b[_HEADING, i]) - a[_SPEED, i] * math.cos(a[_HEADING, i])
     rvy = b[_SPEED, i] * math.sin(b[_HEADING, i]) - a[_SPEED, i] * math.sin(a[_HEADING, i])
-    s = _first_contact(dx, dy, rvx * horizon, rvy * horizon, a[_YAW, i], a[_HL, i], a[_HW, i],
-                       b[_YAW, i], b[_HL, i], b[_HW, i])
+    s = _first_contact_cs(dx, dy, rvx * horizon, rvy * horizon, ca, sa, a[_HL, i], a[_HW, i],
+                          cb, sb, b[_HL, i], b[_HW, i])
     return s * horizon
 
 
@@ -230,11 +243,12 @@ def _braked_arclength(v: float, delay: float, decel: float, t: float) -> float:
     return v * _fmin(t, delay) + v * braking - 0.5 * decel * (braking * braking)
 
 
-def _path_cg(m: np.ndarray, i: int, u: float, k: float, curved: bool) -> tuple[float, float]:
+def _path_cg(m: np.ndarray, i: int, u: float, k: float, curved: bool, ch: float,
+             sh: float) -> tuple[float, float]:
     """:func:`vfs.adas.threat.path_cg` of row ``i`` after arc length ``u`` [m]; ``curved``:
-    some path of the reference's group curves (else its straight formula).
+    some path of the reference's group curves (else its straight formula); ``ch``, ``sh``:
+    cos and sin of the row's heading (computed once per pair by the caller).
     """
-    ch, sh = math.cos(m[_HEADING, i]), math.sin(m[_HEADING, i])
     if not curved:
         return m[_X, i] + u * ch, m[_Y, i] + u * sh
     half_turn = 0.5 * k * u
@@ -250,18 +264,19 @@ def _path_cg(m: np.ndarray, i: int, u: float, k: float, curved: bool) -> tuple[f
 
 def _sweep_point(a: np.ndarray, b: np.ndarray, i: int, t: float, acc_a: float, k_a: float,
                  acc_b: float, k_b: float, curved_a: bool, curved_b: bool, braked: bool,
-                 delay: float, decel: float) -> tuple[float, float, float, float, float, float]:
+                 delay: float, decel: float, heading: tuple[float, float, float, float]
+                 ) -> tuple[float, float, float, float, float, float]:
     """Arc lengths [m] of both predictions of pair ``i`` at time ``t`` [s] (A braked at
     ``decel`` after ``delay`` where ``braked``) and their CG positions [m]:
-    (ua, ub, xa, ya, xb, yb).
+    (ua, ub, xa, ya, xb, yb); ``heading``: cos and sin of A's heading, then of B's.
     """
     if braked:
         ua = _braked_arclength(a[_SPEED, i], delay, decel, t)
     else:
         ua = _predicted_arclength(a[_SPEED, i], acc_a, t)
     ub = _predicted_arclength(b[_SPEED, i], acc_b, t)
-    xa, ya = _path_cg(a, i, ua, k_a, curved_a)
-    xb, yb = _path_cg(b, i, ub, k_b, curved_b)
+    xa, ya = _path_cg(a, i, ua, k_a, curved_a, heading[0], heading[1])
+    xb, yb = _path_cg(b, i, ub, k_b, curved_b, heading[2], heading[3])
     return ua, ub, xa, ya, xb, yb
 
 
@@ -278,33 +293,61 @@ def _sweep(a: np.ndarray, b: np.ndarray, i: int, model: int, start: float, end: 
     acc_b = _model_accel(b, i, model)
     k_b = _model_curvature(b, i, model)
     reach_r = _circumradius(a, i) + _circumradius(b, i)
+    # loop invariants, each computed once per pair (the same numbers as per interval):
+    # the headings' cosines and sines, and the yaws' where a prediction does not turn
+    heading = (math.cos(a[_HEADING, i]), math.sin(a[_HEADING, i]),
+               math.cos(b[_HEADING, i]), math.sin(b[_HEADING, i]))
+    ca, sa = math.cos(a[_YAW, i]), math.sin(a[_YAW, i])
+    cb, sb = math.cos(b[_YAW, i]), math.sin(b[_YAW, i])
     best = np.inf
     t0 = _fmin(start + 0.0 * step, end)
     ua0, ub0, xa0, ya0, xb0, yb0 = _sweep_point(a, b, i, t0, acc_a, k_a, acc_b, k_b, curved_a,
-                                                curved_b, braked, delay, decel)
-    for j in range(intervals):
+                                                curved_b, braked, delay, decel, heading)
+    travel = bound * step  # the most the separation can shrink over one interval [m]
+    j = 0
+    while j < intervals:
         if not t0 < end:
             break  # this and the later intervals are not counted
         if t0 > best:
             break  # every later contact is later than the one found
         t1 = _fmin(start + float(j + 1) * step, end)
         ua1, ub1, xa1, ya1, xb1, yb1 = _sweep_point(a, b, i, t1, acc_a, k_a, acc_b, k_b,
-                                                    curved_a, curved_b, braked, delay, decel)
+                                                    curved_a, curved_b, braked, delay, decel,
+                                                    heading)
         sep_x = xb0 - xa0
         sep_y = yb0 - ya0
         reach = reach_r + bound * (t1 - t0)
         if sep_x * sep_x + sep_y * sep_y <= reach * reach:
-            yaw_a = a[_YAW, i] + k_a * 0.5 * (ua0 + ua1) if curved_a else a[_YAW, i]
-            yaw_b = b[_YAW, i] + k_b * 0.5 * (ub0 + ub1) if curved_b else b[_YAW, i]
-            dx = sep_x + b[_OFF, i] * math.cos(yaw_b) - a[_OFF, i] * math.cos(yaw_a)
-            dy = sep_y + b[_OFF, i] * math.sin(yaw_b) - a[_OFF, i] * math.sin(yaw_a)
+            if curved_a:
+                yaw_a = a[_YAW, i] + k_a * 0.5 * (ua0 + ua1)
+                ca, sa = math.cos(yaw_a), math.sin(yaw_a)
+            if curved_b:
+                yaw_b = b[_YAW, i] + k_b * 0.5 * (ub0 + ub1)
+                cb, sb = math.cos(yaw_b), math.sin(yaw_b)
+            dx = sep_x + b[_OFF, i] * cb - a[_OFF, i] * ca
+            dy = sep_y + b[_OFF, i] * sb - a[_OFF, i] * sa
             ddx = (xb1 - xb0) - (xa1 - xa0)
             ddy = (yb1 - yb0) - (ya1 - ya0)
-            s = _first_contact(dx, dy, ddx, ddy, yaw_a, a[_HL, i], a[_HW, i], yaw_b,
-                               b[_HL, i], b[_HW, i])
+            s = _first_contact_cs(dx, dy, ddx, ddy, ca, sa, a[_HL, i], a[_HW, i], cb, sb,
+                                  b[_HL, i], b[_HW, i])
             if math.isfinite(s):
                 best = _fmin(best, t0 + s * (t1 - t0))
+        j += 1
         t0, ua0, ub0, xa0, ya0, xb0, yb0 = t1, ua1, ub1, xa1, ya1, xb1, yb1
+        # Intervals the reach test above cannot pass are left out: the separation at a
+        # later sample shrinks by at most ``bound`` [m/s] times the time between (bound:
+        # both speeds' upper bound over the sweep), and an interval is looked at only
+        # while it is within reach_r + travel.  Landing on sample j + skip gives the
+        # numbers stepping there would (every sample is computed from its own time).
+        if travel > 0.0:
+            gap = math.hypot(xb0 - xa0, yb0 - ya0) - reach_r - travel - _SKIP_MARGIN
+            skip = int(gap / travel) if gap > travel else 0
+            if skip > 0 and j < intervals:
+                j = min(j + skip, intervals)
+                t0 = _fmin(start + float(j) * step, end)
+                ua0, ub0, xa0, ya0, xb0, yb0 = _sweep_point(
+                    a, b, i, t0, acc_a, k_a, acc_b, k_b, curved_a, curved_b, braked, delay,
+                    decel, heading)
     return best
 
 
@@ -616,6 +659,77 @@ def _assess(ego: np.ndarray, obj: np.ndarray, case: np.ndarray, col: np.ndarray,
         ttc_state[c, j] = value
 
 
+def _gather_pairs(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, heading: np.ndarray,
+                  speed: np.ndarray, accel: np.ndarray, yaw_rate: np.ndarray,
+                  outline: np.ndarray, rows: np.ndarray, ri: np.ndarray, ji: np.ndarray,
+                  a: np.ndarray, b: np.ndarray) -> None:
+    """The egos (running row ``ri``, participant ``ji``) and their objects packed into
+    ``a`` and ``b`` (10, m) (``AEBController._packed_pairs``): the observation's fields
+    (flat (2 n,): index 2 row + participant), the heading replaced by the yaw at
+    standstill, and the outline rows (3, 2 N) of the case's participants.
+    """
+    for q in range(ri.shape[0]):
+        for side in range(2):
+            out = a if side == 0 else b
+            j = ji[q] if side == 0 else 1 - ji[q]
+            e = 2 * ri[q] + j
+            out[_X, q] = x[e]
+            out[_Y, q] = y[e]
+            out[_YAW, q] = yaw[e]
+            out[_HEADING, q] = heading[e] if speed[e] > 0.0 else yaw[e]
+            out[_SPEED, q] = speed[e]
+            out[_ACCEL, q] = accel[e]
+            out[_YAW_RATE, q] = yaw_rate[e]
+            f = 2 * rows[ri[q]] + j
+            out[_HL, q] = outline[0, f]
+            out[_HW, q] = outline[1, f]
+            out[_OFF, q] = outline[2, f]
+
+
+_gather_kernel: Any = None
+
+
+def gather_pairs(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, heading: np.ndarray,
+                 speed: np.ndarray, accel: np.ndarray, yaw_rate: np.ndarray,
+                 outline: np.ndarray, rows: np.ndarray, ri: np.ndarray,
+                 ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The packed egos and objects (10, m) each (:func:`pack` rows) of the running rows
+    ``ri``, participants ``ji``, in one compiled pass (numpy's gathers are
+    ``AEBController._packed_pairs``' reference).
+
+    Parameters
+    ----------
+    x, y, yaw, heading, speed, accel, yaw_rate : ndarray (n, 2)
+        The observation's fields [m, rad, m/s, m/s^2, rad/s] of the n running rows.
+    outline : ndarray (3, 2 N)
+        Half length, half width (box margins included) and centre offset [m] of every
+        (case, participant), flat index 2 case + participant.
+    rows : ndarray of int (n,)
+        The running rows' cases.
+    ri, ji : ndarray of int (m,)
+        Running row and participant of each ego.
+    """
+    global _gather_kernel
+    if _gather_kernel is None:
+        require_numba()
+        import numba
+
+        _gather_kernel = numba.njit(cache=True, nogil=True, error_model="numpy")(_gather_pairs)
+    m = ri.shape[0]
+    a, b = np.empty((10, m)), np.empty((10, m))
+
+    def flat(v: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(v, dtype=np.float64).reshape(-1)
+
+    run_kernel(_gather_kernel, "AEB controller's pairs", flat(x), flat(y), flat(yaw),
+               flat(heading), flat(speed), flat(accel), flat(yaw_rate),
+               np.ascontiguousarray(outline, dtype=np.float64),
+               np.ascontiguousarray(rows, dtype=np.int64),
+               np.ascontiguousarray(ri, dtype=np.int64),
+               np.ascontiguousarray(ji, dtype=np.int64), a, b)
+    return a, b
+
+
 _kernels: Any = None
 
 
@@ -629,7 +743,8 @@ def _compiled() -> Any:
         opts = {"cache": True, "nogil": True, "error_model": "numpy"}
         g = globals()
         for name in ("_fmax", "_fmin", "_slab", "_wrap", "_circumradius", "_model_accel",
-                     "_model_curvature", "_first_contact", "_earliest", "_ttc_cv",
+                     "_model_curvature", "_first_contact_cs", "_first_contact", "_earliest",
+                     "_ttc_cv",
                      "_predicted_arclength", "_braked_arclength", "_path_cg", "_sweep_point",
                      "_sweep",
                      "_grid_intervals", "_error_terms", "_ttc_batch", "_braked_batch",

@@ -276,7 +276,9 @@ class AEBController:
         ri, ji = np.nonzero(take_rows(self.equipped, rows))
         if ri.size and core_enabled():
             case = rows[ri]
-            a, b = self._packed_pairs(obs, ri, ji)
+            a, b = compiled.gather_pairs(obs.x, obs.y, obs.yaw, obs.heading, obs.speed,
+                                         obs.accel, obs.yaw_rate, self._outline, obs.rows,
+                                         ri, ji)
             compiled.assess(a, b, case, ji, self._front.reshape(-1)[2 * case + ji],
                             obs.road_friction[ri], self._stage, self._ttc, aeb, self.brake,
                             self._dt, self._draw)

@@ -67,6 +67,8 @@ def run_kernel(kernel: Any, name: str, *args: Any) -> Any:
     return out
 
 
+#: numba's threading layer, once known (after the first threaded launch of the process).
+_REPORTED_LAYER: list[str] = []
 #: Held while a threaded kernel (``parallel=True``) runs in this process.
 _THREADED_LAUNCH = threading.Lock()
 
@@ -105,5 +107,11 @@ def kernel_threads(iterations: int) -> Iterator[int]:
             yield threads
         finally:
             numba.set_num_threads(before)
+        if not _REPORTED_LAYER:
+            with contextlib.suppress(ValueError):  # the block launched no threaded kernel
+                _REPORTED_LAYER.append(numba.threading_layer())
+                logging.getLogger("vfs.physics.core").debug(
+                    "vfs: compiled kernels in %d threads on numba's %s threading layer",
+                    threads, _REPORTED_LAYER[0])
     finally:
         _THREADED_LAUNCH.release()

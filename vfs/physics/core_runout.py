@@ -56,6 +56,7 @@ tests would show the stale copy as a disagreement with the reference).
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -519,27 +520,35 @@ _LOOPS = {(False, False): "_vehicle_loop", (False, True): "_vehicle_loop_threads
           (True, False): "_pair_loop", (True, True): "_pair_loop_threads"}
 
 
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+#: Held while a loop compiles: the first calls may come from several threads at once.
+_COMPILING = threading.Lock()
+
+
 def _compiled(pairs: bool, threaded: bool) -> Any:
     """The compiled vehicle (or pair) loop, one-thread or threaded (compiled, or loaded from
     numba's cache, once per process).
     """
+    key = (pairs, threaded)
+    kernel = _kernels.get(key)
+    if kernel is not None:
+        return kernel
     import numba
 
     global _corners, _clipped_overlap, numba_prange
-    if _corners is None:  # the building blocks first
-        _corners, _clipped_overlap = geometry_kernels()
-        g = globals()
-        for name in ("_nmax", "_nmin", "_wheel", "_step", "_stops", "_sample", "_start",
-                     "_pair_overlap", "_vmax", "_run_vehicle", "_run_pair"):
-            g[name] = numba.njit(**_OPTIONS)(g[name])
-        numba_prange = numba.prange
-    key = (pairs, threaded)
-    if key not in _kernels:
-        _kernels[key] = numba.njit(parallel=threaded, **_OPTIONS)(globals()[_LOOPS[key]])
-    return _kernels[key]
-
-
-_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+    with _COMPILING:
+        if _corners is None:  # the building blocks first
+            corners, clipped = geometry_kernels()
+            g = globals()
+            for name in ("_nmax", "_nmin", "_wheel", "_step", "_stops", "_sample", "_start",
+                         "_pair_overlap", "_vmax", "_run_vehicle", "_run_pair"):
+                g[name] = numba.njit(**_OPTIONS)(g[name])
+            numba_prange = numba.prange
+            _clipped_overlap = clipped
+            _corners = corners  # last: the blocks are ready
+        if key not in _kernels:
+            _kernels[key] = numba.njit(parallel=threaded, **_OPTIONS)(globals()[_LOOPS[key]])
+        return _kernels[key]
 
 
 class CompiledRunout(NamedTuple):

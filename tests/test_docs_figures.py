@@ -879,7 +879,7 @@ QUOTES: tuple[Quote, ...] = (
           ",".join(ROTHREADS_WARM), _rothreads_warm,
           "run-out threads: cold start before and after"),
     Quote("docs/performance.md",
-          r"the run-out alone\s+went from " + NUMBER + r" s to " + NUMBER + r" s with two "
+          r"the\s+run-out alone\s+went from " + NUMBER + r" s to " + NUMBER + r" s with two "
           r"threads \(`core_37_runmc_threads_idle.txt`\)",
           "benchmarks/results/core_37_runmc_threads_idle.txt",
           _md_numbers("benchmarks/results/core_37_runmc_threads_idle.txt",

@@ -1,7 +1,7 @@
-"""Experiment (not the product path): the compiled run-out loop of the Monte-Carlo batches
-with numba threads (``parallel=True``, ``prange`` over vehicles) against the one-thread
-kernel, on the run-out batches of `vfs bench uncertainty` (200 cases x 1,000 samples):
-CPU and wall time of both and whether every output is bit-identical.
+"""Experiment (now the product path: ``VFS_THREADS``, vfs.threads): the compiled run-out
+loop of the Monte-Carlo batches with numba threads (``parallel=True``, ``prange`` over
+vehicles) against the one-thread kernel, on the run-out batches of `vfs bench uncertainty`
+(200 cases x 1,000 samples): CPU and wall time of both and whether every output is bit-identical.
 Run from the repository root: ``python benchmarks/core_37_runmc_threads.py``;
 output: benchmarks/results/core_37_runmc_threads.txt.
 """
@@ -30,7 +30,7 @@ cr.run_to_rest = keep
 cases = CaseSet.from_database(open_database("default")).take(slice(0, 200))
 run_uncertainty(cases, default_config(), n_samples=1000, seed=1)
 cr.run_to_rest = orig
-serial, _ = cr._compiled()
+serial = cr._compiled(False, False)
 
 
 def run(kernel, b):
@@ -48,8 +48,8 @@ def run(kernel, b):
     return (st,) + out
 
 
-cr.numba_prange = numba.prange
-threaded = numba.njit(parallel=True, error_model="numpy")(cr._vehicle_loop)
+threaded = cr._compiled(False, True)
+numba.set_num_threads(2)
 run(threaded, batches[-1])  # compile
 for name, kernel in (("one thread", serial), (f"{numba.get_num_threads()} threads", threaded)):
     c0, t0 = time.process_time(), time.perf_counter()

@@ -306,6 +306,28 @@ RUNOUT_UNC = tuple(f"benchmarks/results/core_37_runout_uncertainty_{w}.json"
                    for w in ("before", "before2", "after", "after2"))
 
 
+ROTHREADS = "benchmarks/results/core_37_rothreads_"
+ROTHREADS_MC = tuple(f"{ROTHREADS}{w}.json" for w in ("before", "before2", "after", "after2"))
+ROTHREADS_DIAG = tuple(f"{ROTHREADS}diagq_{w}.json"
+                       for w in ("before1", "before2", "after1", "after2"))
+ROTHREADS_WARM = (f"{ROTHREADS}warmup_before.json", f"{ROTHREADS}warmup_after.json")
+ROTHREADS_T12 = (f"{ROTHREADS}threads1.json", f"{ROTHREADS}threads2.json")
+
+
+def _rothreads_t12(root: Path) -> list[float]:
+    """Wall of 1 and 2 threads, then CPU of 1 and 2 threads (Monte-Carlo)."""
+    one, two = (_json(r, root)["uncertainty"] for r in ROTHREADS_T12)
+    return [one["uncertainty_seconds"], two["uncertainty_seconds"],
+            one["uncertainty_cpu_seconds"], two["uncertainty_cpu_seconds"]]
+
+
+def _rothreads_warm(root: Path) -> list[float]:
+    """Cold CPU and compile CPU before -> after, then the cache load after and before."""
+    before, after = (_json(r, root)["warmup"] for r in ROTHREADS_WARM)
+    return [before["cold_cpu_s"], after["cold_cpu_s"], before["compile_cpu_s"],
+            after["compile_cpu_s"], after["cache_load_cpu_s"], before["cache_load_cpu_s"]]
+
+
 def _runs(records: tuple[str, ...], bench: str, *keys: str) -> Callable[[Path], list[float]]:
     """``keys`` of one benchmark over several records: for the quoted layout "before1 and
     before2 (k1, k2) | after1 and after2 (k1, k2)", the first key of the two befores, the
@@ -891,6 +913,47 @@ QUOTES: tuple[Quote, ...] = (
             f"study36 seed {seed}, {label}: impact types and POI distances")
       for seed in range(5)
       for setting, label in (("default", "defaults"), ("reconstruction", "reconstruction"))),
+    Quote("docs/performance.md",
+          r"`VFS_THREADS=1` and `2` took\s+\*\*" + NUMBER + r" s -> " + NUMBER
+          + r" s wall\*\* \(" + NUMBER + r" s and " + NUMBER + r" s CPU",
+          ",".join(ROTHREADS_T12), _rothreads_t12,
+          "run-out threads: Monte-Carlo with 1 and 2 threads"),
+    Quote("docs/performance.md",
+          r"two\s+rounds before and after: " + NUMBER + r" s and " + NUMBER + r" s CPU \("
+          + NUMBER + r" s and " + NUMBER + r" s wall\) before, " + NUMBER + r" s and\s+"
+          + NUMBER + r" s CPU \(" + NUMBER + r" s and " + NUMBER + r" s wall\) after",
+          ",".join(ROTHREADS_MC),
+          _runs(ROTHREADS_MC, "uncertainty", "uncertainty_cpu_seconds", "uncertainty_seconds"),
+          "run-out threads: Monte-Carlo before and after, niced"),
+    Quote("docs/performance.md",
+          r"`vfs bench diagnose --quick` " + NUMBER + r" s and " + NUMBER + r" s wall \("
+          + NUMBER + r" s and " + NUMBER + r" s CPU\) before,\s+" + NUMBER + r" s and "
+          + NUMBER + r" s wall \(" + NUMBER + r" s and " + NUMBER + r" s CPU\) after",
+          ",".join(ROTHREADS_DIAG), _runs(ROTHREADS_DIAG, "diagnose", "wall_s", "cpu_s"),
+          "run-out threads: diagnose --quick before and after"),
+    Quote("docs/performance.md",
+          r"the full `vfs bench diagnose` \(600\s+cases, load " + NUMBER + r"\) " + NUMBER
+          + r" s -> " + NUMBER + r" s wall, " + NUMBER + r" s -> " + NUMBER + r" s CPU",
+          f"{ROTHREADS}diagnose_before.json,{ROTHREADS}diagnose_after.json",
+          lambda root: [_json(f"{ROTHREADS}diagnose_after.json", root)["diagnose"][
+              "load_average_1min"], *(
+              _json(f"{ROTHREADS}diagnose_{w}.json", root)["diagnose"][k]
+              for k in ("wall_s", "cpu_s") for w in ("before", "after"))],
+          "run-out threads: the full diagnosis before and after"),
+    Quote("docs/performance.md",
+          r"`vfs bench warmup` " + NUMBER + r" s -> " + NUMBER + r" s CPU\s+\(" + NUMBER
+          + r" s -> " + NUMBER + r" s compiling\); later processes load the cache in "
+          + NUMBER + r" s CPU instead of " + NUMBER + r" s",
+          ",".join(ROTHREADS_WARM), _rothreads_warm,
+          "run-out threads: cold start before and after"),
+    Quote("docs/performance.md",
+          r"the\s+run-out alone\s+went from " + NUMBER + r" s to " + NUMBER + r" s with two "
+          r"threads \(`core_37_runmc_threads_idle.txt`\)",
+          "benchmarks/results/core_37_runmc_threads_idle.txt",
+          _md_numbers("benchmarks/results/core_37_runmc_threads_idle.txt",
+                      r"one thread: CPU [\d.]+ s, wall ([\d.]+) s\n2 threads: CPU [\d.]+ s, "
+                      r"wall ([\d.]+) s"),
+          "run-out threads: the idle-machine experiment"),
 )
 
 

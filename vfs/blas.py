@@ -27,10 +27,14 @@ _R = TypeVar("_R")
 THREAD_VARIABLES: tuple[str, ...] = (
     "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
     "NUMEXPR_NUM_THREADS")
+#: The environment variable of vfs's own compute threads in a process: the compiled run-out's
+#: numba threads and duckdb's (declared, with its range and default, in :mod:`vfs.threads`).
+COMPUTE_THREADS_VARIABLE = "VFS_THREADS"
 #: What a worker process of a study gets set to 1 (:func:`single_threaded_workers`): the
-#: pools above and duckdb's through ``VFS_THREADS``. A worker is one single-threaded batch,
-#: and W workers with a pool of one thread per core each would oversubscribe the machine.
-WORKER_THREAD_VARIABLES: tuple[str, ...] = (*THREAD_VARIABLES, "VFS_THREADS")
+#: pools above and vfs's own (numba's and duckdb's) through ``VFS_THREADS``. A worker is one
+#: single-threaded batch, and W workers with a pool of one thread per core each would
+#: oversubscribe the machine.
+WORKER_THREAD_VARIABLES: tuple[str, ...] = (*THREAD_VARIABLES, COMPUTE_THREADS_VARIABLE)
 
 
 @contextlib.contextmanager
@@ -82,5 +86,5 @@ def single_threaded_workers() -> Iterator[None]:
             os.environ.pop(name, None)
 
 
-__all__ = ["THREAD_VARIABLES", "WORKER_THREAD_VARIABLES", "one_blas_thread",
-           "single_threaded_blas", "single_threaded_workers"]
+__all__ = ["COMPUTE_THREADS_VARIABLE", "THREAD_VARIABLES", "WORKER_THREAD_VARIABLES",
+           "one_blas_thread", "single_threaded_blas", "single_threaded_workers"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
@@ -10,6 +11,8 @@ def bench_uncertainty(quick: bool) -> dict[str, Any]:
     """Monte-Carlo throughput (1000 samples x 200 cases of the bundled database; 100 x 50
     with ``quick``) and the time of a Sobol analysis (:mod:`vfs.uncertainty.sensitivity`).
     ``uncertainty_cpu_seconds``: CPU time of the process, all threads.
+    ``compute_threads``: the run-out's threads (:func:`vfs.threads.compute_threads`,
+    ``VFS_THREADS``); ``load_average_1min`` at the end (the machine's other work).
     ``runout_kernel``: "compiled" where :func:`vfs.physics.numba_support.enabled` (the
     default; ``VFS_COMPILED=0``: "numpy"); a small run before the timing compiles the
     kernel (or loads numba's cache).
@@ -34,9 +37,12 @@ def bench_uncertainty(quick: bool) -> dict[str, Any]:
     sobol = time.perf_counter() - t0
     runs = n_samples * n_cases
     from vfs.physics.numba_support import enabled
+    from vfs.threads import compute_threads
 
     return {
         "runout_kernel": "compiled" if enabled() else "numpy",
+        "compute_threads": compute_threads(),
+        "load_average_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
         "cases": n_cases, "samples_per_case": n_samples, "model_runs": runs,
         "uncertainty_seconds": mc, "uncertainty_cpu_seconds": mc_cpu, "runs_per_s": runs / mc,
         "sobol_cases": n_sobol, "sobol_base_samples": n_base,

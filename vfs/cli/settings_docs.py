@@ -20,7 +20,7 @@ from pathlib import Path
 
 #: The pages that hold generated settings tables.
 PAGES = ("docs/study.md", "docs/diagnosis.md", "docs/physics.md", "docs/uncertainty.md",
-         "docs/effects.md")
+         "docs/effects.md", "docs/performance.md")
 
 
 def study_settings() -> str:
@@ -60,6 +60,19 @@ def uncertainty_model() -> str:
     return markdown_table(UncertaintyConfig) + "\n"
 
 
+def compute_threads() -> str:
+    """The compute-thread setting (:class:`vfs.threads.ComputeThreads`, ``VFS_THREADS``)."""
+    from vfs.settings import declared, markdown_table
+    from vfs.threads import THREADS_VARIABLE, ComputeThreads
+
+    # the bound of numba's pool differs from machine to machine: the page names it
+    most = declared(ComputeThreads)["threads"].allowed()
+    table = markdown_table(ComputeThreads, rename={"threads": THREADS_VARIABLE})
+    pool = ("an integer from 1 to the size of numba's thread pool (the cores the process "
+            "may use, or NUMBA_NUM_THREADS), or absent")
+    return table.replace(most, pool) + "\n"
+
+
 def effect_parameters() -> str:
     """The parameters of every built-in effect (:class:`vfs.effects.EffectParameter`;
     effects registered later by plugins, or by tests in the same process, are not vfs's
@@ -87,6 +100,7 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "simulation-settings": simulation_settings,
     "uncertainty-model": uncertainty_model,
     "effect-parameters": effect_parameters,
+    "compute-threads": compute_threads,
 }
 
 

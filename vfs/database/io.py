@@ -44,6 +44,7 @@ from vfs.database.schema import (
 )
 from vfs.database.validation import validate_database
 from vfs.errors import DataError, DataProblem
+from vfs.threads import compute_threads
 
 META_FILE = "meta.json"
 #: Text read as missing in the numeric columns of CSV files.
@@ -322,17 +323,11 @@ def _selection_sql(source: str, where: str) -> str:
     return sql
 
 
-#: Environment variable with the number of threads of each duckdb connection (default: one per
-#: core); the study's worker processes set it to 1 (:mod:`vfs.study.executors`).
-THREADS_VARIABLE = "VFS_THREADS"
-
-
 def _connect() -> duckdb.DuckDBPyConnection:
-    """An in-memory duckdb connection with :data:`THREADS_VARIABLE` threads where set."""
-    threads = os.environ.get(THREADS_VARIABLE, "").strip()
-    if threads.isdigit() and int(threads) >= 1:
-        return duckdb.connect(":memory:", config={"threads": int(threads)})
-    return duckdb.connect(":memory:")
+    """An in-memory duckdb connection with :func:`vfs.threads.compute_threads` threads
+    (``VFS_THREADS``; 1 in a study's worker processes).
+    """
+    return duckdb.connect(":memory:", config={"threads": compute_threads()})
 
 
 def _select_parquet(files: dict[str, Path], where: str,

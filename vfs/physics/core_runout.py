@@ -33,24 +33,36 @@ or later.  ``tests/physics/test_core_runout.py`` compares every output on genera
 every accident type to 1e-9 m (1e-9 rad, 1e-9 J relative) and one time step, and reports
 the share of bit-identical values.
 
-The kernels run in one thread (``parallel=False``): the studies run cases in processes, and
-a process that has started numba's threads must not fork.  numba compiles them at the first
-call (``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`
-says when it compiled).  numba's cache is keyed on this file alone: the pair kernel compiles
-:func:`vfs.physics.core.clipped_overlap` and :func:`vfs.physics.core.pose_corners` into
-itself, so after an edit of those, delete ``vfs/physics/__pycache__/core_runout*`` (the
+Threads.  Every loop exists twice: in one thread (``parallel=False``) and with the vehicles
+(the pairs) in numba's threads (``parallel=True``, ``prange``).  A vehicle (a pair) writes
+only its own rows and its arithmetic does not depend on the thread that runs it, so the
+outputs are bit-identical for any thread count (``tests/physics/test_runout_threads.py``).
+:func:`run_to_rest` takes the threaded loop with :func:`vfs.threads.compute_threads`
+threads (``VFS_THREADS``; one per core by default, 1 in a study's worker processes) and
+the one-thread loop where that is 1, where the batch has one row, or where another Python
+thread of the process is running a threaded loop at that moment
+(:func:`vfs.physics.numba_support.kernel_threads`: numba's "workqueue" threading layer
+must not be entered by two threads at once).  numba's threads are started at the first
+threaded call; the study's pools start their workers from a fork server or by spawning,
+never by forking this process.  numba compiles each loop at its first call
+(``cache=True`` keeps the machine code; :func:`vfs.physics.numba_support.run_kernel`
+says when it compiled): a process that never runs threaded (a study worker) never
+compiles the threaded loops.  numba's cache is keyed on this file alone: the pair kernel
+compiles :func:`vfs.physics.core.clipped_overlap` and :func:`vfs.physics.core.pose_corners`
+into itself, so after an edit of those, delete ``vfs/physics/__pycache__/core_runout*`` (the
 tests would show the stale copy as a disagreement with the reference).
 """
 
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from vfs.physics.core import geometry_kernels
-from vfs.physics.numba_support import require_numba, run_kernel
+from vfs.physics.numba_support import kernel_threads, require_numba, run_kernel
 from vfs.physics.runout_contacts import CORNER_DEPTH
 from vfs.physics.vehicle import VehicleArrays
 
@@ -312,29 +324,50 @@ def _start(par: np.ndarray, st: np.ndarray, i: int, consts: np.ndarray, load_tra
     return moving
 
 
+def _run_vehicle(par: np.ndarray, st: np.ndarray, i: int, consts: np.ndarray, max_steps: int,
+                 per_sample: int, load_transfer: bool, steps: np.ndarray, moving: np.ndarray,
+                 last_col: np.ndarray, path: np.ndarray, energy: np.ndarray) -> None:
+    """Run vehicle i to rest; writes its row of ``st``, ``steps``, ``moving``, ``last_col``,
+    ``path`` and ``energy`` and nothing else (so rows can run in parallel threads).
+    """
+    dmp = np.empty((3, 4))
+    is_moving = _start(par, st, i, consts, load_transfer, dmp)
+    _sample(par, st, i, 0, path, energy)
+    step = 0
+    col = 0
+    while is_moving and step < max_steps:
+        _step(par, st, i, consts, step == 0, step * consts[0], load_transfer, False, dmp)
+        step += 1
+        is_moving = not _stops(par, st, i, consts[2])
+        if step % per_sample == 0:
+            col += 1
+            _sample(par, st, i, col, path, energy)
+    steps[i] = step
+    moving[i] = is_moving
+    last_col[i] = col
+
+
 def _vehicle_loop(par: np.ndarray, st: np.ndarray, consts: np.ndarray, max_steps: int,
                   per_sample: int, load_transfer: bool, steps: np.ndarray,
                   moving: np.ndarray, last_col: np.ndarray, path: np.ndarray,
                   energy: np.ndarray) -> None:
-    """Run every vehicle to rest (compiled by numba); ``st`` is updated in place.  Writes the
-    steps taken, the moving flag, the last sample column and the samples that fit.
+    """Run every vehicle to rest (compiled by numba, one thread); ``st`` is updated in
+    place.  Writes the steps taken, the moving flag, the last sample column and the samples
+    that fit.
     """
+    for i in range(par.shape[0]):
+        _run_vehicle(par, st, i, consts, max_steps, per_sample, load_transfer, steps, moving,
+                     last_col, path, energy)
+
+
+def _vehicle_loop_threads(par: np.ndarray, st: np.ndarray, consts: np.ndarray,
+                          max_steps: int, per_sample: int, load_transfer: bool,
+                          steps: np.ndarray, moving: np.ndarray, last_col: np.ndarray,
+                          path: np.ndarray, energy: np.ndarray) -> None:
+    """:func:`_vehicle_loop` with the vehicles in numba's threads (``parallel=True``)."""
     for i in numba_prange(par.shape[0]):
-        dmp = np.empty((3, 4))
-        is_moving = _start(par, st, i, consts, load_transfer, dmp)
-        _sample(par, st, i, 0, path, energy)
-        step = 0
-        col = 0
-        while is_moving and step < max_steps:
-            _step(par, st, i, consts, step == 0, step * consts[0], load_transfer, False, dmp)
-            step += 1
-            is_moving = not _stops(par, st, i, consts[2])
-            if step % per_sample == 0:
-                col += 1
-                _sample(par, st, i, col, path, energy)
-        steps[i] = step
-        moving[i] = is_moving
-        last_col[i] = col
+        _run_vehicle(par, st, i, consts, max_steps, per_sample, load_transfer, steps, moving,
+                     last_col, path, energy)
 
 
 def _pair_overlap(par: np.ndarray, st: np.ndarray, a: int, b: int, o1: np.ndarray,
@@ -385,94 +418,137 @@ def _vmax(par: np.ndarray, st: np.ndarray, i: int) -> float:
     return math.sqrt(vx * vx + vy * vy + par[i, _GYRATION2] * r * r)
 
 
+def _run_pair(par: np.ndarray, st: np.ndarray, pair: int, n: int, consts: np.ndarray,
+              max_steps: int, per_sample: int, load_transfer: bool, steps: np.ndarray,
+              moving: np.ndarray, last_col: np.ndarray, path: np.ndarray, energy: np.ndarray,
+              secondary: np.ndarray, sec_time: np.ndarray) -> None:
+    """Run pair (pair, pair + n) to rest with the check of secondary collisions after every
+    step (``SecondaryCollisions.__call__``); writes the rows of its two vehicles and its
+    own entry of ``secondary`` and ``sec_time``, nothing else (pairs can run in parallel
+    threads).
+    """
+    dmp = np.empty((3, 4))
+    o1 = np.empty((4, 2))
+    o2 = np.empty((4, 2))
+    buf = np.empty((5, 8))
+    a, b = pair, pair + n
+    separated = not _pair_overlap(par, st, a, b, o1, o2, buf)[0]
+    hit = False
+    hit_time = math.nan
+    next_check = 0.0
+    mov_a = _start(par, st, a, consts, load_transfer, dmp)
+    mov_b = _start(par, st, b, consts, load_transfer, dmp)
+    _sample(par, st, a, 0, path, energy)
+    _sample(par, st, b, 0, path, energy)
+    step = 0
+    col = 0
+    stop_a = 0
+    stop_b = 0
+    while (mov_a or mov_b) and step < max_steps:
+        first = step == 0
+        t0 = step * consts[0]
+        if mov_a:
+            _step(par, st, a, consts, first, t0, load_transfer, False, dmp)
+        if mov_b:
+            _step(par, st, b, consts, first, t0, load_transfer, False, dmp)
+        step += 1
+        t = step * consts[0]
+        if mov_a and _stops(par, st, a, consts[2]):
+            mov_a = False
+            stop_a = step
+        if mov_b and _stops(par, st, b, consts[2]):
+            mov_b = False
+            stop_b = step
+        if not hit and next_check <= t:
+            over, depth = _pair_overlap(par, st, a, b, o1, o2, buf)
+            gap = math.hypot(st[b, _X] - st[a, _X], st[b, _Y] - st[a, _Y]) - (
+                par[a, _RADIUS] + par[b, _RADIUS])
+            va, vb = _vmax(par, st, a), _vmax(par, st, b)
+            wait = gap / (va + vb) if gap > 0.0 else 0.0
+            if not separated and depth > CORNER_DEPTH:
+                wait = (depth - CORNER_DEPTH) / (va * par[a, _REACH] + vb * par[b, _REACH])
+            next_check = t + wait
+            if separated and over:
+                hit = True
+                hit_time = t
+            if not separated and not over:
+                separated = True
+        if step % per_sample == 0:
+            col += 1
+            _sample(par, st, a, col, path, energy)
+            _sample(par, st, b, col, path, energy)
+    steps[a] = stop_a if not mov_a else step
+    steps[b] = stop_b if not mov_b else step
+    moving[a], moving[b] = mov_a, mov_b
+    last_col[a] = last_col[b] = col
+    secondary[pair] = hit
+    sec_time[pair] = hit_time
+
+
 def _pair_loop(par: np.ndarray, st: np.ndarray, consts: np.ndarray, max_steps: int,
                per_sample: int, load_transfer: bool, steps: np.ndarray, moving: np.ndarray,
                last_col: np.ndarray, path: np.ndarray, energy: np.ndarray,
                secondary: np.ndarray, sec_time: np.ndarray) -> None:
-    """Run the pairs (k, k + n) to rest together with the check of secondary collisions after
-    every step (``SecondaryCollisions.__call__``); compiled by numba.
-    """
+    """Run the pairs (k, k + n) to rest (compiled by numba, one thread)."""
+    n = par.shape[0] // 2
+    for pair in range(n):
+        _run_pair(par, st, pair, n, consts, max_steps, per_sample, load_transfer, steps,
+                  moving, last_col, path, energy, secondary, sec_time)
+
+
+def _pair_loop_threads(par: np.ndarray, st: np.ndarray, consts: np.ndarray, max_steps: int,
+                       per_sample: int, load_transfer: bool, steps: np.ndarray,
+                       moving: np.ndarray, last_col: np.ndarray, path: np.ndarray,
+                       energy: np.ndarray, secondary: np.ndarray, sec_time: np.ndarray
+                       ) -> None:
+    """:func:`_pair_loop` with the pairs in numba's threads (``parallel=True``)."""
     n = par.shape[0] // 2
     for pair in numba_prange(n):
-        dmp = np.empty((3, 4))
-        o1 = np.empty((4, 2))
-        o2 = np.empty((4, 2))
-        buf = np.empty((5, 8))
-        a, b = pair, pair + n
-        separated = not _pair_overlap(par, st, a, b, o1, o2, buf)[0]
-        hit = False
-        hit_time = math.nan
-        next_check = 0.0
-        mov_a = _start(par, st, a, consts, load_transfer, dmp)
-        mov_b = _start(par, st, b, consts, load_transfer, dmp)
-        _sample(par, st, a, 0, path, energy)
-        _sample(par, st, b, 0, path, energy)
-        step = 0
-        col = 0
-        stop_a = 0
-        stop_b = 0
-        while (mov_a or mov_b) and step < max_steps:
-            first = step == 0
-            t0 = step * consts[0]
-            if mov_a:
-                _step(par, st, a, consts, first, t0, load_transfer, False, dmp)
-            if mov_b:
-                _step(par, st, b, consts, first, t0, load_transfer, False, dmp)
-            step += 1
-            t = step * consts[0]
-            if mov_a and _stops(par, st, a, consts[2]):
-                mov_a = False
-                stop_a = step
-            if mov_b and _stops(par, st, b, consts[2]):
-                mov_b = False
-                stop_b = step
-            if not hit and next_check <= t:
-                over, depth = _pair_overlap(par, st, a, b, o1, o2, buf)
-                gap = math.hypot(st[b, _X] - st[a, _X], st[b, _Y] - st[a, _Y]) - (
-                    par[a, _RADIUS] + par[b, _RADIUS])
-                va, vb = _vmax(par, st, a), _vmax(par, st, b)
-                wait = gap / (va + vb) if gap > 0.0 else 0.0
-                if not separated and depth > CORNER_DEPTH:
-                    wait = (depth - CORNER_DEPTH) / (va * par[a, _REACH] + vb * par[b, _REACH])
-                next_check = t + wait
-                if separated and over:
-                    hit = True
-                    hit_time = t
-                if not separated and not over:
-                    separated = True
-            if step % per_sample == 0:
-                col += 1
-                _sample(par, st, a, col, path, energy)
-                _sample(par, st, b, col, path, energy)
-        steps[a] = stop_a if not mov_a else step
-        steps[b] = stop_b if not mov_b else step
-        moving[a], moving[b] = mov_a, mov_b
-        last_col[a] = last_col[b] = col
-        secondary[pair] = hit
-        sec_time[pair] = hit_time
+        _run_pair(par, st, pair, n, consts, max_steps, per_sample, load_transfer, steps,
+                  moving, last_col, path, energy, secondary, sec_time)
 
 
 numba_prange = range  # numba.prange inside the compiled kernels
 _corners: Any = None  # vfs.physics.core.pose_corners, compiled
 _clipped_overlap: Any = None  # vfs.physics.core.clipped_overlap, compiled
-_kernels: list[Any] = []
+#: The compiled loops by (pairs, threaded), each compiled (or loaded from numba's cache) at
+#: its first use: a study's worker process (one thread) never compiles the threaded ones.
+_kernels: dict[tuple[bool, bool], Any] = {}
+#: The Python loops by (pairs, threaded): distinct functions, because numba's cache keys a
+#: function's machine code by its name and code alone, not by ``parallel``.
+_LOOPS = {(False, False): "_vehicle_loop", (False, True): "_vehicle_loop_threads",
+          (True, False): "_pair_loop", (True, True): "_pair_loop_threads"}
 
 
-def _compiled() -> tuple[Any, Any]:
-    """The compiled vehicle and pair loops (compiled, or loaded from numba's cache, once)."""
-    if not _kernels:
-        import numba
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+#: Held while a loop compiles: the first calls may come from several threads at once.
+_COMPILING = threading.Lock()
 
-        global _corners, _clipped_overlap
-        _corners, _clipped_overlap = geometry_kernels()
-        opts = {"cache": True, "nogil": True, "error_model": "numpy"}
-        g = globals()
-        for name in ("_nmax", "_nmin", "_wheel", "_step", "_stops", "_sample", "_start",
-                     "_pair_overlap", "_vmax"):
-            g[name] = numba.njit(**opts)(g[name])
-        _kernels.append(numba.njit(parallel=False, **opts)(_vehicle_loop))
-        _kernels.append(numba.njit(parallel=False, **opts)(_pair_loop))
-    return _kernels[0], _kernels[1]
+
+def _compiled(pairs: bool, threaded: bool) -> Any:
+    """The compiled vehicle (or pair) loop, one-thread or threaded (compiled, or loaded from
+    numba's cache, once per process).
+    """
+    key = (pairs, threaded)
+    kernel = _kernels.get(key)
+    if kernel is not None:
+        return kernel
+    import numba
+
+    global _corners, _clipped_overlap, numba_prange
+    with _COMPILING:
+        if _corners is None:  # the building blocks first
+            corners, clipped = geometry_kernels()
+            g = globals()
+            for name in ("_nmax", "_nmin", "_wheel", "_step", "_stops", "_sample", "_start",
+                         "_pair_overlap", "_vmax", "_run_vehicle", "_run_pair"):
+                g[name] = numba.njit(**_OPTIONS)(g[name])
+            numba_prange = numba.prange
+            _clipped_overlap = clipped
+            _corners = corners  # last: the blocks are ready
+        if key not in _kernels:
+            _kernels[key] = numba.njit(parallel=threaded, **_OPTIONS)(globals()[_LOOPS[key]])
+        return _kernels[key]
 
 
 class CompiledRunout(NamedTuple):
@@ -575,7 +651,6 @@ def run_to_rest(par: np.ndarray, state: tuple[np.ndarray, ...], consts: tuple[fl
         Where numba is not installed.
     """
     require_numba()
-    vehicle_loop, pair_loop = _compiled()
     n = par.shape[0]
     k = np.asarray(consts, dtype=float)
     st0 = np.zeros((n, _NST))
@@ -590,14 +665,14 @@ def run_to_rest(par: np.ndarray, state: tuple[np.ndarray, ...], consts: tuple[fl
         m = p.shape[0]
         out = (s, np.zeros(m, np.int64), np.zeros(m, np.bool_), np.zeros(m, np.int64),
                np.empty((m, cap, 3)), np.empty((m, cap)))
-        if pairs:
-            flags = (np.zeros(m // 2, np.bool_), np.full(m // 2, np.nan))
-            run_kernel(pair_loop, "run-out of pairs", p, s, k, max_steps, per_sample,
+        flags = (np.zeros(m // 2, np.bool_), np.full(m // 2, np.nan)) if pairs else ()
+        with kernel_threads(m // 2 if pairs else m) as threads:
+            threaded = threads > 1
+            name = ("run-out of pairs" if pairs else "run-out") + (
+                " (threads)" if threaded else "")
+            run_kernel(_compiled(pairs, threaded), name, p, s, k, max_steps, per_sample,
                        load_transfer, *out[1:], *flags)
-            return out + flags
-        run_kernel(vehicle_loop, "run-out", p, s, k, max_steps, per_sample, load_transfer,
-                   *out[1:])
-        return out + (None, None)
+        return out + (flags if pairs else (None, None))
 
     st, steps, moving, last_col, path, energy, secondary, sec_time = run(None, cap)
     total = int(steps.max()) if n else 0  # the steps of the reference's batch loop

@@ -9,7 +9,8 @@ timed (CPU) and counted: the pre-crash replay (row-steps from its end steps), th
 the controlled runs (rows per call), the AEB measurement kernels, the run-out (vehicle
 steps).  "Python" is the run's CPU time outside the kernels.  Output:
 benchmarks/results/core_37_floor.json and .txt.  Run from the repository root:
-``python benchmarks/core_37_floor.py``.
+``VFS_THREADS=1 python benchmarks/core_37_floor.py`` (the run-out in one thread, so that
+its CPU time is per core).
 """
 import json
 import os
@@ -107,11 +108,13 @@ def main() -> None:
            "simulation_cpu_s": total_s, "kernel_cpu_s": kernel_s,
            "case_runs_per_s_simulation": case_runs / total_s,
            "case_runs_per_s_kernels_only": case_runs / kernel_s,
-           "load_average": os.getloadavg()[0]}
+           "load_average": os.getloadavg()[0],
+           "vfs_threads": os.environ.get("VFS_THREADS", "")}
     OUT.mkdir(exist_ok=True)
     (OUT / "core_37_floor.json").write_text(json.dumps(rec, indent=1) + "\n")
     lines = [f"# benchmarks/core_37_floor.py: {N_CASES} generated cases (seed 11), both "
-             f"vehicles equipped, warm kernels, CPU time, load average {rec['load_average']:.2f}"]
+             f"vehicles equipped, warm kernels, CPU time, load average {rec['load_average']:.2f}, "
+             f"VFS_THREADS={rec['vfs_threads'] or '(unset)'}"]
     per = {"pre-crash replay": "row-step", "pre-crash step": "row-step",
            "AEB kernels": "ego", "run-out": "vehicle-step"}
     for label, r in report.items():

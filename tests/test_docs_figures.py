@@ -112,6 +112,40 @@ IMPACT_BENCH = "benchmarks/results/core_37_impact.json"
 IMPACT_BREAKDOWN = "benchmarks/results/core_37_impact_breakdown.json"
 SESSION3_START = "benchmarks/results/core_37_session3_start.json"
 SESSION3_END = "benchmarks/results/core_37_session3_end.json"
+SESSION4_START = "benchmarks/results/core_37_session4_start.json"
+SESSION4_END = "benchmarks/results/core_37_session4_end.json"
+FLOOR = "benchmarks/results/core_37_floor.json"
+FLOOR_BEFORE = "benchmarks/results/core_37_floor_before.json"
+FLOOR_ROUNDS = "benchmarks/results/core_37_floor_rounds.json"
+
+
+def _floor_kernel(record: str, run: str, kernel: str, per_unit: bool = False
+                  ) -> Callable[[Path], float]:
+    """CPU time [s] of one kernel of one run of a core_37_floor record, or ns per unit."""
+    def read(root: Path) -> float:
+        k = _json(record, root)["runs"][run]["kernels"][kernel]
+        return 1e9 * k["cpu_s"] / k["units"] if per_unit else k["cpu_s"]
+    return read
+
+
+def _floor_quotes(root: Path) -> list[float]:
+    """The figures of the paragraph on what a case-run costs, in their order."""
+    end = _json(FLOOR, root)
+    rounds = _json(FLOOR_ROUNDS, root)
+    runs = end["runs"]
+    replay = runs["baseline"]["kernels"]["pre-crash replay"]
+    return [*(r["simulation_cpu_s"] for r in rounds["start"]),
+            *(r["simulation_cpu_s"] for r in rounds["end"]),
+            end["simulation_cpu_s"], end["case_runs_per_s_simulation"], end["kernel_cpu_s"],
+            _floor_kernel(FLOOR, "baseline", "pre-crash replay", True)(root),
+            replay["units"] / 1e6,
+            _floor_kernel(FLOOR, "three-stage", "pre-crash step", True)(root),
+            _floor_kernel(FLOOR, "ideal", "pre-crash step", True)(root),
+            _floor_kernel(FLOOR, "three-stage", "AEB kernels", True)(root),
+            _floor_kernel(FLOOR, "ideal", "AEB kernels", True)(root),
+            min(_floor_kernel(FLOOR, r, "run-out", True)(root) for r in runs),
+            max(_floor_kernel(FLOOR, r, "run-out", True)(root) for r in runs),
+            end["case_runs_per_s_kernels_only"]]
 
 
 def _breakdown(root: Path) -> list[float]:
@@ -795,6 +829,73 @@ QUOTES: tuple[Quote, ...] = (
               *_bench(SESSION3_END, "impact", "impacts_per_s*1e-6")(root),
               *_bench(SESSION3_END, "warmup", "cold_cpu_s")(root)],
           "Monte-Carlo, gym, impacts and cold start at the round's start and end, idle"),
+    Quote("docs/performance.md",
+          r"`core_37_session4_start.json` \(load " + NUMBER + r"\), then the end,\s+"
+          r"`core_37_session4_end.json` \(load " + NUMBER + r"\)",
+          f"{SESSION4_START},{SESSION4_END}",
+          lambda root: [*_bench(SESSION4_START, "study", "load_average_1min")(root),
+                        *_bench(SESSION4_END, "study", "load_average_1min")(root)],
+          "loads of the fourth round's start and end benchmarks"),
+    Quote("docs/performance.md",
+          r"one core, CPU time \| " + NUMBER + r" case-runs/s \(" + NUMBER + r" s\) \| \*\*"
+          + NUMBER + r" case-runs/s\*\* \(" + NUMBER + r" s\) \| >= 5,000 \|\n"
+          r"\| the same, resume, CPU time \| " + NUMBER + r" case-runs/s \| " + NUMBER
+          + r" case-runs/s \| \|\n"
+          r"\| Monte-Carlo 200 cases x 1,000 samples, wall \(CPU\) \| " + NUMBER + r" s \("
+          + NUMBER + r" s\) \| \*\*" + NUMBER + r" s\*\* \(" + NUMBER + r" s\) on the "
+          r"run-out's 2 threads \| < 3 s \|\n"
+          r".*steps per CPU-second \| " + NUMBER + r" / " + NUMBER + r" k \| " + NUMBER
+          + r" / " + NUMBER + r" k .*\n\| impacts \| " + NUMBER + r" M/s \| " + NUMBER
+          + r" M/s .*\n\| cold start, CPU time \| " + NUMBER + r" s once \| " + NUMBER
+          + r" s once",
+          f"{SESSION4_START},{SESSION4_END}",
+          lambda root: [
+              *_bench(SESSION4_START, "study", "case_runs_per_s_cpu", "cpu_s")(root),
+              *_bench(SESSION4_END, "study", "case_runs_per_s_cpu", "cpu_s")(root),
+              *_bench(SESSION4_START, "study", "resume_case_runs_per_s_cpu")(root),
+              *_bench(SESSION4_END, "study", "resume_case_runs_per_s_cpu")(root),
+              *_bench(SESSION4_START, "uncertainty", "uncertainty_seconds",
+                      "uncertainty_cpu_seconds")(root),
+              *_bench(SESSION4_END, "uncertainty", "uncertainty_seconds",
+                      "uncertainty_cpu_seconds")(root),
+              *_bench(SESSION4_START, "gym_env", "single_steps_per_cpu_s",
+                      "vector_32768_steps_per_cpu_s*1e-3")(root),
+              *_bench(SESSION4_END, "gym_env", "single_steps_per_cpu_s",
+                      "vector_32768_steps_per_cpu_s*1e-3")(root),
+              *_bench(SESSION4_START, "impact", "impacts_per_s*1e-6")(root),
+              *_bench(SESSION4_END, "impact", "impacts_per_s*1e-6")(root),
+              *_bench(SESSION4_START, "warmup", "cold_cpu_s")(root),
+              *_bench(SESSION4_END, "warmup", "cold_cpu_s")(root)],
+          "the fourth round's start and end on the idle machine"),
+    Quote("docs/performance.md",
+          r"AEB\s+kernels cost " + NUMBER + r" s CPU of its run against " + NUMBER
+          + r" s for `three-stage`",
+          FLOOR_BEFORE,
+          lambda root: [_floor_kernel(FLOOR_BEFORE, "ideal", "AEB kernels")(root),
+                        _floor_kernel(FLOOR_BEFORE, "three-stage", "AEB kernels")(root)],
+          "the AEB kernels' CPU of ideal and three-stage at the round's start"),
+    Quote("docs/performance.md",
+          r"AEB kernels fell to " + NUMBER + r" s \(gather included\), its run from " + NUMBER
+          + r" to " + NUMBER + r" s CPU",
+          f"{FLOOR},{FLOOR_BEFORE}",
+          lambda root: [_floor_kernel(FLOOR, "ideal", "AEB kernels")(root),
+                        _json(FLOOR_BEFORE, root)["runs"]["ideal"]["cpu_s"],
+                        _json(FLOOR, root)["runs"]["ideal"]["cpu_s"]],
+          "the ideal system's AEB kernels and run before and after the sweep's skip"),
+    Quote("docs/performance.md",
+          r"core_37_floor_rounds.json`:\s+" + NUMBER + r" and " + NUMBER
+          + r" s at the start, " + NUMBER + r" and\s+" + NUMBER + r" s at the end\)\. The "
+          r"9,000 case-runs' simulation takes " + NUMBER + r" s \(" + NUMBER
+          + r" case-runs/s\), of which\s+the compiled kernels " + NUMBER + r" s: the "
+          r"baseline's replay " + NUMBER + r" ns per row-step[^;]*;\s+" + NUMBER
+          + r" M\s+row-steps, about 600 per case\), the controlled runs' step " + NUMBER + r"-"
+          + NUMBER + r" ns per row-step, the AEB\s+kernels " + NUMBER
+          + r" ns per ego and measurement for `three-stage` \(every 50 ms\) and " + NUMBER
+          + r" ns for `ideal`\s+\(every 10 ms\), the run-out " + NUMBER + r"-" + NUMBER
+          + r" ns per vehicle-step at 5 ms\. The kernels alone, with no\s+Python between them "
+          r"and nothing before or after the simulation, would allow " + NUMBER,
+          f"{FLOOR},{FLOOR_ROUNDS}", _floor_quotes,
+          "what a case-run costs at the 10 ms grid"),
     Quote("docs/performance-kernels.md",
           r"\(`benchmarks/results/core_37_runmc_threads_idle.txt`\): " + NUMBER
           + r" s wall with one thread, " + NUMBER + r" s\s+with 2 threads",

@@ -128,6 +128,22 @@ def _floor_kernel(record: str, run: str, kernel: str, per_unit: bool = False
     return read
 
 
+def _diagnose_steps(root: Path) -> list[float]:
+    """Run-out CPU [s], diagnosis CPU [s], vehicle-steps, vehicles, ns per vehicle-step and
+    the median steps per vehicle of core_37_diagnose_steps.txt, as quoted."""
+    text = (root / "benchmarks/results/core_37_diagnose_steps.txt").read_text(encoding="utf-8")
+
+    def grab(pattern: str) -> float:
+        found = re.search(pattern, text)
+        if found is None:
+            raise AssertionError(f"{pattern!r} not in core_37_diagnose_steps.txt")
+        return float(found.group(1).replace(",", ""))
+
+    return [grab(r"compiled run-out: ([\d.]+) s"), grab(r"diagnosis: ([\d.]+) s CPU"),
+            grab(r"vehicle-steps: ([\d,]+)"), grab(r"vehicles run out: ([\d,]+)"),
+            grab(r"\((\d+) ns each\)"), grab(r"median (\d+)")]
+
+
 def _floor_quotes(root: Path) -> list[float]:
     """The figures of the paragraph on what a case-run costs, in their order."""
     end = _json(FLOOR, root)
@@ -896,6 +912,14 @@ QUOTES: tuple[Quote, ...] = (
           r"and nothing before or after the simulation, would allow " + NUMBER,
           f"{FLOOR},{FLOOR_ROUNDS}", _floor_quotes,
           "what a case-run costs at the 10 ms grid"),
+    Quote("docs/performance.md",
+          r"compiled run-out takes\s+" + NUMBER + r" s of its " + NUMBER + r" s CPU, " + NUMBER
+          + r" vehicle-steps of " + NUMBER + r" distinct vehicles \(the variants'\s+"
+          r"post-impact states\) at " + NUMBER + r" ns each, a median of " + NUMBER
+          + r" steps of 5 ms",
+          "benchmarks/results/core_37_diagnose_steps.txt",
+          _diagnose_steps,
+          "the full diagnosis's run-out"),
     Quote("docs/performance-kernels.md",
           r"\(`benchmarks/results/core_37_runmc_threads_idle.txt`\): " + NUMBER
           + r" s wall with one thread, " + NUMBER + r" s\s+with 2 threads",

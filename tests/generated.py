@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from vfs.physics.post_impact import PostImpactInputs
 from vfs.scenarios.generator import generate_database, get_preset
 from vfs.scenarios.scenes import SCENARIO_TYPES
 from vfs.simulation import CaseBatch
@@ -21,6 +22,26 @@ def cases_of_every_type(per_type: int, seed: int, near_miss_share: float) -> Cas
     db, _ = generate_database(preset, n_cases=per_type * len(SCENARIO_TYPES), seed=seed)
     assert set(db.cases["accident_type"]) == set(SCENARIO_TYPES)
     return CaseBatch.from_database(db)
+
+
+def with_random_wheel_inputs(cases: CaseBatch, seed: int) -> CaseBatch:
+    """``cases`` with random post-impact wheel inputs drawn from ``default_rng(seed)``:
+    wheel brake factors (about a third locked), driver braking, wheel drag, steer angle
+    [rad] and its onset [s], each given for 40-50 % of the vehicles or wheels (NaN there:
+    the default)."""
+    n = cases.size
+    rng = np.random.default_rng(seed)
+
+    def some(a: np.ndarray, share: float) -> np.ndarray:
+        return np.where(rng.random(a.shape) < share, a, np.nan)
+
+    brake = rng.uniform(0, 1, (n, 2, 4))
+    brake[rng.random((n, 2, 4)) < 0.3] = 1.0
+    post = PostImpactInputs(some(brake, 0.5), some(rng.uniform(0, 1, (n, 2)), 0.5),
+                            some(rng.uniform(0, 0.3, (n, 2, 4)), 0.4),
+                            some(rng.uniform(-1.0, 1.0, (n, 2)), 0.5),
+                            some(rng.uniform(0, 2, (n, 2)), 0.5))
+    return cases._replace(post_impact=post)
 
 
 def bit_differences(ref: object, got: object, path: str = "") -> list[str]:

@@ -113,6 +113,30 @@ def _observation(rng: np.random.Generator, n: int) -> PrecrashObservation:
                                road_friction=rng.uniform(0.3, 1.1, n))
 
 
+def _measure_both(system: AEBSystem, batch: CaseBatch, obs: PrecrashObservation,
+                  monkeypatch: pytest.MonkeyPatch, active: np.ndarray | None = None
+                  ) -> np.ndarray:
+    """One measurement of ``obs`` by the numpy path and by the kernels, from the stages
+    ``active`` (default none); asserts equal decisions and TTCs, returns the TTCs [s].
+    """
+    n = batch.size
+    states = []
+    for compiled in (False, True):
+        controller = system.controller(batch, np.array([True, True]))
+        assert isinstance(controller, AEBController)
+        controller.reset(n, np.random.default_rng(9))
+        if active is not None:
+            controller._stage[:] = active  # noqa: SLF001 -- a state mid-run
+        controller._dt = 0.01  # noqa: SLF001
+        monkeypatch.setattr(controller_module, "core_enabled", lambda c=compiled: c)
+        controller._measure(obs)  # noqa: SLF001
+        states.append((controller._stage.copy(), controller._ttc.copy()))  # noqa: SLF001
+    (ref_stage, ref_ttc), (stage, ttc) = states
+    assert np.array_equal(ref_stage, stage)
+    assert np.array_equal(ref_ttc, ttc, equal_nan=True)
+    return ref_ttc
+
+
 @pytest.mark.parametrize("name", [n for n in VARIANTS if n != "none"])
 def test_one_measurement_of_random_states_equals_the_numpy_path(
         name: str, batch: CaseBatch, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -127,20 +151,8 @@ def test_one_measurement_of_random_states_equals_the_numpy_path(
     for _ in range(6):
         obs = _observation(rng, n)
         active = rng.random((n, 2, 3)) < 0.2
-        states = []
-        for compiled in (False, True):
-            controller = system.controller(batch, np.array([True, True]))
-            assert isinstance(controller, AEBController)
-            controller.reset(n, np.random.default_rng(9))
-            controller._stage[:] = active  # noqa: SLF001 -- a state mid-run
-            controller._dt = 0.01  # noqa: SLF001
-            monkeypatch.setattr(controller_module, "core_enabled", lambda c=compiled: c)
-            controller._measure(obs)  # noqa: SLF001
-            states.append((controller._stage.copy(), controller._ttc.copy()))  # noqa: SLF001
-        (ref_stage, ref_ttc), (stage, ttc) = states
-        assert np.array_equal(ref_stage, stage)
-        assert np.array_equal(ref_ttc, ttc, equal_nan=True)
-        found_any |= bool(np.isfinite(ref_ttc).any())
+        ttc = _measure_both(system, batch, obs, monkeypatch, active)
+        found_any |= bool(np.isfinite(ttc).any())
     assert found_any
 
 
@@ -176,23 +188,10 @@ def test_long_sweeps_out_of_reach_equal_the_numpy_path(
     """
     system = VARIANTS[name]
     rng = np.random.default_rng(zlib.crc32(b"far" + name.encode()))
-    n = batch.size
     late = 0
     for _ in range(8):
-        obs = _far_observation(rng, n)
-        states = []
-        for compiled in (False, True):
-            controller = system.controller(batch, np.array([True, True]))
-            assert isinstance(controller, AEBController)
-            controller.reset(n, np.random.default_rng(9))
-            controller._dt = 0.01  # noqa: SLF001
-            monkeypatch.setattr(controller_module, "core_enabled", lambda c=compiled: c)
-            controller._measure(obs)  # noqa: SLF001
-            states.append((controller._stage.copy(), controller._ttc.copy()))  # noqa: SLF001
-        (ref_stage, ref_ttc), (stage, ttc) = states
-        assert np.array_equal(ref_stage, stage)
-        assert np.array_equal(ref_ttc, ttc, equal_nan=True)
-        late += int(np.count_nonzero(np.isfinite(ref_ttc) & (ref_ttc > 1.5)))
+        ttc = _measure_both(system, batch, _far_observation(rng, batch.size), monkeypatch)
+        late += int(np.count_nonzero(np.isfinite(ttc) & (ttc > 1.5)))
     assert late > 0
 
 

@@ -26,11 +26,10 @@ import logging
 import numpy as np
 import pytest
 
-from tests.generated import cases_of_every_type
+from tests.generated import cases_of_every_type, with_random_wheel_inputs
 from vfs.physics import runout
 from vfs.physics.core_runout import AGREEMENT
 from vfs.physics.numba_support import AVAILABLE, ENV_SWITCH
-from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.runout import RunoutMemo, RunoutParams, RunoutState, run_out, run_out_pair
 from vfs.physics.vehicle import VehicleParams, stack_vehicles
 from vfs.simulation import CaseBatch, simulate_cases
@@ -178,20 +177,8 @@ def test_monte_carlo_settings_and_the_memo(monkeypatch: pytest.MonkeyPatch) -> N
 @pytest.fixture(scope="module")
 def batch() -> CaseBatch:
     """Generated cases of every accident type with random post-impact wheel inputs."""
-    cases = cases_of_every_type(5, seed=31, near_miss_share=0.1)
-    n = cases.size
-    rng = np.random.default_rng(12)
-
-    def some(a: np.ndarray, share: float) -> np.ndarray:
-        return np.where(rng.random(a.shape) < share, a, np.nan)
-
-    brake = rng.uniform(0, 1, (n, 2, 4))
-    brake[rng.random((n, 2, 4)) < 0.3] = 1.0
-    post = PostImpactInputs(some(brake, 0.5), some(rng.uniform(0, 1, (n, 2)), 0.5),
-                            some(rng.uniform(0, 0.3, (n, 2, 4)), 0.4),
-                            some(rng.uniform(-1.0, 1.0, (n, 2)), 0.5),
-                            some(rng.uniform(0, 2, (n, 2)), 0.5))
-    return cases._replace(post_impact=post)
+    return with_random_wheel_inputs(cases_of_every_type(5, seed=31, near_miss_share=0.1),
+                                    12)
 
 
 def test_every_accident_type_agrees_with_the_reference(batch: CaseBatch,

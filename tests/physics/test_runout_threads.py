@@ -20,12 +20,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.generated import cases_of_every_type
+from tests.generated import cases_of_every_type, with_random_wheel_inputs
 from tests.physics.test_core_runout import _draw
 from vfs.errors import SettingsError
 from vfs.physics import core_runout, numba_support
 from vfs.physics.numba_support import AVAILABLE, ENV_SWITCH
-from vfs.physics.post_impact import PostImpactInputs
 from vfs.physics.runout import RunoutParams, RunoutState, run_out, run_out_pair
 from vfs.simulation import CaseBatch, simulate_cases
 from vfs.threads import MOST_THREADS, THREADS_VARIABLE
@@ -106,20 +105,8 @@ def test_long_paths_rerun_bit_identical_in_two_threads(monkeypatch: pytest.Monke
 @pytest.fixture(scope="module")
 def batch() -> CaseBatch:
     """Generated cases of every accident type with random post-impact wheel inputs."""
-    cases = cases_of_every_type(5, seed=41, near_miss_share=0.1)
-    n = cases.size
-    rng = np.random.default_rng(13)
-
-    def some(a: np.ndarray, share: float) -> np.ndarray:
-        return np.where(rng.random(a.shape) < share, a, np.nan)
-
-    brake = rng.uniform(0, 1, (n, 2, 4))
-    brake[rng.random((n, 2, 4)) < 0.3] = 1.0
-    post = PostImpactInputs(some(brake, 0.5), some(rng.uniform(0, 1, (n, 2)), 0.5),
-                            some(rng.uniform(0, 0.3, (n, 2, 4)), 0.4),
-                            some(rng.uniform(-1.0, 1.0, (n, 2)), 0.5),
-                            some(rng.uniform(0, 2, (n, 2)), 0.5))
-    return cases._replace(post_impact=post)
+    return with_random_wheel_inputs(cases_of_every_type(5, seed=41, near_miss_share=0.1),
+                                    13)
 
 
 def test_every_accident_type_is_bit_identical_in_two_threads(

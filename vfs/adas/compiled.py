@@ -43,7 +43,7 @@ operations per step, not per ego.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -53,15 +53,12 @@ from vfs.physics.braking import G
 from vfs.physics.geometry import STILL_DISPLACEMENT
 from vfs.physics.numba_support import require_numba, run_kernel
 
-if TYPE_CHECKING:
-    from vfs.adas.threat import Motion
-
 #: Codes of the prediction models and release rules inside the kernels.
 MODEL_CODES = {Prediction.CV.value: 0, Prediction.CTRV.value: 1, Prediction.CA.value: 2,
                Prediction.CTRA.value: 3}
 RELEASE_CODES = {Release.TTC.value: 0, Release.STANDSTILL.value: 1, Release.NEVER.value: 2}
 
-#: Rows of a packed :class:`~vfs.adas.threat.Motion` (``pack``).
+#: Rows of a packed :class:`~vfs.adas.threat.Motion`, its fields in order (:func:`gather_pairs`).
 _X, _Y, _YAW, _HEADING, _SPEED, _ACCEL, _YAW_RATE, _HL, _HW, _OFF = range(10)
 
 #: Ray direction components below this count as parallel (vfs.adas.sensor).
@@ -79,11 +76,6 @@ _SKIP_MARGIN = 1e-6
 #: (the defaults of vfs.adas.threat.braked_contact).
 BRAKED_STEP = 0.1
 BRAKED_TAIL = 0.3
-
-
-def pack(m: Motion) -> np.ndarray:
-    """The fields of ``m`` as one C-contiguous float64 array (10, n)."""
-    return np.ascontiguousarray(np.stack([np.asarray(a, dtype=np.float64) for a in m]))
 
 
 # ----------------------------------------------------------------------------
@@ -693,7 +685,8 @@ def gather_pairs(x: np.ndarray, y: np.ndarray, yaw: np.ndarray, heading: np.ndar
                  speed: np.ndarray, accel: np.ndarray, yaw_rate: np.ndarray,
                  outline: np.ndarray, rows: np.ndarray, ri: np.ndarray,
                  ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The packed egos and objects (10, m) each (:func:`pack` rows) of the running rows
+    """The packed egos and objects (10, m) each (the fields of
+    :class:`vfs.adas.threat.Motion` as rows) of the running rows
     ``ri``, participants ``ji``, in one compiled pass (numpy's gathers are
     ``AEBController._packed_pairs``' reference).
 
@@ -755,7 +748,7 @@ def _compiled() -> Any:
     return _kernels
 
 
-def assess(ego: Motion | np.ndarray, obj: Motion | np.ndarray, case: np.ndarray,
+def assess(ego: np.ndarray, obj: np.ndarray, case: np.ndarray,
            col: np.ndarray, front: np.ndarray, friction: np.ndarray, stage: np.ndarray,
            ttc_state: np.ndarray, aeb: Any, brake: Any, dt: float, draw: Any) -> None:
     """One sensor cycle of the egos (case, col): reach, visibility, detection, TTC and the
@@ -763,9 +756,9 @@ def assess(ego: Motion | np.ndarray, obj: Motion | np.ndarray, case: np.ndarray,
 
     Parameters
     ----------
-    ego, obj : Motion or ndarray (10, m)
-        The egos and their objects (m pairs), outlines enlarged by the box margins;
-        as Motions or already packed (:func:`pack`).
+    ego, obj : ndarray (10, m)
+        The egos and their objects (m pairs) packed (:func:`gather_pairs`), outlines
+        enlarged by the box margins.
     case, col : ndarray of int (m,)
         Case and participant of each ego.
     front : ndarray (m,)
@@ -785,8 +778,7 @@ def assess(ego: Motion | np.ndarray, obj: Motion | np.ndarray, case: np.ndarray,
     reach, sector, finish = _compiled()
     sensor = aeb.sensor
     m = case.shape[0]
-    a = ego if isinstance(ego, np.ndarray) else pack(ego)
-    b = obj if isinstance(obj, np.ndarray) else pack(obj)
+    a, b = ego, obj
     thresholds = np.array([np.nan if x is None else x for x in aeb.thresholds], float)
     release_thresholds = np.where(np.isnan(thresholds), np.inf,
                                   aeb.release_factor * thresholds)

@@ -131,7 +131,7 @@ class AEBController:
         self._front = np.stack([v1.cg_to_front, v2.cg_to_front], axis=1)  # [m]
         self._rear = np.stack([v1.cg_to_rear, v2.cg_to_rear], axis=1)  # [m]
         self._width = np.stack([v1.width, v2.width], axis=1)  # [m]
-        # the outline rows of a packed Motion (vfs.adas.compiled.pack) of every (case,
+        # the outline rows of a packed Motion (vfs.adas.compiled.gather_pairs) of every (case,
         # participant), flat index 2 case + participant: half length and half width
         # enlarged by the box margins, centre offset [m] (the numbers _pairs gives)
         ml, mw = 0.5 * aeb.box_margin_longitudinal, 0.5 * aeb.box_margin_lateral
@@ -331,7 +331,7 @@ class AEBController:
     def _packed_pairs(self, obs: PrecrashObservation, ri: np.ndarray,
                       ji: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The egos (running row ``ri``, participant ``ji``) and their objects packed for
-        the compiled kernels (:func:`vfs.adas.compiled.pack`: the fields of
+        the compiled kernels (as :func:`vfs.adas.compiled.gather_pairs`: the fields of
         :class:`vfs.adas.threat.Motion` as rows, (10, m) each), gathered at once.
         """
         # the direction of motion is undefined at standstill: take the yaw there
